@@ -17,8 +17,8 @@ Scene graph (root nodes):
   Objects      translation (0,0,-0.1), rotation 5 deg about +Y
     TallBox    translation (-0.35,0.6,-0.2), rotation 10 deg about +Y -> 15 deg in world;
                mesh is a 0.6 x 1.2 x 0.6 box centred on its origin, so it stands on the floor
-  MetalSphere  translation (0.45,0.3,-0.4), mesh "MetalSphere" (r = 0.3, material Metal)
-  GlassSphere  translation (0.25,0.3,0.35), mesh "GlassSphere" (r = 0.3, material Glass)
+  MetalSphere  translation (0.5,0.3,-0.3), mesh "MetalSphere" (r = 0.3, material Metal)
+  GlassSphere  translation (-0.2,0.3,0.45), mesh "GlassSphere" (r = 0.3, material Glass)
                both sphere meshes share the same accessors (one geometry, two materials)
   Camera       perspective, yfov 0.6911 rad, aspect 1, at (0,1,3.9) looking down -Z
 
@@ -281,8 +281,8 @@ def build():
         {"name": "Light", "mesh": 1},  # 1
         {"name": "Objects", "children": [3], "translation": [0.0, 0.0, -0.1], "rotation": rot_y(5.0)},  # 2
         {"name": "TallBox", "mesh": 2, "translation": [-0.35, 0.6, -0.2], "rotation": rot_y(10.0)},  # 3
-        {"name": "MetalSphere", "mesh": 3, "translation": [0.45, 0.3, -0.4]},  # 4
-        {"name": "GlassSphere", "mesh": 4, "translation": [0.25, 0.3, 0.35]},  # 5
+        {"name": "MetalSphere", "mesh": 3, "translation": [0.5, 0.3, -0.3]},  # 4
+        {"name": "GlassSphere", "mesh": 4, "translation": [-0.2, 0.3, 0.45]},  # 5
         {"name": "Camera", "camera": 0, "translation": [0.0, 1.0, 3.9]},  # 6 (default view: -Z, +Y up)
     ]
 
