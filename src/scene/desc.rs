@@ -1,0 +1,228 @@
+//! Plain-data description of a scene as read from files (glTF + material JSON), before any
+//! acceleration structure or spectral upsampling. The loaders produce it, `Scene::build`
+//! consumes it; tests can also build one by hand.
+
+use glam::{Mat4, Vec2, Vec3, Vec4};
+
+/// One triangle mesh in object space (a glTF primitive).
+#[derive(Clone, Debug, Default)]
+pub struct MeshDesc {
+    /// For messages: "mesh 'Name' primitive 0".
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    /// Per-vertex shading normals (object space), if the file has them.
+    pub normals: Option<Vec<Vec3>>,
+    pub uvs: Option<Vec<Vec2>>,
+    /// Three indices per triangle.
+    pub indices: Vec<u32>,
+    /// Index into `SceneDesc::materials`; `None` = the glTF default material.
+    pub material: Option<usize>,
+}
+
+/// A placement of a mesh in the world. Several instances may share one mesh.
+#[derive(Clone, Debug)]
+pub struct InstanceDesc {
+    pub mesh: usize,
+    pub object_to_world: Mat4,
+    /// Node name, for messages.
+    pub name: String,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ColorSpace {
+    /// 8-bit sRGB-encoded colour (baseColor, emissive): decoded to linear at load.
+    Srgb,
+    /// Linear data (metallicRoughness, normal maps).
+    Linear,
+}
+
+/// A decoded image, linear values, row 0 = top of the image (glTF UV (0,0) is the top-left).
+#[derive(Clone, Debug)]
+pub struct TextureDesc {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<Vec4>,
+    /// Repeat (true) or clamp (false) per axis, from the glTF sampler.
+    pub wrap_repeat: [bool; 2],
+    /// Nearest-neighbour (false) or bilinear (true) magnification.
+    pub bilinear: bool,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct TextureRef {
+    pub texture: usize,
+    /// Which TEXCOORD_n set; only 0 is loaded, others fall back to 0 with a warning.
+    pub tex_coord: u32,
+    /// KHR_texture_transform as a 3x3 (affine, column-major) UV matrix.
+    pub uv_transform: glam::Mat3,
+}
+
+/// The material as glTF's metallic-roughness model (+ KHR extensions) describes it.
+#[derive(Clone, Debug)]
+pub struct GltfMaterialDesc {
+    pub name: String,
+    pub base_color: Vec4,
+    pub base_color_texture: Option<TextureRef>,
+    pub metallic: f32,
+    pub roughness: f32,
+    /// Blue channel = metallic, green = roughness (glTF spec).
+    pub metallic_roughness_texture: Option<TextureRef>,
+    /// Linear RGB radiance scale: emissiveFactor x KHR_materials_emissive_strength.
+    pub emissive: Vec3,
+    pub emissive_texture: Option<TextureRef>,
+    /// KHR_materials_specular (defaults 1 and white).
+    pub specular: f32,
+    pub specular_color: Vec3,
+    /// KHR_materials_transmission (0 = opaque).
+    pub transmission: f32,
+    /// KHR_materials_ior (1.5 when absent).
+    pub ior: f32,
+    /// KHR_materials_volume: Beer-Lambert absorption inside the closed object.
+    pub attenuation_color: Vec3,
+    pub attenuation_distance: f32,
+    pub double_sided: bool,
+}
+
+impl Default for GltfMaterialDesc {
+    fn default() -> Self {
+        GltfMaterialDesc {
+            name: String::new(),
+            base_color: Vec4::ONE,
+            base_color_texture: None,
+            metallic: 1.0,
+            roughness: 1.0,
+            metallic_roughness_texture: None,
+            emissive: Vec3::ZERO,
+            emissive_texture: None,
+            specular: 1.0,
+            specular_color: Vec3::ONE,
+            transmission: 0.0,
+            ior: 1.5,
+            attenuation_color: Vec3::ONE,
+            attenuation_distance: f32::INFINITY,
+            double_sided: false,
+        }
+    }
+}
+
+/// Index of refraction as a function of wavelength.
+#[derive(Clone, Debug, PartialEq)]
+pub enum IorDesc {
+    Constant(f32),
+    /// eta(lambda) = a + b / lambda^2 + c / lambda^4, lambda in micrometres.
+    Cauchy { a: f32, b: f32, c: f32 },
+}
+
+/// Measured or explicit participating medium of a subsurface material (consumed by the BSSRDF).
+#[derive(Clone, Debug, PartialEq)]
+pub enum SubsurfaceCoefficients {
+    /// Jensen et al. 2001 table entry by name (sigma_s', sigma_a in mm^-1).
+    Preset(String),
+    /// Coefficients per RGB channel in 1/scene-unit before `scale`.
+    Explicit { sigma_a: Vec3, sigma_s: Vec3 },
+    /// Diffuse reflectance and mean free path per channel (scene units), inverted by the BSSRDF.
+    Reflectance { reflectance: Vec3, mfp: Vec3 },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct SubsurfaceDesc {
+    pub coefficients: SubsurfaceCoefficients,
+    /// Multiplies coefficients (e.g. 1000 turns mm^-1 into m^-1 for a scene in metres).
+    pub scale: f32,
+    pub eta: f32,
+    pub g: f32,
+    pub roughness: f32,
+    /// "table" (photon beam diffusion) or "random_walk".
+    pub method: String,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct DielectricDesc {
+    pub ior: IorDesc,
+    pub roughness: f32,
+}
+
+/// Sidecar override that replaces the glTF surface model of a material.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MaterialOverride {
+    Subsurface(SubsurfaceDesc),
+    Dielectric(DielectricDesc),
+}
+
+#[derive(Clone, Debug)]
+pub struct MaterialDesc {
+    pub gltf: GltfMaterialDesc,
+    pub sidecar: Option<MaterialOverride>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PunctualKind {
+    /// Radiant intensity `intensity` (W/sr, Blender units) in all directions.
+    Point,
+    /// Cone with full intensity inside `inner` and a smooth fall-off to zero at `outer` (radians).
+    Spot { inner_cone: f32, outer_cone: f32 },
+    /// Irradiance `intensity` (W/m^2 on a surface facing it) from direction -`direction`.
+    Directional,
+}
+
+/// A KHR_lights_punctual light in world space, intensities already converted to the renderer's
+/// radiometric units (see the loader for the photometric -> radiometric convention).
+#[derive(Clone, Debug)]
+pub struct PunctualLightDesc {
+    pub name: String,
+    pub kind: PunctualKind,
+    pub color: Vec3,
+    pub intensity: f32,
+    pub position: Vec3,
+    /// Direction the light points to (spot axis, directional travel direction), unit length.
+    pub direction: Vec3,
+}
+
+#[derive(Clone, Debug)]
+pub struct CameraDesc {
+    pub name: String,
+    /// Camera looks down its local -Z with +Y up (glTF).
+    pub camera_to_world: Mat4,
+    /// Vertical field of view in radians.
+    pub yfov: f32,
+    /// From the file; when `None` the image's aspect is used.
+    pub aspect: Option<f32>,
+}
+
+#[derive(Clone, Debug)]
+pub struct WorldDesc {
+    /// Uniform environment radiance (linear RGB) = color x strength.
+    pub color: Vec3,
+    pub strength: f32,
+}
+
+impl Default for WorldDesc {
+    fn default() -> Self {
+        WorldDesc { color: Vec3::ZERO, strength: 0.0 }
+    }
+}
+
+/// Render defaults carried by the material JSON's "render" block (CLI flags override them).
+#[derive(Clone, Debug, Default)]
+pub struct RenderDefaults {
+    pub spp: Option<u32>,
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    pub max_depth: Option<u32>,
+    pub wavelengths: Option<String>,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct SceneDesc {
+    pub meshes: Vec<MeshDesc>,
+    pub instances: Vec<InstanceDesc>,
+    pub materials: Vec<MaterialDesc>,
+    pub textures: Vec<TextureDesc>,
+    pub lights: Vec<PunctualLightDesc>,
+    pub camera: Option<CameraDesc>,
+    pub world: WorldDesc,
+    pub render: RenderDefaults,
+    /// Warnings the loader wants the user to see once (skipped primitives, ...).
+    pub warnings: Vec<String>,
+}
