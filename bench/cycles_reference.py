@@ -5,7 +5,7 @@ Run with the bpy wheel (Blender 5.0 as a Python module):
     python3 -m venv /work/venv-bpy && /work/venv-bpy/bin/pip install bpy==5.0.1 numpy
     /work/venv-bpy/bin/python bench/cycles_reference.py scenes/cornell/cornell.gltf \
         --out /tmp/cornell_cycles.exr --width 256 --height 256 --spp 64 --threads 2
-(also works as `blender -b --factory-startup -P bench/cycles_reference.py -- <same args>`).
+(`blender -b --factory-startup -P bench/cycles_reference.py -- <same args>` should work too; untested).
 
 The last stdout line is one JSON object:
     {"engine":"cycles","seconds":..,"width":..,"height":..,"spp":..,"threads":..,"samples_per_second":..}
@@ -31,10 +31,10 @@ values to stderr so they can be re-checked):
   So colour x strength = glTF emissiveFactor x emissiveStrength, which Cycles uses as radiance
   (W m^-2 sr^-1 in Blender units) -- no 683 or pi factor for emissive materials.
   Cornell "Light": Emission Color (1,1,1), Emission Strength 15.
-- KHR_materials_specular (pbrMetallicRoughness.py:317-342): "Specular IOR Level" = 0.5 * specularFactor
+- KHR_materials_specular (pbrMetallicRoughness.py:317-350, factor at :331): "Specular IOR Level" = 0.5 * specularFactor
   (absent extension -> 0.5, the neutral value), "Specular Tint" = specularColorFactor. specularFactor 0
   -> level 0: no dielectric specular lobe, i.e. pure Lambertian diffuse (Principled v2 diffuse).
-- KHR_materials_transmission (pbrMetallicRoughness.py:219-262): "Transmission Weight" = transmissionFactor.
+- KHR_materials_transmission (pbrMetallicRoughness.py:219-254): "Transmission Weight" = transmissionFactor.
   KHR_materials_ior (pbrMetallicRoughness.py:120-123): "IOR" = ior (default 1.5 when absent).
   There is no thin-walled/volume handling unless KHR_materials_volume is present: a closed mesh with
   transmission renders as solid glass in Cycles.
@@ -46,16 +46,21 @@ values to stderr so they can be re-checked):
     spot_size = 2 * outerConeAngle; spot_blend = 1 - innerConeAngle / outerConeAngle
   'COMPAT' drops the 683, 'RAW' copies intensity unchanged. Imported lights get shadow_soft_size 0
   (true point/spot lights; checked in 5.0.1). A Blender spot's power is specified as if it were a point
-  light (P / (4 pi) W/sr on axis, the cone only cuts). The exporter does the inverse (blender/exp/lights.py:145-159): point/spot
-  intensity = W / (4 pi) * 683, sun = W/m^2 * 683; note Cycles' radiant intensity of a P-watt point
-  light is P / (4 pi) W/sr, so glTF cd / 683 = Cycles W/sr.
+  light (P / (4 pi) W/sr inside the cone). The exporter does the inverse (blender/exp/lights.py:145-159):
+  point/spot intensity = W / (4 pi) * 683, sun = W/m^2 * 683, outerConeAngle = spot_size / 2,
+  innerConeAngle = outer - outer * spot_blend (blender/exp/light_spots.py:28-47). Cycles' radiant
+  intensity of a P-watt point light is P / (4 pi) W/sr, so glTF cd / 683 = Cycles W/sr.
+- Cycles mesh emission is TWO-SIDED (a Principled/Emission shader emits from back faces too), whatever
+  glTF doubleSided says (the importer only maps it to use_backface_culling, which Cycles ignores). In the
+  Cornell scene the light quad's back face lights the 2 cm gap under the ceiling: +13% image mean vs
+  front-only emission. --one-sided-emission multiplies the strength by (1 - Backfacing) for emissive
+  materials with doubleSided false.
 - Camera (blender/imp/camera.py:56-58): angle_y = yfov, sensor_fit VERTICAL; aspectRatio is ignored
   (the render resolution decides the aspect).
 """
 
 import argparse
 import json
-import math
 import os
 import sys
 import tempfile
