@@ -1,0 +1,388 @@
+//! Triangle geometry and ray intersection: one compressed wide BVH (obvhs CWBVH) per mesh
+//! (bottom level) and one over the instances (top level), so a mesh placed by several glTF
+//! nodes is stored once.
+
+mod triangle;
+
+pub use triangle::intersect_triangle;
+
+use glam::{Affine3A, Mat3, Vec2, Vec3, Vec3A};
+use obvhs::{aabb::Aabb, cwbvh::CwBvh, ray::Ray as BvhRay, BvhBuildParams};
+use std::time::Duration;
+
+/// A ray with an (unnormalised allowed) direction and a parametric extent [0, t_max).
+#[derive(Clone, Copy, Debug)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+}
+
+impl Ray {
+    pub fn new(origin: Vec3, dir: Vec3) -> Self {
+        Ray { origin, dir }
+    }
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + self.dir * t
+    }
+}
+
+/// Object-space triangle mesh with its bottom-level BVH. Triangles are stored in BVH leaf
+/// order, so the traversal's primitive id indexes `tris` and `indices` directly.
+pub struct Mesh {
+    pub positions: Vec<Vec3>,
+    pub normals: Option<Vec<Vec3>>,
+    pub uvs: Option<Vec<Vec2>>,
+    pub indices: Vec<[u32; 3]>,
+    /// Runtime material id (index into the scene's material list).
+    pub material: u32,
+    tris: Vec<TriangleEdges>,
+    bvh: CwBvh,
+}
+
+/// Vertex + two edges: what the Möller–Trumbore test needs, packed together for locality.
+#[derive(Clone, Copy, Debug)]
+struct TriangleEdges {
+    v0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+}
+
+impl obvhs::Boundable for TriangleEdges {
+    fn aabb(&self) -> Aabb {
+        let v0 = Vec3A::from(self.v0);
+        let v1 = Vec3A::from(self.v0 + self.e1);
+        let v2 = Vec3A::from(self.v0 + self.e2);
+        Aabb::new(v0.min(v1).min(v2), v0.max(v1).max(v2))
+    }
+}
+
+fn build_params() -> BvhBuildParams {
+    BvhBuildParams::medium_build()
+}
+
+impl Mesh {
+    /// Builds the mesh and its BVH. Triangles must already be non-degenerate with valid indices
+    /// (the scene loader guarantees it); `material` is the runtime material id.
+    pub fn new(
+        positions: Vec<Vec3>,
+        normals: Option<Vec<Vec3>>,
+        uvs: Option<Vec<Vec2>>,
+        indices: Vec<[u32; 3]>,
+        material: u32,
+    ) -> Self {
+        let tris: Vec<TriangleEdges> = indices
+            .iter()
+            .map(|&[a, b, c]| {
+                let v0 = positions[a as usize];
+                TriangleEdges {
+                    v0,
+                    e1: positions[b as usize] - v0,
+                    e2: positions[c as usize] - v0,
+                }
+            })
+            .collect();
+        let mut build_time = Duration::ZERO;
+        let bvh = obvhs::cwbvh::builder::build_cwbvh(&tris, build_params(), &mut build_time);
+        // Reorder triangles into leaf order so traversal needs no indirection.
+        let tris = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
+        let indices = bvh.primitive_indices.iter().map(|&i| indices[i as usize]).collect();
+        Mesh { positions, normals, uvs, indices, material, tris, bvh }
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len()
+    }
+
+    pub fn vertices(&self, prim: usize) -> [Vec3; 3] {
+        let t = &self.tris[prim];
+        [t.v0, t.v0 + t.e1, t.v0 + t.e2]
+    }
+
+    pub fn aabb(&self) -> Aabb {
+        self.bvh.total_aabb
+    }
+
+    /// Closest hit along an object-space ray: (t, primitive, b1, b2).
+    #[inline]
+    fn intersect(&self, ray: &BvhRay, best: &mut BlasHit) -> f32 {
+        let mut hit = obvhs::ray::RayHit::none();
+        let origin = Vec3::from(ray.origin);
+        let dir = Vec3::from(ray.direction);
+        let mut local = BlasHit { t: ray.tmax, ..*best };
+        self.bvh.ray_traverse(*ray, &mut hit, |r, id| {
+            let tri = &self.tris[id];
+            match intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax) {
+                Some((t, b1, b2)) => {
+                    local = BlasHit { t, prim: id as u32, b1, b2, instance: best.instance };
+                    t
+                }
+                None => f32::INFINITY,
+            }
+        });
+        if local.t < ray.tmax {
+            *best = local;
+            local.t
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &BvhRay) -> bool {
+        let origin = Vec3::from(ray.origin);
+        let dir = Vec3::from(ray.direction);
+        !self.bvh.ray_traverse_miss(*ray, |r, id| {
+            let tri = &self.tris[id];
+            intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax)
+                .map_or(f32::INFINITY, |h| h.0)
+        })
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct BlasHit {
+    t: f32,
+    prim: u32,
+    b1: f32,
+    b2: f32,
+    instance: u32,
+}
+
+/// A mesh placed in the world.
+pub struct Instance {
+    pub mesh: u32,
+    pub object_to_world: Affine3A,
+    pub world_to_object: Affine3A,
+    /// Inverse transpose of the linear part: transforms normals.
+    pub normal_to_world: Mat3,
+    /// Odd-handed transform (negative determinant): winding and geometric normal flip.
+    pub flips_handedness: bool,
+}
+
+impl Instance {
+    pub fn new(mesh: u32, object_to_world: Affine3A) -> Self {
+        let m3 = Mat3::from(object_to_world.matrix3);
+        Instance {
+            mesh,
+            object_to_world,
+            world_to_object: object_to_world.inverse(),
+            normal_to_world: m3.inverse().transpose(),
+            flips_handedness: m3.determinant() < 0.0,
+        }
+    }
+}
+
+/// Closest-hit record in world space.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    pub t: f32,
+    pub instance: u32,
+    pub prim: u32,
+    /// Barycentric weights of vertices 1 and 2.
+    pub b1: f32,
+    pub b2: f32,
+}
+
+/// Everything the shading code needs about a surface point, in world space.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfacePoint {
+    pub p: Vec3,
+    /// Geometric normal (unit, from the winding, as placed in the world).
+    pub ng: Vec3,
+    /// Interpolated shading normal (unit), on the same side as `ng`.
+    pub ns: Vec3,
+    /// dp/du direction for a stable tangent frame (may be zero).
+    pub dpdu: Vec3,
+    pub uv: Vec2,
+    pub material: u32,
+    pub instance: u32,
+    pub prim: u32,
+    /// World-space area of the triangle (for light pdfs).
+    pub area: f32,
+}
+
+/// All geometry of a scene with its two-level BVH.
+pub struct Geometry {
+    pub meshes: Vec<Mesh>,
+    pub instances: Vec<Instance>,
+    tlas: CwBvh,
+    /// Instances in TLAS leaf order (ids the traversal reports).
+    tlas_order: Vec<u32>,
+    bounds: Aabb,
+}
+
+impl Geometry {
+    pub fn new(meshes: Vec<Mesh>, instances: Vec<Instance>) -> Self {
+        let aabbs: Vec<Aabb> = instances
+            .iter()
+            .map(|inst| transform_aabb(&meshes[inst.mesh as usize].aabb(), &inst.object_to_world))
+            .collect();
+        let mut bounds = Aabb::empty();
+        for b in &aabbs {
+            bounds = bounds.union(b);
+        }
+        let mut build_time = Duration::ZERO;
+        let tlas = if aabbs.is_empty() {
+            CwBvh::default()
+        } else {
+            obvhs::cwbvh::builder::build_cwbvh(&aabbs, build_params(), &mut build_time)
+        };
+        let tlas_order = tlas.primitive_indices.clone();
+        Geometry { meshes, instances, tlas, tlas_order, bounds }
+    }
+
+    /// World-space bounding box of everything (empty box if there is no geometry).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        (self.bounds.min.into(), self.bounds.max.into())
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.instances.is_empty()
+    }
+
+    /// Closest intersection with t in (0, t_max).
+    pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        if self.is_empty() {
+            return None;
+        }
+        let world = BvhRay::new(ray.origin.into(), ray.dir.into(), 0.0, t_max);
+        let mut best = BlasHit { t: t_max, ..Default::default() };
+        let mut rh = obvhs::ray::RayHit::none();
+        self.tlas.ray_traverse(world, &mut rh, |r, id| {
+            let inst_id = self.tlas_order[id];
+            let inst = &self.instances[inst_id as usize];
+            let local = BvhRay::new(
+                inst.world_to_object.transform_point3(ray.origin).into(),
+                inst.world_to_object.transform_vector3(ray.dir).into(),
+                0.0,
+                r.tmax,
+            );
+            best.instance = inst_id;
+            let before = best;
+            let t = self.meshes[inst.mesh as usize].intersect(&local, &mut best);
+            if t == f32::INFINITY {
+                best = before;
+            }
+            t
+        });
+        (best.t < t_max).then_some(Hit {
+            t: best.t,
+            instance: best.instance,
+            prim: best.prim,
+            b1: best.b1,
+            b2: best.b2,
+        })
+    }
+
+    /// True if anything blocks the segment origin + t dir, t in (0, t_max).
+    pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        if self.is_empty() {
+            return false;
+        }
+        let world = BvhRay::new(ray.origin.into(), ray.dir.into(), 0.0, t_max);
+        !self.tlas.ray_traverse_miss(world, |_, id| {
+            let inst = &self.instances[self.tlas_order[id] as usize];
+            let local = BvhRay::new(
+                inst.world_to_object.transform_point3(ray.origin).into(),
+                inst.world_to_object.transform_vector3(ray.dir).into(),
+                0.0,
+                t_max,
+            );
+            if self.meshes[inst.mesh as usize].occluded(&local) {
+                0.5 * t_max
+            } else {
+                f32::INFINITY
+            }
+        })
+    }
+
+    /// World-space surface data at a hit.
+    pub fn surface_point(&self, hit: &Hit) -> SurfacePoint {
+        self.surface_point_at(hit.instance, hit.prim, hit.b1, hit.b2)
+    }
+
+    /// World-space surface data at barycentrics (b1, b2) of a triangle of an instance.
+    pub fn surface_point_at(&self, instance: u32, prim: u32, b1: f32, b2: f32) -> SurfacePoint {
+        let inst = &self.instances[instance as usize];
+        let mesh = &self.meshes[inst.mesh as usize];
+        let [i0, i1, i2] = mesh.indices[prim as usize];
+        let b0 = 1.0 - b1 - b2;
+        let [v0, v1, v2] = mesh.vertices(prim as usize);
+        let p_obj = v0 * b0 + v1 * b1 + v2 * b2;
+        let p = inst.object_to_world.transform_point3(p_obj);
+        let w0 = inst.object_to_world.transform_point3(v0);
+        let e1 = inst.object_to_world.transform_point3(v1) - w0;
+        let e2 = inst.object_to_world.transform_point3(v2) - w0;
+        let cross = e1.cross(e2);
+        let area = 0.5 * cross.length();
+        // The world-space cross product already accounts for mirroring transforms.
+        let ng = cross.normalize_or(Vec3::Z);
+        let ns = match &mesh.normals {
+            Some(n) => {
+                let n_obj = n[i0 as usize] * b0 + n[i1 as usize] * b1 + n[i2 as usize] * b2;
+                let n = (inst.normal_to_world * n_obj).normalize_or(ng);
+                if n.is_finite() {
+                    n
+                } else {
+                    ng
+                }
+            }
+            None => ng,
+        };
+        // Keep the shading normal on the geometric normal's side: glTF normals define the
+        // front, but a winding that disagrees with them must not make shading inconsistent.
+        let ng = if ns.dot(ng) < 0.0 { -ng } else { ng };
+        let (uv, dpdu) = match &mesh.uvs {
+            Some(uvs) => {
+                let (t0, t1, t2) = (uvs[i0 as usize], uvs[i1 as usize], uvs[i2 as usize]);
+                let uv = t0 * b0 + t1 * b1 + t2 * b2;
+                let (d1, d2) = (t1 - t0, t2 - t0);
+                let det = d1.x * d2.y - d1.y * d2.x;
+                let dpdu = if det.abs() > 1e-12 {
+                    (e1 * d2.y - e2 * d1.y) / det
+                } else {
+                    Vec3::ZERO
+                };
+                (uv, dpdu)
+            }
+            None => (Vec2::new(b1, b2), e1),
+        };
+        SurfacePoint {
+            p,
+            ng,
+            ns,
+            dpdu,
+            uv,
+            material: mesh.material,
+            instance,
+            prim,
+            area,
+        }
+    }
+}
+
+fn transform_aabb(b: &Aabb, m: &Affine3A) -> Aabb {
+    let mut out = Aabb::empty();
+    for i in 0..8 {
+        let c = Vec3::new(
+            if i & 1 == 0 { b.min.x } else { b.max.x },
+            if i & 2 == 0 { b.min.y } else { b.max.y },
+            if i & 4 == 0 { b.min.z } else { b.max.z },
+        );
+        out.extend(m.transform_point3(c).into());
+    }
+    out
+}
+
+/// Offsets a ray origin off a surface along the geometric normal, towards `dir`, so the
+/// new ray does not re-hit the surface it leaves. The offset scales with the coordinates'
+/// magnitude because float rounding of the hit point does.
+#[inline]
+pub fn offset_ray_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
+    let eps = 1e-4 * (1.0 + p.abs().max_element()) * 0.1;
+    if ng.dot(dir) >= 0.0 {
+        p + ng * eps
+    } else {
+        p - ng * eps
+    }
+}

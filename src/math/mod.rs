@@ -1,9 +1,11 @@
 //! Small math toolbox shared by every module: shading frames, sampling warps,
 //! multiple-importance-sampling heuristics. Everything geometric uses `glam::Vec3`.
 
+pub mod distribution;
 pub mod frame;
 pub mod sampling;
 
+pub use distribution::DiscreteDistribution;
 pub use frame::Frame;
 
 pub const PI: f32 = std::f32::consts::PI;

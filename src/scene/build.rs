@@ -1,0 +1,120 @@
+//! The render-ready scene: geometry with its BVHs, runtime materials, lights and camera,
+//! built from a `SceneDesc`.
+
+use super::camera::Camera;
+use super::desc::{CameraDesc, MaterialDesc, RenderDefaults, SceneDesc, TextureDesc};
+use super::lights::Lights;
+use super::material::Material;
+use crate::error::{PrismError, Result};
+use crate::geometry::{Geometry, Instance, Mesh};
+use glam::{Affine3A, Vec3};
+
+pub struct Scene {
+    pub geometry: Geometry,
+    pub materials: Vec<Material>,
+    pub textures: Vec<TextureDesc>,
+    pub lights: Lights,
+    pub camera: CameraDesc,
+    pub render_defaults: RenderDefaults,
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// Builds acceleration structures and light tables. Fails (as bad input) only for scenes
+    /// that cannot produce an image: no camera, no light at all.
+    pub fn build(desc: SceneDesc) -> Result<Scene> {
+        let SceneDesc { meshes, instances, materials, textures, lights, camera, world, render, mut warnings } = desc;
+        let camera = camera.ok_or_else(|| PrismError::input("the scene has no camera"))?;
+
+        // Runtime materials: the described ones, then glTF's default material for primitives
+        // without one (white, metallic 1, roughness 1 per the spec).
+        let mut runtime_materials: Vec<Material> = materials.iter().map(Material::new).collect();
+        let default_material = runtime_materials.len() as u32;
+        runtime_materials.push(Material::new(&MaterialDesc {
+            gltf: super::desc::GltfMaterialDesc { name: "(glTF default)".into(), ..Default::default() },
+            sidecar: None,
+        }));
+        let subsurface: Vec<&str> = runtime_materials
+            .iter()
+            .filter(|m| m.is_subsurface())
+            .map(|m| m.name.as_str())
+            .collect();
+        if !subsurface.is_empty() {
+            warnings.push(format!(
+                "subsurface scattering is not implemented yet; rendering {} with the glTF surface model",
+                subsurface.join(", ")
+            ));
+        }
+
+        // Meshes: keep valid triangles only (indices in range, finite, non-zero area).
+        let mut mesh_map = vec![u32::MAX; meshes.len()];
+        let mut runtime_meshes = Vec::new();
+        for (mi, m) in meshes.into_iter().enumerate() {
+            let n = m.positions.len() as u32;
+            let tris: Vec<[u32; 3]> = m
+                .indices
+                .chunks_exact(3)
+                .map(|c| [c[0], c[1], c[2]])
+                .filter(|&[a, b, c]| {
+                    if a >= n || b >= n || c >= n {
+                        return false;
+                    }
+                    let (p0, p1, p2) = (m.positions[a as usize], m.positions[b as usize], m.positions[c as usize]);
+                    let cross = (p1 - p0).cross(p2 - p0);
+                    p0.is_finite() && p1.is_finite() && p2.is_finite() && cross.length_squared() > 0.0
+                })
+                .collect();
+            if tris.is_empty() {
+                continue;
+            }
+            let normals = m.normals.filter(|v| v.len() == m.positions.len());
+            let uvs = m.uvs.filter(|v| v.len() == m.positions.len());
+            let material = match m.material {
+                Some(i) if i < materials.len() => i as u32,
+                _ => default_material,
+            };
+            mesh_map[mi] = runtime_meshes.len() as u32;
+            runtime_meshes.push(Mesh::new(m.positions, normals, uvs, tris, material));
+        }
+        let runtime_instances: Vec<Instance> = instances
+            .iter()
+            .filter_map(|inst| {
+                let mesh = *mesh_map.get(inst.mesh)?;
+                if mesh == u32::MAX {
+                    return None;
+                }
+                let affine = Affine3A::from_mat4(inst.object_to_world);
+                let det = glam::Mat3::from(affine.matrix3).determinant();
+                (det.is_finite() && det.abs() > 1e-30).then(|| Instance::new(mesh, affine))
+            })
+            .collect();
+        let geometry = Geometry::new(runtime_meshes, runtime_instances);
+
+        let world_radiance = if world.strength > 0.0 { world.color.max(Vec3::ZERO) * world.strength } else { Vec3::ZERO };
+        let lights = Lights::build(&geometry, &runtime_materials, &textures, &lights, world_radiance);
+        if lights.is_empty() {
+            return Err(PrismError::input(
+                "the scene has no light: no emissive material, no KHR_lights_punctual light and a black world",
+            ));
+        }
+        Ok(Scene {
+            geometry,
+            materials: runtime_materials,
+            textures,
+            lights,
+            camera,
+            render_defaults: render,
+            warnings,
+        })
+    }
+
+    /// The camera for an image of the given size.
+    pub fn camera_for(&self, width: u32, height: u32) -> Camera {
+        Camera::new(
+            Affine3A::from_mat4(self.camera.camera_to_world),
+            self.camera.yfov,
+            width,
+            height,
+        )
+    }
+}

@@ -1,0 +1,253 @@
+//! Runtime materials: turn a material description plus the texture lookups at a surface point
+//! into a `Bsdf` and an emitted spectrum for the path's wavelengths.
+
+use super::desc::{
+    GltfMaterialDesc, IorDesc, MaterialDesc, MaterialOverride, SubsurfaceDesc, TextureDesc,
+    TextureRef,
+};
+use crate::bsdf::{Bsdf, DielectricBsdf, DiffuseBsdf, MetallicRoughnessBsdf};
+use crate::spectrum::{
+    RgbAlbedoSpectrum, RgbIlluminantSpectrum, RgbUnboundedSpectrum, SampledSpectrum,
+    SampledWavelengths,
+};
+use glam::{Vec2, Vec3, Vec4, Vec4Swizzles};
+
+/// Which scattering model replaces the glTF one (from the sidecar).
+#[derive(Clone, Debug)]
+enum SurfaceModel {
+    Gltf,
+    Dielectric { ior: IorDesc, alpha: f32 },
+    /// Parsed and validated; rendered with its glTF surface until the BSSRDF lands.
+    Subsurface(SubsurfaceDesc),
+}
+
+#[derive(Clone, Debug)]
+pub struct Material {
+    pub name: String,
+    gltf: GltfMaterialDesc,
+    model: SurfaceModel,
+    /// Precomputed spectra for the untextured case (the common one).
+    base_albedo: RgbAlbedoSpectrum,
+    emission: Option<RgbIlluminantSpectrum>,
+    /// Beer–Lambert absorption coefficient inside the object (KHR_materials_volume), per unit length.
+    absorption: Option<RgbUnboundedSpectrum>,
+}
+
+/// Smallest GGX alpha treated as rough; below it lobes are taken as perfectly specular.
+const MIN_ALPHA: f32 = 1e-3;
+
+/// glTF/Blender roughness is perceptual: alpha = roughness^2.
+fn roughness_to_alpha(r: f32) -> f32 {
+    let a = r.clamp(0.0, 1.0);
+    a * a
+}
+
+/// Cauchy's equation eta = a + b / lambda^2 + c / lambda^4 with lambda in micrometres.
+pub fn eval_ior(ior: &IorDesc, lambda_nm: f32) -> f32 {
+    match *ior {
+        IorDesc::Constant(n) => n,
+        IorDesc::Cauchy { a, b, c } => {
+            let l2 = (lambda_nm * 1e-3) * (lambda_nm * 1e-3);
+            a + b / l2 + c / (l2 * l2)
+        }
+    }
+}
+
+impl Material {
+    pub fn new(desc: &MaterialDesc) -> Self {
+        let g = &desc.gltf;
+        let model = match &desc.sidecar {
+            None => SurfaceModel::Gltf,
+            Some(MaterialOverride::Dielectric(d)) => SurfaceModel::Dielectric {
+                ior: d.ior.clone(),
+                alpha: roughness_to_alpha(d.roughness),
+            },
+            Some(MaterialOverride::Subsurface(s)) => SurfaceModel::Subsurface(s.clone()),
+        };
+        let emission = (g.emissive.max_element() > 0.0).then(|| RgbIlluminantSpectrum::new(g.emissive));
+        let absorption = (g.attenuation_distance.is_finite() && g.attenuation_distance > 0.0)
+            .then(|| {
+                let c = g.attenuation_color.clamp(Vec3::splat(1e-6), Vec3::ONE);
+                RgbUnboundedSpectrum::new(-Vec3::new(c.x.ln(), c.y.ln(), c.z.ln()) / g.attenuation_distance)
+            })
+            .filter(|_| g.attenuation_color.min_element() < 1.0);
+        Material {
+            name: g.name.clone(),
+            gltf: g.clone(),
+            model,
+            base_albedo: RgbAlbedoSpectrum::new(g.base_color.xyz()),
+            emission,
+            absorption,
+        }
+    }
+
+    pub fn is_emissive(&self) -> bool {
+        self.emission.is_some()
+    }
+
+    pub fn is_subsurface(&self) -> bool {
+        matches!(self.model, SurfaceModel::Subsurface(_))
+    }
+
+    /// Linear RGB emitted radiance factor (before texture), for light power estimates.
+    pub fn emissive_rgb(&self) -> Vec3 {
+        self.gltf.emissive
+    }
+
+    pub fn emissive_texture(&self) -> Option<TextureRef> {
+        self.gltf.emissive_texture
+    }
+
+    /// Light leaves the back face too (glTF doubleSided; Blender writes it for every material
+    /// without backface culling, and Cycles' emitters are two-sided).
+    pub fn double_sided(&self) -> bool {
+        self.gltf.double_sided
+    }
+
+    /// Absorption inside the object, if it is a transmissive volume.
+    pub fn absorption(&self, w: &SampledWavelengths) -> Option<SampledSpectrum> {
+        self.absorption.map(|a| a.sample(w))
+    }
+
+    /// Radiance emitted towards a viewer on the front (or, if double-sided, either) side.
+    pub fn emitted(
+        &self,
+        textures: &[TextureDesc],
+        uv: Vec2,
+        front_facing: bool,
+        w: &SampledWavelengths,
+    ) -> SampledSpectrum {
+        let Some(e) = &self.emission else {
+            return SampledSpectrum::ZERO;
+        };
+        if !front_facing && !self.gltf.double_sided {
+            return SampledSpectrum::ZERO;
+        }
+        match self.gltf.emissive_texture {
+            None => e.sample(w),
+            Some(t) => {
+                let rgb = self.gltf.emissive * lookup(textures, &t, uv).xyz();
+                RgbIlluminantSpectrum::new(rgb).sample(w)
+            }
+        }
+    }
+
+    /// The BSDF at a surface point. `u_select` picks one component of stochastic mixtures
+    /// (partial transmission), which keeps the estimator unbiased without evaluating both.
+    pub fn bsdf(
+        &self,
+        textures: &[TextureDesc],
+        uv: Vec2,
+        w: &SampledWavelengths,
+        u_select: f32,
+    ) -> Bsdf {
+        match &self.model {
+            SurfaceModel::Dielectric { ior, alpha } => Bsdf::Dielectric(DielectricBsdf {
+                eta: SampledSpectrum::from_fn(|i| eval_ior(ior, w.lambda[i])),
+                alpha: if *alpha < MIN_ALPHA { 0.0 } else { *alpha },
+                transmission_tint: SampledSpectrum::ONE,
+            }),
+            SurfaceModel::Gltf | SurfaceModel::Subsurface(_) => self.gltf_bsdf(textures, uv, w, u_select),
+        }
+    }
+
+    fn gltf_bsdf(&self, textures: &[TextureDesc], uv: Vec2, w: &SampledWavelengths, u_select: f32) -> Bsdf {
+        let g = &self.gltf;
+        let base = match g.base_color_texture {
+            None => self.base_albedo.sample(w),
+            Some(t) => {
+                let rgb = g.base_color.xyz() * lookup(textures, &t, uv).xyz();
+                RgbAlbedoSpectrum::new(rgb).sample(w)
+            }
+        };
+        let (mut metallic, mut roughness) = (g.metallic, g.roughness);
+        if let Some(t) = g.metallic_roughness_texture {
+            let texel = lookup(textures, &t, uv);
+            roughness *= texel.y;
+            metallic *= texel.z;
+        }
+        let alpha = roughness_to_alpha(roughness);
+        // glTF transmission replaces the diffuse part of the dielectric base: we pick the
+        // transmissive component with probability `transmission` (metals do not transmit).
+        let transmission = g.transmission * (1.0 - metallic);
+        if transmission > 0.0 && u_select < transmission {
+            return Bsdf::Dielectric(DielectricBsdf {
+                eta: SampledSpectrum::splat(g.ior),
+                alpha: if alpha < MIN_ALPHA { 0.0 } else { alpha },
+                transmission_tint: base,
+            });
+        }
+        if metallic <= 0.0 && g.specular <= 0.0 {
+            return Bsdf::Diffuse(DiffuseBsdf { reflectance: base });
+        }
+        Bsdf::MetallicRoughness(MetallicRoughnessBsdf {
+            base_color: base,
+            metallic,
+            alpha: alpha.max(MIN_ALPHA),
+            specular: g.specular,
+            specular_color: RgbAlbedoSpectrum::new(g.specular_color).sample(w),
+            ior: g.ior,
+        })
+    }
+}
+
+/// Bilinear (or nearest) texture lookup with the glTF UV convention: (0,0) is the image's
+/// top-left texel corner, wrap or clamp per axis.
+pub fn lookup(textures: &[TextureDesc], tref: &TextureRef, uv: Vec2) -> Vec4 {
+    let Some(tex) = textures.get(tref.texture) else {
+        return Vec4::ONE;
+    };
+    if tex.width == 0 || tex.height == 0 || tex.texels.is_empty() {
+        return Vec4::ONE;
+    }
+    let uv = tref.uv_transform.transform_point2(uv);
+    if !uv.is_finite() {
+        return tex.texels[0];
+    }
+    let (w, h) = (tex.width as i64, tex.height as i64);
+    let fetch = |x: i64, y: i64| -> Vec4 {
+        let xi = if tex.wrap_repeat[0] { x.rem_euclid(w) } else { x.clamp(0, w - 1) };
+        let yi = if tex.wrap_repeat[1] { y.rem_euclid(h) } else { y.clamp(0, h - 1) };
+        tex.texels[(yi * w + xi) as usize]
+    };
+    let x = uv.x * w as f32 - 0.5;
+    let y = uv.y * h as f32 - 0.5;
+    if !tex.bilinear {
+        return fetch((x + 0.5).floor() as i64, (y + 0.5).floor() as i64);
+    }
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    let top = fetch(x0, y0) * (1.0 - fx) + fetch(x0 + 1, y0) * fx;
+    let bottom = fetch(x0, y0 + 1) * (1.0 - fx) + fetch(x0 + 1, y0 + 1) * fx;
+    top * (1.0 - fy) + bottom * fy
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cauchy_ior() {
+        let ior = IorDesc::Cauchy { a: 1.5, b: 0.01, c: 0.0 };
+        assert!((eval_ior(&ior, 500.0) - (1.5 + 0.01 / 0.25)).abs() < 1e-6);
+        assert_eq!(eval_ior(&IorDesc::Constant(1.33), 400.0), 1.33);
+    }
+
+    #[test]
+    fn texture_lookup_wraps_and_filters() {
+        let tex = TextureDesc {
+            name: "t".into(),
+            width: 2,
+            height: 1,
+            texels: vec![Vec4::ZERO, Vec4::ONE],
+            wrap_repeat: [true, true],
+            bilinear: true,
+        };
+        let r = TextureRef { texture: 0, tex_coord: 0, uv_transform: glam::Mat3::IDENTITY };
+        let t = [tex];
+        assert!((lookup(&t, &r, Vec2::new(0.25, 0.5)).x - 0.0).abs() < 1e-6);
+        assert!((lookup(&t, &r, Vec2::new(0.5, 0.5)).x - 0.5).abs() < 1e-6);
+        assert!((lookup(&t, &r, Vec2::new(1.75, 0.5)).x - 1.0).abs() < 1e-6);
+    }
+}
