@@ -1,0 +1,179 @@
+//! Schedules the path tracer over the image: progressive passes over the whole frame (so a
+//! cancelled render is uniformly converged), each pass split into bands of rows rendered in
+//! parallel with rayon. Random numbers depend only on (pixel, sample, seed), and each pixel
+//! accumulates its samples in order, so the image is bit-identical for any thread count.
+
+use crate::film::Film;
+use crate::geometry::Ray;
+use crate::integrator::PathTracer;
+use crate::sampler::Sampler;
+use crate::scene::Scene;
+use crate::spectrum::{spectrum_to_xyz, SampledWavelengths};
+use glam::Vec2;
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub max_depth: u32,
+    pub seed: u64,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings { width: 512, height: 512, spp: 64, max_depth: 16, seed: 0 }
+    }
+}
+
+/// A progress report, sent from a reporter thread a few times per second and at pass ends.
+#[derive(Clone, Copy, Debug)]
+pub struct Progress {
+    pub fraction: f64,
+    /// Pixel samples finished so far (over the whole image).
+    pub samples_done: u64,
+    pub elapsed: Duration,
+    /// Set when a whole pass has finished: every pixel has `pass_spp` samples.
+    pub pass_spp: Option<u32>,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct RenderStats {
+    pub seconds: f64,
+    pub rays: u64,
+    pub samples: u64,
+    /// Samples whose estimate was NaN/Inf and was discarded by the film.
+    pub discarded: u64,
+    pub cancelled: bool,
+}
+
+/// Rows per parallel work item: small enough to balance load over 2-64 threads, large enough
+/// to amortise scheduling.
+const BAND_ROWS: usize = 4;
+
+/// Sample counts of successive passes: 1, 1, 2, 4, ... doubling up to 64 per pass.
+fn pass_sizes(spp: u32) -> Vec<u32> {
+    let mut sizes = Vec::new();
+    let (mut done, mut next) = (0u32, 1u32);
+    while done < spp {
+        let n = next.min(spp - done);
+        sizes.push(n);
+        done += n;
+        if sizes.len() > 1 {
+            next = (next * 2).min(64);
+        }
+    }
+    sizes
+}
+
+/// Renders `scene` into a new film. `cancel` is polled between pixels; `on_progress` is called
+/// from a reporter thread (and once per finished pass with the film state available through
+/// `on_pass`).
+pub fn render(
+    scene: &Scene,
+    settings: &RenderSettings,
+    cancel: &AtomicBool,
+    on_progress: &(dyn Fn(&Progress) + Sync),
+    on_pass: &mut dyn FnMut(&Film, u32),
+) -> (Film, RenderStats) {
+    let (w, h) = (settings.width as usize, settings.height as usize);
+    let mut film = Film::new(settings.width, settings.height);
+    let camera = scene.camera_for(settings.width, settings.height);
+    let tracer = PathTracer::new(scene, settings.max_depth);
+    let total = (w * h) as u64 * settings.spp as u64;
+    let samples_done = AtomicU64::new(0);
+    let rays = AtomicU64::new(0);
+    let discarded = AtomicU64::new(0);
+    let start = Instant::now();
+    let finished = AtomicBool::new(false);
+
+    std::thread::scope(|s| {
+        // Reporter: decoupled from the workers so they never block on I/O.
+        s.spawn(|| {
+            let mut last_report = Instant::now();
+            while !finished.load(Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(20));
+                if last_report.elapsed() < Duration::from_millis(250) {
+                    continue;
+                }
+                last_report = Instant::now();
+                let done = samples_done.load(Ordering::Relaxed);
+                on_progress(&Progress {
+                    fraction: done as f64 / total.max(1) as f64,
+                    samples_done: done,
+                    elapsed: start.elapsed(),
+                    pass_spp: None,
+                });
+            }
+        });
+
+        let mut spp_done = 0u32;
+        for pass in pass_sizes(settings.spp) {
+            if cancel.load(Ordering::Relaxed) {
+                break;
+            }
+            let (s0, s1) = (spp_done, spp_done + pass);
+            film.pixels.par_chunks_mut(w * BAND_ROWS).enumerate().for_each(|(band, pixels)| {
+                let mut band_rays = 0u64;
+                let mut band_discarded = 0u64;
+                for (i, px) in pixels.iter_mut().enumerate() {
+                    if cancel.load(Ordering::Relaxed) {
+                        break;
+                    }
+                    let index = band * w * BAND_ROWS + i;
+                    let (x, y) = ((index % w) as f32, (index / w) as f32);
+                    for sample in s0..s1 {
+                        let mut sampler = Sampler::new(index as u64, sample as u64, settings.seed);
+                        let mut wavelengths = SampledWavelengths::sample_hero(sampler.next_1d());
+                        let raster = Vec2::new(x, y) + sampler.next_2d();
+                        let ray: Ray = camera.generate_ray(raster);
+                        let result = tracer.radiance(ray, &mut wavelengths, &mut sampler);
+                        band_rays += result.rays as u64;
+                        if !px.add(spectrum_to_xyz(&result.radiance, &wavelengths)) {
+                            band_discarded += 1;
+                        }
+                    }
+                    samples_done.fetch_add((s1 - s0) as u64, Ordering::Relaxed);
+                }
+                rays.fetch_add(band_rays, Ordering::Relaxed);
+                discarded.fetch_add(band_discarded, Ordering::Relaxed);
+            });
+            spp_done = s1;
+            if !cancel.load(Ordering::Relaxed) {
+                on_progress(&Progress {
+                    fraction: samples_done.load(Ordering::Relaxed) as f64 / total.max(1) as f64,
+                    samples_done: samples_done.load(Ordering::Relaxed),
+                    elapsed: start.elapsed(),
+                    pass_spp: Some(spp_done),
+                });
+                on_pass(&film, spp_done);
+            }
+        }
+        finished.store(true, Ordering::Relaxed);
+    });
+
+    let stats = RenderStats {
+        seconds: start.elapsed().as_secs_f64(),
+        rays: rays.load(Ordering::Relaxed),
+        samples: samples_done.load(Ordering::Relaxed),
+        discarded: discarded.load(Ordering::Relaxed),
+        cancelled: cancel.load(Ordering::Relaxed),
+    };
+    (film, stats)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pass_sizes;
+
+    #[test]
+    fn passes_cover_spp_exactly() {
+        for spp in [1, 2, 3, 7, 64, 100, 1000] {
+            assert_eq!(pass_sizes(spp).iter().sum::<u32>(), spp);
+        }
+        assert_eq!(pass_sizes(8), vec![1, 1, 2, 4]);
+    }
+}

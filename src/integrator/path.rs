@@ -1,0 +1,165 @@
+//! Unidirectional path tracing with next-event estimation and multiple importance sampling
+//! (Veach 1997, ch. 9; power heuristic), Russian roulette, spectral throughout.
+
+use crate::bsdf::Bsdf;
+use crate::geometry::{offset_ray_origin, Ray};
+use crate::math::{power_heuristic, Frame};
+use crate::sampler::Sampler;
+use crate::scene::Scene;
+use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+
+/// Bounces after which Russian roulette may end a path.
+const RR_MIN_DEPTH: u32 = 3;
+
+pub struct PathTracer<'a> {
+    scene: &'a Scene,
+    /// Maximum number of scattering events (bounces); emission seen after the last one counts.
+    max_depth: u32,
+}
+
+/// What one camera path returns.
+pub struct PathSample {
+    pub radiance: SampledSpectrum,
+    /// Rays traced (closest-hit and shadow), for throughput statistics.
+    pub rays: u32,
+}
+
+impl<'a> PathTracer<'a> {
+    pub fn new(scene: &'a Scene, max_depth: u32) -> Self {
+        PathTracer { scene, max_depth }
+    }
+
+    /// Radiance arriving along `ray` for the path's wavelengths. May terminate the secondary
+    /// wavelengths (dispersion), which is why `w` is mutable.
+    pub fn radiance(&self, mut ray: Ray, w: &mut SampledWavelengths, sampler: &mut Sampler) -> PathSample {
+        let scene = self.scene;
+        let geometry = &scene.geometry;
+        let lights = &scene.lights;
+        let mut l = SampledSpectrum::ZERO;
+        let mut beta = SampledSpectrum::ONE;
+        let mut rays = 0u32;
+        // Density of the BSDF sample that produced `ray` (for MIS against light sampling).
+        let mut prev_pdf = 0.0f32;
+        let mut specular_bounce = true;
+        // Absorption coefficient of the dielectric the ray is travelling inside, if any.
+        let mut medium: Option<SampledSpectrum> = None;
+        // Product of eta^2 over refractions: undoes radiance scaling for Russian roulette.
+        let mut eta_scale = 1.0f32;
+
+        for depth in 0..=self.max_depth {
+            rays += 1;
+            let Some(hit) = geometry.intersect(&ray, f32::INFINITY) else {
+                let le = lights.environment_radiance(w);
+                if !le.is_black() {
+                    let weight = if specular_bounce { 1.0 } else { power_heuristic(prev_pdf, lights.environment_pdf()) };
+                    l += beta * le * weight;
+                }
+                break;
+            };
+            if let Some(sigma_a) = medium {
+                beta *= (sigma_a * -hit.t).exp();
+            }
+            let sp = geometry.surface_point(&hit);
+            let material = &scene.materials[sp.material as usize];
+            let wo_world = -ray.dir;
+
+            if material.is_emissive() {
+                let cos_light = sp.ng.dot(wo_world);
+                let le = material.emitted(&scene.textures, sp.uv, cos_light > 0.0, w);
+                if !le.is_black() {
+                    let weight = if specular_bounce {
+                        1.0
+                    } else {
+                        let light_pdf = lights.triangle_pdf(hit.instance, hit.prim, sp.area, hit.t, cos_light);
+                        power_heuristic(prev_pdf, light_pdf)
+                    };
+                    l += beta * le * weight;
+                }
+            }
+            if depth == self.max_depth {
+                break;
+            }
+
+            let bsdf = material.bsdf(&scene.textures, sp.uv, w, sampler.next_1d());
+            let transmissive = matches!(bsdf, Bsdf::Dielectric(_));
+            // Reflective models shade both faces alike: turn the normals towards the viewer.
+            // Dielectrics keep the outward normal so that inside/outside (eta) stays meaningful.
+            let (ns, ng) = if !transmissive && sp.ng.dot(wo_world) < 0.0 { (-sp.ns, -sp.ng) } else { (sp.ns, sp.ng) };
+            let frame = Frame::from_normal_tangent(ns, sp.dpdu);
+            let wo = frame.to_local(wo_world);
+
+            // Next-event estimation.
+            let u_light = sampler.next_1d();
+            let u_light2 = sampler.next_2d();
+            if !bsdf.is_specular() {
+                if let Some(ls) = lights.sample(geometry, &scene.materials, &scene.textures, sp.p, u_light, u_light2, w) {
+                    let wi = frame.to_local(ls.wi);
+                    let f = bsdf.eval(wo, wi) * wi.z.abs();
+                    // A direction on the wrong geometric side would leak light through the surface.
+                    let same_side = ls.wi.dot(ng) * wo_world.dot(ng) > 0.0;
+                    let side_ok = if transmissive { true } else { same_side };
+                    if side_ok && !f.is_black() {
+                        rays += 1;
+                        let origin = offset_ray_origin(sp.p, ng, ls.wi);
+                        if !geometry.occluded(&Ray::new(origin, ls.wi), ls.distance) {
+                            let weight = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(wo, wi)) };
+                            let mut contrib = beta * f * ls.li * (weight / ls.pdf);
+                            if let Some(sigma_a) = medium {
+                                // Only reachable through a transmissive surface of the same object.
+                                if ls.distance.is_finite() {
+                                    contrib *= (sigma_a * -ls.distance).exp();
+                                }
+                            }
+                            l += contrib;
+                        }
+                    }
+                }
+            }
+
+            // Continue the path by sampling the BSDF.
+            let Some(bs) = bsdf.sample(wo, sampler.next_1d(), sampler.next_2d()) else { break };
+            if !(bs.pdf > 0.0) || bs.f.is_black() {
+                break;
+            }
+            if bs.terminates_secondary && !w.secondary_terminated() {
+                w.terminate_secondary();
+                for i in 1..beta.0.len() {
+                    beta[i] = 0.0;
+                    l[i] = 0.0;
+                }
+            }
+            let wi_world = frame.to_world(bs.wi);
+            let crosses = wi_world.dot(ng) * wo_world.dot(ng) < 0.0;
+            if crosses != bs.transmission {
+                // Shading normal disagrees with the geometry: the sample would leak light.
+                break;
+            }
+            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            specular_bounce = bs.specular;
+            prev_pdf = bs.pdf;
+            if bs.transmission {
+                let entering = wi_world.dot(sp.ng) < 0.0;
+                if let Bsdf::Dielectric(d) = &bsdf {
+                    let eta = d.eta[0];
+                    eta_scale *= if entering { eta * eta } else { 1.0 / (eta * eta) };
+                }
+                medium = if entering { material.absorption(w) } else { None };
+            }
+            if !beta.is_finite() {
+                break;
+            }
+            if depth + 1 >= RR_MIN_DEPTH {
+                let rr = beta.max_component() * eta_scale;
+                if rr < 1.0 {
+                    let q = (1.0 - rr).clamp(0.0, 0.95);
+                    if sampler.next_1d() < q {
+                        break;
+                    }
+                    beta /= 1.0 - q;
+                }
+            }
+            ray = Ray::new(offset_ray_origin(sp.p, ng, wi_world), wi_world);
+        }
+        PathSample { radiance: l, rays }
+    }
+}
