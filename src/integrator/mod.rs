@@ -1,4 +1,5 @@
 //! Light transport: the path tracer and wavelength sampling of camera paths.
 
-//pub mod path;
-//pub use path::{PathSample, PathTracer};
+pub mod path;
+
+pub use path::{PathSample, PathTracer};
