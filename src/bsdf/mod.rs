@@ -6,6 +6,15 @@
 //! factor; `sample` returns f and the solid-angle pdf of `wi`. Radiance transport only (the
 //! 1/eta^2 factor for refraction is included).
 
+pub mod dielectric;
+pub mod diffuse;
+pub mod fresnel;
+pub mod metallic_roughness;
+pub mod microfacet;
+
+pub use fresnel::{fresnel_dielectric, fresnel_schlick, refract};
+pub use microfacet::TrowbridgeReitz;
+
 use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
 
@@ -67,4 +76,59 @@ pub struct DielectricBsdf {
     pub alpha: f32,
     /// Multiplies transmitted light (glTF transmission tinted by baseColor); ONE for clear glass.
     pub transmission_tint: SampledSpectrum,
+}
+
+impl Bsdf {
+    /// f(wo, wi) without the cosine; zero for Dirac lobes (they cannot be evaluated).
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        match self {
+            Bsdf::Diffuse(b) => b.eval(wo, wi),
+            Bsdf::MetallicRoughness(b) => b.eval(wo, wi),
+            Bsdf::Dielectric(b) => b.eval(wo, wi),
+        }
+    }
+
+    /// Solid-angle density with which `sample` produces `wi` through its non-Dirac lobes
+    /// (already multiplied by the probability of choosing those lobes). Zero for Dirac lobes.
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            Bsdf::Diffuse(b) => b.pdf(wo, wi),
+            Bsdf::MetallicRoughness(b) => b.pdf(wo, wi),
+            Bsdf::Dielectric(b) => b.pdf(wo, wi),
+        }
+    }
+
+    /// Samples `wi` given `wo`; `uc` chooses the lobe, `u` the direction. `None` when the
+    /// sample carries no energy (direction below the surface, total absorption, degenerate
+    /// input). For non-specular samples `f == eval(wo, wi)` and `pdf == pdf(wo, wi)`.
+    pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        let s = match self {
+            Bsdf::Diffuse(b) => b.sample(wo, uc, u),
+            Bsdf::MetallicRoughness(b) => b.sample(wo, uc, u),
+            Bsdf::Dielectric(b) => b.sample(wo, uc, u),
+        }?;
+        if s.pdf > 0.0 && s.pdf.is_finite() && s.f.is_finite() && s.wi.is_finite() {
+            Some(s)
+        } else {
+            None
+        }
+    }
+
+    /// Purely Dirac: every sample is specular and `eval`/`pdf` are identically zero, so light
+    /// sampling is pointless. (A BSDF may still return some specular samples while this is
+    /// false, e.g. a smooth metallic-roughness surface with a diffuse part: check
+    /// `BsdfSample::specular`.)
+    pub fn is_specular(&self) -> bool {
+        match self {
+            Bsdf::Diffuse(_) => false,
+            Bsdf::MetallicRoughness(b) => b.is_specular(),
+            Bsdf::Dielectric(b) => b.is_specular(),
+        }
+    }
+
+    /// True if the BSDF can scatter to the other side of the surface (the integrator must not
+    /// flip the frame to face `wo` for these).
+    pub fn has_transmission(&self) -> bool {
+        matches!(self, Bsdf::Dielectric(_))
+    }
 }

@@ -1,0 +1,263 @@
+//! Dielectric interface (glass, water): smooth Fresnel reflection + refraction, or the rough
+//! GGX microfacet BRDF + BTDF of Walter et al. 2007, "Microfacet Models for Refraction through
+//! Rough Surfaces" (reflection eq. 20, transmission eq. 21, generalized half vector eq. 16,
+//! refraction Jacobian eq. 17).
+//!
+//! `eta` = n_inside / n_outside; the normal (+z) points outside, so `wo.z < 0` means the path is
+//! inside the object. Radiance transport: transmission carries `1 / etap^2` with
+//! `etap = n(wi side) / n(wo side)`, and `transmission_tint` multiplies transmitted light.
+//!
+//! Dispersion: when the per-wavelength `eta` differ, directions are decided by the hero
+//! wavelength (`eta[0]`) and every refraction sample sets `terminates_secondary`. `pdf` always
+//! uses `eta[0]`. `eval` gives each wavelength's own BSDF value (`eta[i]` in slot i); a sampled
+//! refraction carries the hero's value in every slot (only slot 0 is meaningful).
+
+use super::fresnel::{fresnel_dielectric, reflect, refract};
+use super::microfacet::TrowbridgeReitz;
+use super::{BsdfSample, DielectricBsdf};
+use crate::math::sqr;
+use crate::spectrum::{SampledSpectrum, N_WAVELENGTHS};
+use glam::{Vec2, Vec3};
+
+/// Scalar (one wavelength) BSDF value and hero-direction pdf of a rough interface.
+#[derive(Clone, Copy, Debug, Default)]
+struct RoughEval {
+    f: f32,
+    pdf: f32,
+    transmission: bool,
+}
+
+impl DielectricBsdf {
+    #[inline]
+    fn distribution(&self) -> TrowbridgeReitz {
+        TrowbridgeReitz::isotropic(self.alpha)
+    }
+
+    /// The wavelength-dependent IOR of the hero wavelength, which decides directions.
+    #[inline]
+    pub fn hero_eta(&self) -> f32 {
+        self.eta[0]
+    }
+
+    /// True when the per-wavelength IORs differ (dispersive glass).
+    #[inline]
+    pub fn is_dispersive(&self) -> bool {
+        let e0 = self.eta[0];
+        self.eta.0.iter().any(|&e| e != e0)
+    }
+
+    /// Dirac interface: smooth (alpha < 1e-3), or index-matched (eta == 1, where Walter's
+    /// BTDF degenerates to a delta even for a rough surface).
+    #[inline]
+    pub fn is_specular(&self) -> bool {
+        self.distribution().effectively_smooth() || self.hero_eta() == 1.0
+    }
+
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        if self.is_specular() {
+            return SampledSpectrum::ZERO;
+        }
+        if !self.is_dispersive() {
+            let r = self.eval_with_eta(wo, wi, self.hero_eta());
+            return self.spectral(r.f, r.transmission);
+        }
+        let mut f = SampledSpectrum::ZERO;
+        let mut transmission = false;
+        for i in 0..N_WAVELENGTHS {
+            let r = self.eval_with_eta(wo, wi, self.eta[i]);
+            f[i] = r.f;
+            transmission |= r.transmission;
+        }
+        if transmission {
+            f * self.transmission_tint
+        } else {
+            f
+        }
+    }
+
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.is_specular() {
+            return 0.0;
+        }
+        self.eval_with_eta(wo, wi, self.hero_eta()).pdf
+    }
+
+    pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        if self.is_specular() {
+            self.sample_smooth(wo, uc)
+        } else {
+            self.sample_rough(wo, uc, u)
+        }
+    }
+
+    #[inline]
+    fn spectral(&self, f: f32, transmission: bool) -> SampledSpectrum {
+        if transmission {
+            self.transmission_tint * f
+        } else {
+            SampledSpectrum::splat(f)
+        }
+    }
+
+    /// Smooth interface: reflect with probability F(cos_o), else refract (Snell). The pdf is the
+    /// discrete probability of the chosen branch; f holds (branch albedo) / |cos_i|.
+    fn sample_smooth(&self, wo: Vec3, uc: f32) -> Option<BsdfSample> {
+        let cos_o = wo.z;
+        if !(cos_o != 0.0) || !wo.is_finite() {
+            return None;
+        }
+        let eta = self.hero_eta();
+        let fr = fresnel_dielectric(cos_o, eta);
+        if uc < fr {
+            let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+            // Reflection is wavelength independent in direction, so every slot stays valid.
+            let f = if self.is_dispersive() {
+                SampledSpectrum::from_fn(|i| fresnel_dielectric(cos_o, self.eta[i]))
+            } else {
+                SampledSpectrum::splat(fr)
+            } / cos_o.abs();
+            if !f.is_finite() {
+                return None;
+            }
+            Some(BsdfSample {
+                wi,
+                f,
+                pdf: fr,
+                specular: true,
+                transmission: false,
+                terminates_secondary: false,
+            })
+        } else {
+            let (wi, etap) = refract(wo, Vec3::Z, eta)?;
+            let t = 1.0 - fr;
+            let cos_i = wi.z.abs();
+            if !(t > 0.0) || !(cos_i > 0.0) {
+                return None;
+            }
+            let f = self.transmission_tint * (t / (cos_i * sqr(etap)));
+            if !f.is_finite() {
+                return None;
+            }
+            Some(BsdfSample {
+                wi,
+                f,
+                pdf: t,
+                specular: true,
+                transmission: true,
+                terminates_secondary: self.is_dispersive(),
+            })
+        }
+    }
+
+    /// Rough interface: a visible normal from D_wo, then reflection with probability F(wo.wm)
+    /// or refraction through the microfacet.
+    fn sample_rough(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        if !(wo.z != 0.0) || !wo.is_finite() {
+            return None;
+        }
+        let eta = self.hero_eta();
+        let wm = self.distribution().sample_visible(wo, u);
+        let fr = fresnel_dielectric(wo.dot(wm), eta);
+        let wi = if uc < fr {
+            let wi = reflect(wo, wm);
+            if !(wi.z * wo.z > 0.0) {
+                return None;
+            }
+            wi
+        } else {
+            let (wi, _) = refract(wo, wm, eta)?;
+            if !(wi.z * wo.z < 0.0) {
+                return None;
+            }
+            wi
+        };
+        // Re-derive f and pdf from (wo, wi) so that they agree exactly with eval/pdf (MIS).
+        let hero = self.eval_with_eta(wo, wi, eta);
+        if !(hero.pdf > 0.0) {
+            return None;
+        }
+        let dispersive = self.is_dispersive();
+        let f = if hero.transmission || !dispersive {
+            // Dispersive refraction: the hero's value in every slot (secondaries terminate).
+            self.spectral(hero.f, hero.transmission)
+        } else {
+            SampledSpectrum::from_fn(|i| {
+                if i == 0 {
+                    hero.f
+                } else {
+                    self.eval_with_eta(wo, wi, self.eta[i]).f
+                }
+            })
+        };
+        Some(BsdfSample {
+            wi,
+            f,
+            pdf: hero.pdf,
+            specular: false,
+            transmission: hero.transmission,
+            terminates_secondary: hero.transmission && dispersive,
+        })
+    }
+
+    /// Walter et al. 2007 BSDF for a single relative IOR `eta` (without the tint) and the pdf of
+    /// `sample_rough` run with that `eta`. Zero for the degenerate configurations (grazing
+    /// directions, vanishing half vector, back-facing microfacets).
+    fn eval_with_eta(&self, wo: Vec3, wi: Vec3, eta: f32) -> RoughEval {
+        let zero = RoughEval::default();
+        let (cos_o, cos_i) = (wo.z, wi.z);
+        if !(cos_o != 0.0 && cos_i != 0.0) || !(eta > 0.0) || !eta.is_finite() {
+            return zero;
+        }
+        let reflection = cos_o * cos_i > 0.0;
+        // etap = n(wi side) / n(wo side).
+        let etap = if reflection {
+            1.0
+        } else if cos_o > 0.0 {
+            eta
+        } else {
+            1.0 / eta
+        };
+        // Generalized half vector (Walter eq. 16), oriented to the upper hemisphere.
+        let wm = wi * etap + wo;
+        if !(wm.length_squared() > 1e-12) || !wm.is_finite() {
+            return zero;
+        }
+        let mut wm = wm.normalize();
+        if wm.z < 0.0 {
+            wm = -wm;
+        }
+        let (dot_o, dot_i) = (wo.dot(wm), wi.dot(wm));
+        // Each direction must see the microfacet from its own side of the macro-surface.
+        if !(dot_o * cos_o > 0.0 && dot_i * cos_i > 0.0) {
+            return zero;
+        }
+        let distrib = self.distribution();
+        let d = distrib.d(wm);
+        let g = distrib.g(wo, wi);
+        let fr = fresnel_dielectric(dot_o, eta);
+        let (f, pdf) = if reflection {
+            // Walter eq. 20; pdf: visible normal, Fresnel choice, dwm/dwi = 1/(4|wo.wm|).
+            let f = d * g * fr / (4.0 * (cos_o * cos_i).abs());
+            let pdf = distrib.d_visible(wo, wm) * fr / (4.0 * dot_o.abs());
+            (f, pdf)
+        } else {
+            // Walter eq. 21 in radiance form: the n_o^2 / (n_i i.h + n_o o.h)^2 factor equals
+            // 1 / (etap wi.wm + wo.wm)^2, which already contains the 1/etap^2 of radiance.
+            let denom = sqr(etap * dot_i + dot_o);
+            let t = 1.0 - fr;
+            let f = t * d * g * (dot_i * dot_o).abs() / ((cos_i * cos_o).abs() * denom);
+            // Walter eq. 17: dwm/dwi = etap^2 |wi.wm| / (etap wi.wm + wo.wm)^2.
+            let dwm_dwi = sqr(etap) * dot_i.abs() / denom;
+            let pdf = distrib.d_visible(wo, wm) * t * dwm_dwi;
+            (f, pdf)
+        };
+        if !(f.is_finite() && pdf.is_finite()) {
+            return zero;
+        }
+        RoughEval {
+            f,
+            pdf,
+            transmission: !reflection,
+        }
+    }
+}

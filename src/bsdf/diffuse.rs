@@ -1,0 +1,42 @@
+//! Lambertian reflection: f = R / pi, sampled with the cosine-weighted hemisphere warp.
+
+use super::{BsdfSample, DiffuseBsdf};
+use crate::math::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
+use crate::math::INV_PI;
+use crate::spectrum::SampledSpectrum;
+use glam::{Vec2, Vec3};
+
+impl DiffuseBsdf {
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        if !(wo.z > 0.0 && wi.z > 0.0) {
+            return SampledSpectrum::ZERO;
+        }
+        self.reflectance * INV_PI
+    }
+
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if !(wo.z > 0.0 && wi.z > 0.0) {
+            return 0.0;
+        }
+        cosine_hemisphere_pdf(wi.z)
+    }
+
+    pub fn sample(&self, wo: Vec3, _uc: f32, u: Vec2) -> Option<BsdfSample> {
+        if !(wo.z > 0.0) {
+            return None;
+        }
+        let wi = sample_cosine_hemisphere(u);
+        let pdf = cosine_hemisphere_pdf(wi.z);
+        if !(pdf > 0.0) {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            f: self.reflectance * INV_PI,
+            pdf,
+            specular: false,
+            transmission: false,
+            terminates_secondary: false,
+        })
+    }
+}

@@ -1,0 +1,181 @@
+//! The glTF 2.0 metallic-roughness BRDF (glTF 2.0 specification, Appendix B "BRDF
+//! Implementation", B.3) with KHR_materials_specular:
+//!
+//! ```text
+//! S          = D(h) G2(wo, wi) / (4 cos_o cos_i)                         (GGX specular_brdf)
+//! F_d        = f0_d + (f90_d - f0_d) (1 - wo.h)^5,
+//!              f0_d = min(((ior-1)/(ior+1))^2 specular_color, 1) specular, f90_d = specular
+//! dielectric = (1 - F_d) base/pi + F_d S                                 (fresnel_mix)
+//! F_c        = base + (1 - base) (1 - wo.h)^5
+//! conductor  = F_c S                                                     (conductor_fresnel)
+//! f          = (1 - metallic) dielectric + metallic conductor
+//! ```
+//!
+//! Sampling picks the GGX lobe (visible normals, then mirror reflection) with probability
+//! `p_spec(wo)` from Fresnel-at-`wo.z` estimates of the two lobes' weights, otherwise the
+//! cosine-weighted diffuse lobe; the reported pdf is always the full mixture.
+//!
+//! An effectively smooth GGX (alpha < 1e-3) becomes a Dirac mirror lobe carrying the limit
+//! albedo `(1 - metallic) F_d(cos_o) + metallic F_c(cos_o)`; `eval`/`pdf` then cover the diffuse
+//! lobe only and mirror samples come back with `specular: true`.
+
+use super::fresnel::{reflect, schlick_weight};
+use super::microfacet::TrowbridgeReitz;
+use super::{BsdfSample, MetallicRoughnessBsdf};
+use crate::math::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
+use crate::math::{sqr, INV_PI};
+use crate::spectrum::SampledSpectrum;
+use glam::{Vec2, Vec3};
+
+impl MetallicRoughnessBsdf {
+    #[inline]
+    fn distribution(&self) -> TrowbridgeReitz {
+        TrowbridgeReitz::isotropic(self.alpha)
+    }
+
+    #[inline]
+    fn metallic(&self) -> f32 {
+        if self.metallic.is_nan() {
+            0.0
+        } else {
+            self.metallic.clamp(0.0, 1.0)
+        }
+    }
+
+    /// Dielectric normal-incidence reflectance (KHR_materials_specular).
+    #[inline]
+    fn dielectric_f0(&self) -> SampledSpectrum {
+        let r0 = sqr((self.ior - 1.0) / (self.ior + 1.0));
+        let r0 = if r0.is_finite() { r0 } else { 0.0 };
+        (self.specular_color * r0).map(|v| v.min(1.0)) * self.specular
+    }
+
+    /// Dielectric and conductor Schlick Fresnel for a given `(1 - cos)^5`.
+    #[inline]
+    fn fresnels(&self, w5: f32) -> (SampledSpectrum, SampledSpectrum) {
+        let f0 = self.dielectric_f0();
+        let f90 = self.specular;
+        let fd = f0.map(|f| f + (f90 - f) * w5);
+        let fc = self.base_color.map(|b| b + (1.0 - b) * w5);
+        (fd, fc)
+    }
+
+    /// Probability of sampling the GGX lobe: its estimated albedo over the total, using the
+    /// Fresnel terms at the macro-surface angle. Exactly 0 when the specular lobe vanishes
+    /// (specular = 0, metallic = 0) and exactly 1 when the diffuse lobe does.
+    fn specular_probability(&self, cos_o: f32) -> f32 {
+        let m = self.metallic();
+        let (fd, fc) = self.fresnels(schlick_weight(cos_o));
+        let w_spec = (1.0 - m) * fd.average() + m * fc.average();
+        let w_diff = (1.0 - m) * ((SampledSpectrum::ONE - fd) * self.base_color).average();
+        if !(w_spec > 0.0) {
+            0.0
+        } else if !(w_diff > 0.0) {
+            1.0
+        } else {
+            (w_spec / (w_spec + w_diff)).clamp(0.0, 1.0)
+        }
+    }
+
+    pub fn is_specular(&self) -> bool {
+        self.distribution().effectively_smooth() && self.metallic() >= 1.0
+    }
+
+    /// f(wo, wi) and the mixture pdf of `wi`, shared by `eval`, `pdf` and `sample`.
+    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (SampledSpectrum, f32) {
+        if !(wo.z > 0.0 && wi.z > 0.0) {
+            return (SampledSpectrum::ZERO, 0.0);
+        }
+        let h = (wo + wi).normalize_or_zero();
+        if h == Vec3::ZERO {
+            return (SampledSpectrum::ZERO, 0.0);
+        }
+        let m = self.metallic();
+        let distrib = self.distribution();
+        let smooth = distrib.effectively_smooth();
+        let vdoth = wo.dot(h).clamp(0.0, 1.0);
+        let (fd, fc) = self.fresnels(schlick_weight(vdoth));
+
+        let diffuse = self.base_color * INV_PI;
+        let mut f = diffuse * (SampledSpectrum::ONE - fd);
+        let p_spec = self.specular_probability(wo.z);
+        let mut pdf = (1.0 - p_spec) * cosine_hemisphere_pdf(wi.z);
+        if !smooth {
+            let s = distrib.d(h) * distrib.g(wo, wi) / (4.0 * wo.z * wi.z);
+            if s.is_finite() && s > 0.0 {
+                f += fd * s;
+                f = f * (1.0 - m) + fc * (m * s);
+                // Mirror reflection about h: dwi = 4 |wo.h| dwh (Walter et al. 2007, eq. 14).
+                if vdoth > 0.0 {
+                    let p = distrib.d_visible(wo, h) / (4.0 * vdoth);
+                    if p.is_finite() {
+                        pdf += p_spec * p;
+                    }
+                }
+            } else {
+                f *= 1.0 - m;
+            }
+        } else {
+            f *= 1.0 - m;
+        }
+        if !f.is_finite() || !pdf.is_finite() {
+            return (SampledSpectrum::ZERO, 0.0);
+        }
+        (f, pdf)
+    }
+
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        self.eval_pdf(wo, wi).0
+    }
+
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.eval_pdf(wo, wi).1
+    }
+
+    pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        if !(wo.z > 0.0) {
+            return None;
+        }
+        let distrib = self.distribution();
+        let p_spec = self.specular_probability(wo.z);
+        let wi = if uc < p_spec {
+            if distrib.effectively_smooth() {
+                // Dirac mirror: the limit of the GGX lobe's albedo is the Fresnel at cos_o.
+                let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+                let m = self.metallic();
+                let (fd, fc) = self.fresnels(schlick_weight(wo.z));
+                let f = (fd * (1.0 - m) + fc * m) / wo.z;
+                if !f.is_finite() {
+                    return None;
+                }
+                return Some(BsdfSample {
+                    wi,
+                    f,
+                    pdf: p_spec,
+                    specular: true,
+                    transmission: false,
+                    terminates_secondary: false,
+                });
+            }
+            let wm = distrib.sample_visible(wo, u);
+            reflect(wo, wm)
+        } else {
+            sample_cosine_hemisphere(u)
+        };
+        if !(wi.z > 0.0) {
+            return None;
+        }
+        let (f, pdf) = self.eval_pdf(wo, wi);
+        if !(pdf > 0.0) {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            f,
+            pdf,
+            specular: false,
+            transmission: false,
+            terminates_secondary: false,
+        })
+    }
+}
