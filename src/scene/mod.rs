@@ -3,9 +3,14 @@
 pub mod build;
 pub mod camera;
 pub mod desc;
+pub mod gltf_import;
 pub mod lights;
+pub mod load;
 pub mod material;
+pub mod materials_json;
+pub mod texture;
 
 pub use build::Scene;
 pub use camera::Camera;
 pub use desc::*;
+pub use load::load_scene;

@@ -1,0 +1,1378 @@
+//! glTF 2.0 (`.gltf` / `.glb`) import into the plain-data [`SceneDesc`].
+//!
+//! * Geometry: every triangle primitive of every node of the default scene (or scene 0), with the
+//!   node hierarchy's transforms. One [`MeshDesc`] per used (mesh, primitive), one
+//!   [`InstanceDesc`] per node use. Strips and fans become triangle lists, points and lines are
+//!   skipped (one warning). Degenerate triangles (zero area, non-finite positions) are dropped.
+//! * Materials: metallic-roughness + KHR_materials_{emissive_strength, specular, transmission, ior,
+//!   volume} + KHR_texture_transform; textures decoded to linear texels.
+//! * KHR_lights_punctual, converted to Blender/Cycles radiometric units by
+//!   [`gltf_light_intensity_to_prism`].
+//! * The camera: the first camera node in traversal order, or the one picked by name.
+//!
+//! The loader never trusts the file: the GLB container, buffer/accessor ranges, indices and node
+//! graphs are checked here (the `gltf` crate's own readers slice without bounds checks and its
+//! validation can index out of range), so bad input is always a one-line
+//! [`PrismError::Input`] naming the file.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Mode;
+use gltf::Semantic;
+
+use crate::error::PrismError;
+use crate::scene::desc::*;
+use crate::scene::materials_json::io_msg;
+use crate::scene::texture::{decode_image, parse_data_uri, percent_decode, to_linear_texels};
+
+/// Luminous efficacy used by Blender's glTF I/O to convert between watts and lumens
+/// (`PBR_WATTS_TO_LUMENS = 683` in glTF-Blender-IO `io_scene_gltf2/blender/com/conversion.py`).
+pub const PBR_WATTS_TO_LUMENS: f32 = 683.0;
+
+/// Converts a KHR_lights_punctual `intensity` to Prism's (= Blender/Cycles') radiometric units.
+///
+/// glTF stores photometric quantities: candela (lm/sr) for point and spot lights, lux (lm/m^2)
+/// for directional lights. Blender's glTF exporter in its default "Standard" lighting mode
+/// (`export_import_convert_lighting_mode = 'SPEC'`), glTF-Blender-IO
+/// `io_scene_gltf2/blender/exp/lights.py`, `__gather_intensity`, writes
+///
+/// * point / spot: `intensity [cd]  = P [W] / (4 pi) * 683`  (a spot is given "as if it were a
+///   point light": the same power-to-intensity rule, not concentrated into the cone)
+/// * sun:          `intensity [lux] = S [W/m^2] * 683`
+///
+/// and its importer (`io_scene_gltf2/blender/imp/light.py`, `calc_energy_pointlike` /
+/// `calc_energy_directional`) does the inverse: `P = cd / 683 * 4 pi`, `S = lux / 683`.
+/// Prism uses Cycles' units: a point (or spot) light of power P has radiant intensity
+/// `P / (4 pi)` W/sr, and a sun of strength S gives irradiance `S` W/m^2. Hence for every light
+/// type
+///
+/// ```text
+/// point/spot:   I [W/sr]  = P / (4 pi) = (cd / 683 * 4 pi) / (4 pi) = cd / 683
+/// directional:  E [W/m^2] = S          = lux / 683
+/// ```
+pub fn gltf_light_intensity_to_prism(intensity: f32) -> f32 {
+    intensity / PBR_WATTS_TO_LUMENS
+}
+
+/// The result of importing a glTF file.
+#[derive(Debug)]
+pub struct GltfImport {
+    pub scene: SceneDesc,
+    /// The glTF's material names by material index (`None` for unnamed materials); the sidecar
+    /// matches against these.
+    pub material_names: Vec<Option<String>>,
+}
+
+/// Longest chain of nested nodes accepted (deeper graphs are almost surely cyclic).
+const MAX_NODE_DEPTH: usize = 1024;
+/// Upper bound for accessor element counts not backed by a buffer view (sparse-only accessors).
+const MAX_SPARSE_BASE_ELEMENTS: usize = 1 << 27;
+
+type R<T> = Result<T, PrismError>;
+
+/// Imports a `.gltf` or `.glb` file. `camera_name` selects a camera by node or camera name.
+pub fn import_gltf(path: &Path, camera_name: Option<&str>) -> R<GltfImport> {
+    let file = path.display().to_string();
+    let fail = |msg: String| PrismError::input(format!("{file}: {msg}"));
+    let bytes = std::fs::read(path).map_err(|e| fail(format!("cannot read: {}", io_msg(&e))))?;
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    let is_glb = bytes.starts_with(b"glTF") || ext.as_deref() == Some("glb");
+    let (json_bytes, bin) = if is_glb {
+        split_glb(&bytes).map_err(fail)?
+    } else {
+        (&bytes[..], None)
+    };
+    let root: gltf::json::Root = gltf::json::deserialize::from_slice(json_bytes)
+        .map_err(|e| fail(format!("invalid glTF JSON: {e}")))?;
+    precheck(&root).map_err(fail)?;
+    let doc = gltf::Document::from_json(root).map_err(|e| fail(validation_message(e)))?;
+    let dir = path
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|| PathBuf::from("."));
+    let buffers = load_buffers(&doc, bin, &dir).map_err(fail)?;
+    let mut imp = Importer {
+        doc: &doc,
+        buffers,
+        dir,
+        scene: SceneDesc::default(),
+        mesh_cache: HashMap::new(),
+        image_cache: HashMap::new(),
+        texture_cache: HashMap::new(),
+        cameras: Vec::new(),
+        skipped_non_triangle: 0,
+        warned: Vec::new(),
+    };
+    imp.run(camera_name).map_err(fail)?;
+    if imp.scene.camera.is_none() {
+        return Err(PrismError::input(format!("no camera in {file}")));
+    }
+    let material_names = doc
+        .materials()
+        .map(|m| m.name().map(str::to_string))
+        .collect();
+    Ok(GltfImport {
+        scene: imp.scene,
+        material_names,
+    })
+}
+
+/// Splits a binary glTF container into its JSON chunk and optional BIN chunk.
+fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
+    const JSON: u32 = 0x4E4F_534A;
+    const BIN: u32 = 0x004E_4942;
+    let u32_at =
+        |o: usize| u32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]);
+    if bytes.len() < 12 {
+        return Err(format!(
+            "truncated GLB: {} bytes, shorter than the 12-byte header",
+            bytes.len()
+        ));
+    }
+    if &bytes[0..4] != b"glTF" {
+        return Err("not a binary glTF file (missing 'glTF' magic)".into());
+    }
+    let version = u32_at(4);
+    if version != 2 {
+        return Err(format!("unsupported GLB version {version} (expected 2)"));
+    }
+    let length = u32_at(8) as usize;
+    if length > bytes.len() {
+        return Err(format!(
+            "truncated GLB: header says {length} bytes, the file has {}",
+            bytes.len()
+        ));
+    }
+    if length < 20 {
+        return Err(format!(
+            "invalid GLB: declared length {length} is too small"
+        ));
+    }
+    let mut pos = 12usize;
+    let mut json = None;
+    let mut bin = None;
+    let mut k = 0;
+    while pos < length {
+        if length - pos < 8 {
+            return Err(format!(
+                "truncated GLB: chunk {k} header at byte {pos} is cut short"
+            ));
+        }
+        let clen = u32_at(pos) as usize;
+        let ctype = u32_at(pos + 4);
+        let start = pos + 8;
+        if clen > length - start {
+            return Err(format!(
+                "truncated GLB: chunk {k} declares {clen} bytes but only {} remain",
+                length - start
+            ));
+        }
+        let data = &bytes[start..start + clen];
+        match (k, ctype) {
+            (0, JSON) => json = Some(data),
+            (0, _) => return Err("invalid GLB: the first chunk is not JSON".into()),
+            (_, BIN) if bin.is_none() => bin = Some(data),
+            _ => {} // unknown chunks are ignored (glTF spec)
+        }
+        pos = start + clen;
+        pos = (pos + 3) & !3; // chunks are 4-byte aligned
+        k += 1;
+    }
+    match json {
+        Some(j) => Ok((j, bin)),
+        None => Err("invalid GLB: no JSON chunk".into()),
+    }
+}
+
+/// Checks that `gltf`'s validation would index out of range on (its primitive hook reads
+/// `root.accessors[POSITION]` before the index itself is validated).
+fn precheck(root: &gltf::json::Root) -> Result<(), String> {
+    for (mi, mesh) in root.meshes.iter().enumerate() {
+        for (pi, prim) in mesh.primitives.iter().enumerate() {
+            for (sem, acc) in &prim.attributes {
+                if acc.value() >= root.accessors.len() {
+                    let name = match sem {
+                        gltf::json::validation::Checked::Valid(s) => s.to_string(),
+                        _ => "?".into(),
+                    };
+                    return Err(format!(
+                        "meshes[{mi}].primitives[{pi}].attributes.{name}: accessor {} does not exist ({} accessors)",
+                        acc.value(),
+                        root.accessors.len()
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+fn validation_message(e: gltf::Error) -> String {
+    match e {
+        gltf::Error::Validation(errs) => {
+            let more = if errs.len() > 1 {
+                format!(" (and {} more problems)", errs.len() - 1)
+            } else {
+                String::new()
+            };
+            match errs.first() {
+                Some((path, err)) => {
+                    let what = match err {
+                        gltf::json::validation::Error::IndexOutOfBounds => "index out of range",
+                        gltf::json::validation::Error::Invalid => "invalid value",
+                        gltf::json::validation::Error::Missing => "missing",
+                        gltf::json::validation::Error::Oversize => "size exceeds system limits",
+                        gltf::json::validation::Error::Unsupported => {
+                            "required extension is not supported"
+                        }
+                    };
+                    format!("invalid glTF: {path}: {what}{more}")
+                }
+                None => "invalid glTF".into(),
+            }
+        }
+        other => format!("invalid glTF: {other}"),
+    }
+}
+
+fn is_remote(uri: &str) -> bool {
+    uri.contains("://")
+}
+
+fn resolve_uri(dir: &Path, uri: &str) -> PathBuf {
+    let decoded = percent_decode(uri);
+    dir.join(String::from_utf8_lossy(&decoded).as_ref())
+}
+
+fn load_buffers(
+    doc: &gltf::Document,
+    bin: Option<&[u8]>,
+    dir: &Path,
+) -> Result<Vec<Vec<u8>>, String> {
+    let mut out = Vec::new();
+    for buffer in doc.buffers() {
+        let i = buffer.index();
+        let (data, what) = match buffer.source() {
+            gltf::buffer::Source::Bin => match bin {
+                Some(b) => (b.to_vec(), "the GLB BIN chunk".to_string()),
+                None => {
+                    return Err(format!(
+                        "buffer {i}: refers to the GLB binary chunk, but the file has none"
+                    ))
+                }
+            },
+            gltf::buffer::Source::Uri(uri) => {
+                if let Some(d) = parse_data_uri(uri) {
+                    let d = d.map_err(|e| format!("buffer {i}: {e}"))?;
+                    (d.bytes, "its data URI".to_string())
+                } else if is_remote(uri) {
+                    return Err(format!("buffer {i}: unsupported remote URI '{uri}'"));
+                } else {
+                    let p = resolve_uri(dir, uri);
+                    let data = std::fs::read(&p)
+                        .map_err(|e| format!("buffer {i}: cannot read '{uri}': {}", io_msg(&e)))?;
+                    (data, format!("'{uri}'"))
+                }
+            }
+        };
+        if data.len() < buffer.length() {
+            return Err(format!(
+                "buffer {i}: {what} has {} bytes, the glTF says {}",
+                data.len(),
+                buffer.length()
+            ));
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
+struct CameraCandidate {
+    node_name: Option<String>,
+    camera_name: Option<String>,
+    camera_index: usize,
+    world: Mat4,
+}
+
+struct Importer<'d> {
+    doc: &'d gltf::Document,
+    buffers: Vec<Vec<u8>>,
+    dir: PathBuf,
+    scene: SceneDesc,
+    /// (mesh, primitive) -> index into `scene.meshes` (None: no triangles / skipped).
+    mesh_cache: HashMap<(usize, usize), Option<usize>>,
+    image_cache: HashMap<usize, crate::scene::texture::DecodedImage>,
+    /// (image, colour space is sRGB, wrap s, wrap t, bilinear) -> texture index.
+    texture_cache: HashMap<(usize, bool, bool, bool, bool), usize>,
+    cameras: Vec<CameraCandidate>,
+    skipped_non_triangle: usize,
+    warned: Vec<String>,
+}
+
+fn finite_all(xs: &[f32]) -> bool {
+    xs.iter().all(|x| x.is_finite())
+}
+
+impl Importer<'_> {
+    fn warn_once(&mut self, msg: String) {
+        if !self.warned.contains(&msg) {
+            self.warned.push(msg.clone());
+            self.scene.warnings.push(msg);
+        }
+    }
+
+    fn run(&mut self, camera_name: Option<&str>) -> Result<(), String> {
+        for m in self.doc.materials() {
+            let desc = self.material(&m)?;
+            self.scene.materials.push(MaterialDesc {
+                gltf: desc,
+                sidecar: None,
+            });
+        }
+        let roots: Vec<usize> = match self
+            .doc
+            .default_scene()
+            .or_else(|| self.doc.scenes().next())
+        {
+            Some(s) => s.nodes().map(|n| n.index()).collect(),
+            None => {
+                // No scene: render every root node (a node that is nobody's child).
+                let mut is_child = vec![false; self.doc.nodes().len()];
+                for n in self.doc.nodes() {
+                    for c in n.children() {
+                        is_child[c.index()] = true;
+                    }
+                }
+                (0..is_child.len()).filter(|&i| !is_child[i]).collect()
+            }
+        };
+        let mut ancestors = Vec::new();
+        for r in roots {
+            self.visit(r, Mat4::IDENTITY, &mut ancestors)?;
+        }
+        if self.skipped_non_triangle > 0 {
+            let n = self.skipped_non_triangle;
+            let s = if n == 1 { "" } else { "s" };
+            self.scene.warnings.push(format!(
+                "skipped {n} point/line primitive{s}: only triangles are rendered"
+            ));
+        }
+        let has_triangles = self
+            .scene
+            .instances
+            .iter()
+            .any(|i| !self.scene.meshes[i.mesh].indices.is_empty());
+        if !has_triangles && self.scene.lights.is_empty() {
+            return Err(
+                "no renderable geometry (no non-degenerate triangles and no punctual lights)"
+                    .into(),
+            );
+        }
+        if !self.cameras.is_empty() {
+            self.scene.camera = Some(self.pick_camera(camera_name)?);
+        }
+        Ok(())
+    }
+
+    fn node_label(node: &gltf::Node) -> String {
+        match node.name() {
+            Some(n) => format!("node {} '{n}'", node.index()),
+            None => format!("node {}", node.index()),
+        }
+    }
+
+    fn visit(
+        &mut self,
+        index: usize,
+        parent: Mat4,
+        ancestors: &mut Vec<usize>,
+    ) -> Result<(), String> {
+        let node = self
+            .doc
+            .nodes()
+            .nth(index)
+            .ok_or_else(|| format!("node {index} does not exist"))?;
+        if ancestors.contains(&index) {
+            return Err(format!(
+                "{}: the node hierarchy has a cycle (the node is its own ancestor)",
+                Self::node_label(&node)
+            ));
+        }
+        if ancestors.len() >= MAX_NODE_DEPTH {
+            return Err(format!(
+                "{}: node hierarchy deeper than {MAX_NODE_DEPTH} levels",
+                Self::node_label(&node)
+            ));
+        }
+        let local = match node.transform() {
+            gltf::scene::Transform::Matrix { matrix } => Mat4::from_cols_array_2d(&matrix),
+            gltf::scene::Transform::Decomposed {
+                translation,
+                rotation,
+                scale,
+            } => {
+                let q = glam::Quat::from_array(rotation);
+                let q = if q.length_squared() > 0.0 {
+                    q.normalize()
+                } else {
+                    q
+                };
+                Mat4::from_scale_rotation_translation(
+                    Vec3::from_array(scale),
+                    q,
+                    Vec3::from_array(translation),
+                )
+            }
+        };
+        if !finite_all(&local.to_cols_array()) {
+            return Err(format!(
+                "{}: transform has non-finite values",
+                Self::node_label(&node)
+            ));
+        }
+        let world = parent * local;
+        let node_name = node
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("node {index}"));
+
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                if let Some(m) = self.mesh_for(&mesh, &prim)? {
+                    self.scene.instances.push(InstanceDesc {
+                        mesh: m,
+                        object_to_world: world,
+                        name: node_name.clone(),
+                    });
+                }
+            }
+        }
+        if let Some(cam) = node.camera() {
+            self.cameras.push(CameraCandidate {
+                node_name: node.name().map(str::to_string),
+                camera_name: cam.name().map(str::to_string),
+                camera_index: cam.index(),
+                world,
+            });
+        }
+        // Read the light index from the JSON ourselves: `Node::light()` unwraps.
+        let light_index = self.doc.as_json().nodes[index]
+            .extensions
+            .as_ref()
+            .and_then(|e| e.khr_lights_punctual.as_ref())
+            .map(|l| l.light.value());
+        if let Some(li) = light_index {
+            self.light(li, &node_name, world)?;
+        }
+        ancestors.push(index);
+        let children: Vec<usize> = node.children().map(|c| c.index()).collect();
+        for c in children {
+            self.visit(c, world, ancestors)?;
+        }
+        ancestors.pop();
+        Ok(())
+    }
+
+    // ---------------------------------------------------------------- lights
+
+    fn light(&mut self, li: usize, node_name: &str, world: Mat4) -> Result<(), String> {
+        let light = self
+            .doc
+            .lights()
+            .and_then(|mut l| l.nth(li))
+            .ok_or_else(|| format!("node '{node_name}': light {li} does not exist"))?;
+        let name = light
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| node_name.to_string());
+        let label = format!("light {li} '{name}'");
+        let intensity = light.intensity();
+        if !intensity.is_finite() || intensity < 0.0 {
+            return Err(format!(
+                "{label}: intensity must be a finite number >= 0, got {intensity}"
+            ));
+        }
+        let color = Vec3::from_array(light.color());
+        if !color.is_finite() || color.min_element() < 0.0 {
+            return Err(format!("{label}: color must be finite and non-negative"));
+        }
+        let kind = match light.kind() {
+            gltf::khr_lights_punctual::Kind::Point => PunctualKind::Point,
+            gltf::khr_lights_punctual::Kind::Directional => PunctualKind::Directional,
+            gltf::khr_lights_punctual::Kind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => {
+                let (inner, outer) = (inner_cone_angle, outer_cone_angle);
+                let ok = inner.is_finite()
+                    && outer.is_finite()
+                    && outer > 0.0
+                    && outer <= std::f32::consts::FRAC_PI_2 + 1e-4
+                    && inner >= 0.0
+                    && inner <= outer;
+                if !ok {
+                    return Err(format!(
+                        "{label}: spot cone angles must satisfy 0 <= inner <= outer <= pi/2 (inner {inner}, outer {outer})"
+                    ));
+                }
+                PunctualKind::Spot {
+                    inner_cone: inner,
+                    outer_cone: outer.min(std::f32::consts::FRAC_PI_2),
+                }
+            }
+        };
+        let position = world.transform_point3(Vec3::ZERO);
+        let dir = world.transform_vector3(Vec3::NEG_Z);
+        let direction = if dir.length_squared() > 0.0 && dir.is_finite() {
+            dir.normalize()
+        } else if kind == PunctualKind::Point {
+            Vec3::NEG_Z
+        } else {
+            return Err(format!(
+                "{label}: node '{node_name}' has a degenerate transform (no direction)"
+            ));
+        };
+        self.scene.lights.push(PunctualLightDesc {
+            name,
+            kind,
+            color,
+            intensity: gltf_light_intensity_to_prism(intensity),
+            position,
+            direction,
+        });
+        Ok(())
+    }
+
+    // ---------------------------------------------------------------- camera
+
+    fn pick_camera(&self, camera_name: Option<&str>) -> Result<CameraDesc, String> {
+        let cand = match camera_name {
+            None => &self.cameras[0],
+            Some(want) => self
+                .cameras
+                .iter()
+                .find(|c| {
+                    c.node_name.as_deref() == Some(want) || c.camera_name.as_deref() == Some(want)
+                })
+                .ok_or_else(|| {
+                    let names: Vec<String> = self
+                        .cameras
+                        .iter()
+                        .map(|c| match (&c.node_name, &c.camera_name) {
+                            (Some(n), Some(cn)) if n != cn => format!("'{n}' (camera '{cn}')"),
+                            (Some(n), _) => format!("'{n}'"),
+                            (None, Some(cn)) => format!("'{cn}'"),
+                            (None, None) => format!("unnamed camera {}", c.camera_index),
+                        })
+                        .collect();
+                    format!(
+                        "no camera named '{want}' (cameras in the scene: {})",
+                        names.join(", ")
+                    )
+                })?,
+        };
+        let cam = self
+            .doc
+            .cameras()
+            .nth(cand.camera_index)
+            .ok_or_else(|| format!("camera {} does not exist", cand.camera_index))?;
+        let name = cand
+            .node_name
+            .clone()
+            .or_else(|| cand.camera_name.clone())
+            .unwrap_or_else(|| format!("camera {}", cand.camera_index));
+        let (yfov, aspect) = match cam.projection() {
+            gltf::camera::Projection::Orthographic(_) => {
+                return Err(format!(
+                    "camera '{name}' is orthographic; only perspective cameras are supported"
+                ))
+            }
+            gltf::camera::Projection::Perspective(p) => (p.yfov(), p.aspect_ratio()),
+        };
+        if !(yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI) {
+            return Err(format!(
+                "camera '{name}': yfov must be in (0, pi) radians, got {yfov}"
+            ));
+        }
+        if let Some(a) = aspect {
+            if !(a.is_finite() && a > 0.0) {
+                return Err(format!(
+                    "camera '{name}': aspectRatio must be positive, got {a}"
+                ));
+            }
+        }
+        // Remove scale from the camera frame (glTF cameras ignore it); keep the position.
+        let w = cand.world;
+        let axes = [
+            w.x_axis.truncate(),
+            w.y_axis.truncate(),
+            w.z_axis.truncate(),
+        ];
+        if axes.iter().any(|a| a.length_squared() <= 0.0) {
+            return Err(format!(
+                "camera '{name}': its node transform is degenerate (zero scale)"
+            ));
+        }
+        let camera_to_world = Mat4::from_cols(
+            axes[0].normalize().extend(0.0),
+            axes[1].normalize().extend(0.0),
+            axes[2].normalize().extend(0.0),
+            w.w_axis,
+        );
+        Ok(CameraDesc {
+            name,
+            camera_to_world,
+            yfov,
+            aspect,
+        })
+    }
+
+    // ---------------------------------------------------------------- accessors
+
+    fn view_bytes(&self, view: &gltf::buffer::View) -> Result<&[u8], String> {
+        let buf = &self.buffers[view.buffer().index()];
+        let start = view.offset();
+        let end = start.checked_add(view.length());
+        match end.and_then(|e| buf.get(start..e)) {
+            Some(b) => Ok(b),
+            None => Err(format!(
+                "buffer view {}: bytes {}..{} are outside buffer {} ({} bytes)",
+                view.index(),
+                start,
+                start as u128 + view.length() as u128,
+                view.buffer().index(),
+                buf.len()
+            )),
+        }
+    }
+
+    /// Reads an accessor as `count * dims` f64 components (normalised integers mapped to [0,1] /
+    /// [-1,1]), including sparse substitution, with every range checked.
+    fn read_accessor(
+        &self,
+        acc: &gltf::Accessor,
+        want: Dimensions,
+        what: &str,
+    ) -> Result<Vec<f64>, String> {
+        let label = format!("accessor {} ({what})", acc.index());
+        if acc.dimensions() != want {
+            return Err(format!(
+                "{label}: expected type {want:?}, found {:?}",
+                acc.dimensions()
+            ));
+        }
+        let ncomp = want.multiplicity();
+        let dt = acc.data_type();
+        let cs = dt.size();
+        let elem = cs * ncomp;
+        let count = acc.count();
+        let normalized = acc.normalized();
+        let read = |b: &[u8]| -> f64 { read_component(b, dt, normalized) };
+        let mut out: Vec<f64>;
+        match acc.view() {
+            Some(view) => {
+                let bytes = self.view_bytes(&view)?;
+                let stride = view.stride().unwrap_or(elem);
+                if stride < elem {
+                    return Err(format!(
+                        "{label}: byteStride {stride} is smaller than the element size {elem}"
+                    ));
+                }
+                if count > 0 {
+                    let need =
+                        (count as u128 - 1) * stride as u128 + elem as u128 + acc.offset() as u128;
+                    if need > bytes.len() as u128 {
+                        return Err(format!(
+                            "{label}: needs {need} bytes of buffer view {}, which has {}",
+                            view.index(),
+                            bytes.len()
+                        ));
+                    }
+                }
+                out = Vec::with_capacity(count * ncomp);
+                for i in 0..count {
+                    let base = acc.offset() + i * stride;
+                    for c in 0..ncomp {
+                        let o = base + c * cs;
+                        out.push(read(&bytes[o..o + cs]));
+                    }
+                }
+            }
+            None => {
+                if count > MAX_SPARSE_BASE_ELEMENTS {
+                    return Err(format!("{label}: count {count} is too large"));
+                }
+                out = vec![0.0; count * ncomp];
+            }
+        }
+        if let Some(sp) = acc.sparse() {
+            let n = sp.count();
+            let idx = sp.indices();
+            let isize = match idx.index_type() {
+                gltf::accessor::sparse::IndexType::U8 => 1,
+                gltf::accessor::sparse::IndexType::U16 => 2,
+                gltf::accessor::sparse::IndexType::U32 => 4,
+            };
+            let ibytes = self.view_bytes(&idx.view())?;
+            let ineed = idx.offset() as u128 + n as u128 * isize as u128;
+            if ineed > ibytes.len() as u128 {
+                return Err(format!(
+                    "{label}: sparse indices need {ineed} bytes, buffer view has {}",
+                    ibytes.len()
+                ));
+            }
+            let vals = sp.values();
+            let vbytes = self.view_bytes(&vals.view())?;
+            let vneed = vals.offset() as u128 + n as u128 * elem as u128;
+            if vneed > vbytes.len() as u128 {
+                return Err(format!(
+                    "{label}: sparse values need {vneed} bytes, buffer view has {}",
+                    vbytes.len()
+                ));
+            }
+            for k in 0..n {
+                let io = idx.offset() + k * isize;
+                let target = match isize {
+                    1 => ibytes[io] as usize,
+                    2 => u16::from_le_bytes([ibytes[io], ibytes[io + 1]]) as usize,
+                    _ => u32::from_le_bytes([
+                        ibytes[io],
+                        ibytes[io + 1],
+                        ibytes[io + 2],
+                        ibytes[io + 3],
+                    ]) as usize,
+                };
+                if target >= count {
+                    return Err(format!(
+                        "{label}: sparse index {target} out of range (count {count})"
+                    ));
+                }
+                for c in 0..ncomp {
+                    let o = vals.offset() + k * elem + c * cs;
+                    out[target * ncomp + c] = read(&vbytes[o..o + cs]);
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    fn read_vec3(&self, acc: &gltf::Accessor, what: &str) -> Result<Vec<Vec3>, String> {
+        let v = self.read_accessor(acc, Dimensions::Vec3, what)?;
+        Ok(v.chunks_exact(3)
+            .map(|c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32))
+            .collect())
+    }
+
+    // ---------------------------------------------------------------- meshes
+
+    fn mesh_for(
+        &mut self,
+        mesh: &gltf::Mesh,
+        prim: &gltf::Primitive,
+    ) -> Result<Option<usize>, String> {
+        let key = (mesh.index(), prim.index());
+        if let Some(&m) = self.mesh_cache.get(&key) {
+            return Ok(m);
+        }
+        let result = match self.load_primitive(mesh, prim)? {
+            Some(desc) => {
+                self.scene.meshes.push(desc);
+                Some(self.scene.meshes.len() - 1)
+            }
+            None => None,
+        };
+        self.mesh_cache.insert(key, result);
+        Ok(result)
+    }
+
+    fn load_primitive(
+        &mut self,
+        mesh: &gltf::Mesh,
+        prim: &gltf::Primitive,
+    ) -> Result<Option<MeshDesc>, String> {
+        let mesh_name = mesh
+            .name()
+            .map(|n| format!("mesh '{n}'"))
+            .unwrap_or_else(|| format!("mesh {}", mesh.index()));
+        let name = format!("{mesh_name} primitive {}", prim.index());
+        let mode = prim.mode();
+        if matches!(
+            mode,
+            Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip
+        ) {
+            self.skipped_non_triangle += 1;
+            return Ok(None);
+        }
+        let pos_acc = prim
+            .get(&Semantic::Positions)
+            .ok_or_else(|| format!("{name}: no POSITION attribute"))?;
+        let positions = self.read_vec3(&pos_acc, &format!("{name} POSITION"))?;
+        let n = positions.len();
+        let normals = match prim.get(&Semantic::Normals) {
+            Some(a) => {
+                let v = self.read_vec3(&a, &format!("{name} NORMAL"))?;
+                if v.len() != n {
+                    return Err(format!(
+                        "{name}: NORMAL has {} elements but POSITION has {n}",
+                        v.len()
+                    ));
+                }
+                Some(v)
+            }
+            None => None,
+        };
+        let uvs = match prim.get(&Semantic::TexCoords(0)) {
+            Some(a) => {
+                let v = self.read_accessor(&a, Dimensions::Vec2, &format!("{name} TEXCOORD_0"))?;
+                if v.len() / 2 != n {
+                    return Err(format!(
+                        "{name}: TEXCOORD_0 has {} elements but POSITION has {n}",
+                        v.len() / 2
+                    ));
+                }
+                Some(
+                    v.chunks_exact(2)
+                        .map(|c| {
+                            let uv = Vec2::new(c[0] as f32, c[1] as f32);
+                            if uv.is_finite() {
+                                uv
+                            } else {
+                                Vec2::ZERO
+                            }
+                        })
+                        .collect::<Vec<_>>(),
+                )
+            }
+            None => None,
+        };
+        let raw_indices: Vec<u32> = match prim.indices() {
+            Some(a) => {
+                if !matches!(a.data_type(), DataType::U8 | DataType::U16 | DataType::U32) {
+                    return Err(format!(
+                        "{name}: indices must be unsigned integers, found {:?}",
+                        a.data_type()
+                    ));
+                }
+                if a.normalized() {
+                    return Err(format!("{name}: indices must not be normalized"));
+                }
+                self.read_accessor(&a, Dimensions::Scalar, &format!("{name} indices"))?
+                    .into_iter()
+                    .map(|x| x as u32)
+                    .collect()
+            }
+            None => {
+                if n > u32::MAX as usize {
+                    return Err(format!("{name}: too many vertices"));
+                }
+                (0..n as u32).collect()
+            }
+        };
+        if let Some(&bad) = raw_indices.iter().find(|&&i| i as usize >= n) {
+            return Err(format!(
+                "{name}: vertex index {bad} out of range ({n} vertices)"
+            ));
+        }
+        let tris = triangulate(mode, &raw_indices).map_err(|e| format!("{name}: {e}"))?;
+
+        // Drop degenerate triangles (zero area, non-finite positions).
+        let mut kept: Vec<[u32; 3]> = Vec::with_capacity(tris.len());
+        for t in tris {
+            let (a, b, c) = (
+                positions[t[0] as usize],
+                positions[t[1] as usize],
+                positions[t[2] as usize],
+            );
+            if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+                continue;
+            }
+            let cr = (b - a).cross(c - a);
+            if cr.is_finite() && cr.length_squared() > 0.0 {
+                kept.push(t);
+            }
+        }
+        if kept.is_empty() {
+            return Ok(None);
+        }
+        let material = prim.material().index();
+        let mut desc = compact(name, &positions, normals.as_deref(), uvs.as_deref(), &kept);
+        desc.material = material;
+        if let Some(normals) = desc.normals.as_mut() {
+            fix_normals(normals, &desc.positions, &desc.indices);
+        }
+        Ok(Some(desc))
+    }
+
+    // ---------------------------------------------------------------- materials
+
+    fn material(&mut self, m: &gltf::Material) -> Result<GltfMaterialDesc, String> {
+        let name = m
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| match m.index() {
+                Some(i) => format!("material {i}"),
+                None => "default material".into(),
+            });
+        let label = format!("material '{name}'");
+        let check = |what: &str, xs: &[f32], min: f32| -> Result<(), String> {
+            for &x in xs {
+                if !x.is_finite() {
+                    return Err(format!("{label}: {what} is not finite"));
+                }
+                if x < min {
+                    return Err(format!("{label}: {what} must be >= {min}, got {x}"));
+                }
+            }
+            Ok(())
+        };
+        let pbr = m.pbr_metallic_roughness();
+        let base_color = pbr.base_color_factor();
+        check("baseColorFactor", &base_color, 0.0)?;
+        let metallic = pbr.metallic_factor();
+        let roughness = pbr.roughness_factor();
+        check("metallicFactor", &[metallic], 0.0)?;
+        check("roughnessFactor", &[roughness], 0.0)?;
+        let emissive_factor = m.emissive_factor();
+        check("emissiveFactor", &emissive_factor, 0.0)?;
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        check(
+            "KHR_materials_emissive_strength.emissiveStrength",
+            &[strength],
+            0.0,
+        )?;
+        let (specular, specular_color) = match m.specular() {
+            Some(s) => (s.specular_factor(), s.specular_color_factor()),
+            None => (1.0, [1.0; 3]),
+        };
+        check("KHR_materials_specular.specularFactor", &[specular], 0.0)?;
+        check(
+            "KHR_materials_specular.specularColorFactor",
+            &specular_color,
+            0.0,
+        )?;
+        let transmission = m.transmission().map_or(0.0, |t| t.transmission_factor());
+        check(
+            "KHR_materials_transmission.transmissionFactor",
+            &[transmission],
+            0.0,
+        )?;
+        let ior = m.ior().unwrap_or(1.5);
+        if !(ior.is_finite() && ior > 0.0) {
+            return Err(format!(
+                "{label}: KHR_materials_ior.ior must be a positive number, got {ior}"
+            ));
+        }
+        let (attenuation_color, attenuation_distance) = match m.volume() {
+            Some(v) => (v.attenuation_color(), v.attenuation_distance()),
+            None => ([1.0; 3], f32::INFINITY),
+        };
+        check(
+            "KHR_materials_volume.attenuationColor",
+            &attenuation_color,
+            0.0,
+        )?;
+        if attenuation_distance.is_nan() || attenuation_distance <= 0.0 {
+            return Err(format!(
+                "{label}: KHR_materials_volume.attenuationDistance must be positive, got {attenuation_distance}"
+            ));
+        }
+        if let Some(ext) = m.extensions() {
+            if let Some(d) = ext.get("KHR_materials_dispersion") {
+                let v = d.get("dispersion").and_then(|x| x.as_f64()).unwrap_or(0.0);
+                self.warn_once(format!(
+                    "{label}: KHR_materials_dispersion (dispersion {v}) is not supported yet and is ignored"
+                ));
+            }
+        }
+        let base_color_texture = match pbr.base_color_texture() {
+            Some(t) => Some(self.texture_ref(&t, ColorSpace::Srgb, &label, "baseColorTexture")?),
+            None => None,
+        };
+        let metallic_roughness_texture = match pbr.metallic_roughness_texture() {
+            Some(t) => Some(self.texture_ref(
+                &t,
+                ColorSpace::Linear,
+                &label,
+                "metallicRoughnessTexture",
+            )?),
+            None => None,
+        };
+        let emissive_texture = match m.emissive_texture() {
+            Some(t) => Some(self.texture_ref(&t, ColorSpace::Srgb, &label, "emissiveTexture")?),
+            None => None,
+        };
+        Ok(GltfMaterialDesc {
+            name,
+            base_color: Vec4::from_array(base_color),
+            base_color_texture,
+            metallic,
+            roughness,
+            metallic_roughness_texture,
+            emissive: Vec3::from_array(emissive_factor) * strength,
+            emissive_texture,
+            specular,
+            specular_color: Vec3::from_array(specular_color),
+            transmission,
+            ior,
+            attenuation_color: Vec3::from_array(attenuation_color),
+            attenuation_distance,
+            double_sided: m.double_sided(),
+        })
+    }
+
+    fn texture_ref(
+        &mut self,
+        info: &gltf::texture::Info,
+        space: ColorSpace,
+        label: &str,
+        slot: &str,
+    ) -> Result<TextureRef, String> {
+        let mut tex_coord = info.tex_coord();
+        let mut uv_transform = Mat3::IDENTITY;
+        if let Some(t) = info.texture_transform() {
+            if let Some(tc) = t.tex_coord() {
+                tex_coord = tc;
+            }
+            let (o, r, s) = (t.offset(), t.rotation(), t.scale());
+            if !finite_all(&[o[0], o[1], r, s[0], s[1]]) {
+                return Err(format!(
+                    "{label}: {slot}: KHR_texture_transform has non-finite values"
+                ));
+            }
+            uv_transform = texture_transform_matrix(Vec2::from_array(o), r, Vec2::from_array(s));
+        }
+        if tex_coord != 0 {
+            self.warn_once(format!(
+                "{label}: {slot} uses TEXCOORD_{tex_coord}; only TEXCOORD_0 is loaded and used instead"
+            ));
+        }
+        let texture = info.texture();
+        let image = texture.source().index();
+        let sampler = texture.sampler();
+        let repeat = |w: gltf::texture::WrappingMode| -> bool {
+            !matches!(w, gltf::texture::WrappingMode::ClampToEdge)
+        };
+        let (ws, wt) = (sampler.wrap_s(), sampler.wrap_t());
+        if matches!(ws, gltf::texture::WrappingMode::MirroredRepeat)
+            || matches!(wt, gltf::texture::WrappingMode::MirroredRepeat)
+        {
+            self.warn_once(format!(
+                "{label}: {slot}: MIRRORED_REPEAT wrapping is treated as REPEAT"
+            ));
+        }
+        let bilinear = !matches!(
+            sampler.mag_filter(),
+            Some(gltf::texture::MagFilter::Nearest)
+        );
+        let key = (
+            image,
+            space == ColorSpace::Srgb,
+            repeat(ws),
+            repeat(wt),
+            bilinear,
+        );
+        let index = match self.texture_cache.get(&key) {
+            Some(&i) => i,
+            None => {
+                let decoded = self.image(image)?;
+                let texels = to_linear_texels(decoded, space);
+                let (width, height) = (decoded.width, decoded.height);
+                let img_json = &self.doc.as_json().images[image];
+                let tname = img_json
+                    .name
+                    .clone()
+                    .or_else(|| img_json.uri.clone().filter(|u| !u.starts_with("data:")))
+                    .unwrap_or_else(|| format!("image {image}"));
+                self.scene.textures.push(TextureDesc {
+                    name: tname,
+                    width,
+                    height,
+                    texels,
+                    wrap_repeat: [key.2, key.3],
+                    bilinear,
+                });
+                let i = self.scene.textures.len() - 1;
+                self.texture_cache.insert(key, i);
+                i
+            }
+        };
+        Ok(TextureRef {
+            texture: index,
+            tex_coord,
+            uv_transform,
+        })
+    }
+
+    fn image(&mut self, index: usize) -> Result<&crate::scene::texture::DecodedImage, String> {
+        if !self.image_cache.contains_key(&index) {
+            let img = &self.doc.as_json().images[index];
+            let mime = img.mime_type.as_ref().map(|m| m.0.clone());
+            let decoded = if let Some(view_idx) = img.buffer_view.as_ref() {
+                let view = self
+                    .doc
+                    .views()
+                    .nth(view_idx.value())
+                    .ok_or_else(|| format!("image {index}: buffer view does not exist"))?;
+                let bytes = self.view_bytes(&view)?;
+                decode_image(bytes, mime.as_deref()).map_err(|e| format!("image {index}: {e}"))?
+            } else if let Some(uri) = img.uri.as_deref() {
+                if let Some(d) = parse_data_uri(uri) {
+                    let d = d.map_err(|e| format!("image {index}: {e}"))?;
+                    decode_image(&d.bytes, d.mime.as_deref().or(mime.as_deref()))
+                        .map_err(|e| format!("image {index}: {e}"))?
+                } else if is_remote(uri) {
+                    return Err(format!("image {index}: unsupported remote URI '{uri}'"));
+                } else {
+                    let p = resolve_uri(&self.dir, uri);
+                    let bytes = std::fs::read(&p).map_err(|e| {
+                        format!("image {index}: cannot read '{uri}': {}", io_msg(&e))
+                    })?;
+                    decode_image(&bytes, mime.as_deref())
+                        .map_err(|e| format!("image {index} ('{uri}'): {e}"))?
+                }
+            } else {
+                return Err(format!("image {index}: has neither 'uri' nor 'bufferView'"));
+            };
+            self.image_cache.insert(index, decoded);
+        }
+        Ok(&self.image_cache[&index])
+    }
+}
+
+fn read_component(b: &[u8], dt: DataType, normalized: bool) -> f64 {
+    match dt {
+        DataType::I8 => {
+            let v = b[0] as i8 as f64;
+            if normalized {
+                (v / 127.0).max(-1.0)
+            } else {
+                v
+            }
+        }
+        DataType::U8 => {
+            let v = b[0] as f64;
+            if normalized {
+                v / 255.0
+            } else {
+                v
+            }
+        }
+        DataType::I16 => {
+            let v = i16::from_le_bytes([b[0], b[1]]) as f64;
+            if normalized {
+                (v / 32767.0).max(-1.0)
+            } else {
+                v
+            }
+        }
+        DataType::U16 => {
+            let v = u16::from_le_bytes([b[0], b[1]]) as f64;
+            if normalized {
+                v / 65535.0
+            } else {
+                v
+            }
+        }
+        DataType::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+        DataType::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+    }
+}
+
+/// Triangle list from the indices of a Triangles / TriangleStrip / TriangleFan primitive, using
+/// the glTF spec's vertex orders (3.7.2.1): strip triangle i = (v_i, v_{i+1+i%2}, v_{i+2-i%2}),
+/// fan triangle i = (v_{i+1}, v_{i+2}, v_0).
+pub fn triangulate(mode: Mode, idx: &[u32]) -> Result<Vec<[u32; 3]>, String> {
+    let mut out = Vec::new();
+    match mode {
+        Mode::Triangles => {
+            if !idx.len().is_multiple_of(3) {
+                return Err(format!(
+                    "triangle list has {} indices, not a multiple of 3",
+                    idx.len()
+                ));
+            }
+            out.extend(idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
+        }
+        Mode::TriangleStrip => {
+            for i in 0..idx.len().saturating_sub(2) {
+                let t = if i % 2 == 0 {
+                    [idx[i], idx[i + 1], idx[i + 2]]
+                } else {
+                    [idx[i], idx[i + 2], idx[i + 1]]
+                };
+                out.push(t);
+            }
+        }
+        Mode::TriangleFan => {
+            for i in 0..idx.len().saturating_sub(2) {
+                out.push([idx[i + 1], idx[i + 2], idx[0]]);
+            }
+        }
+        _ => {}
+    }
+    Ok(out)
+}
+
+/// Builds a mesh holding only the vertices the kept triangles use.
+fn compact(
+    name: String,
+    positions: &[Vec3],
+    normals: Option<&[Vec3]>,
+    uvs: Option<&[Vec2]>,
+    tris: &[[u32; 3]],
+) -> MeshDesc {
+    let mut remap = vec![u32::MAX; positions.len()];
+    let mut order: Vec<u32> = Vec::new();
+    let mut indices = Vec::with_capacity(tris.len() * 3);
+    for t in tris {
+        for &v in t {
+            let r = &mut remap[v as usize];
+            if *r == u32::MAX {
+                *r = order.len() as u32;
+                order.push(v);
+            }
+            indices.push(*r);
+        }
+    }
+    let pick3 = |src: &[Vec3]| order.iter().map(|&v| src[v as usize]).collect::<Vec<_>>();
+    MeshDesc {
+        name,
+        positions: pick3(positions),
+        normals: normals.map(pick3),
+        uvs: uvs.map(|u| order.iter().map(|&v| u[v as usize]).collect()),
+        indices,
+        material: None,
+    }
+}
+
+/// Normalises shading normals; a zero-length or non-finite normal is replaced by the
+/// area-weighted average of the geometric normals of the triangles around the vertex.
+fn fix_normals(normals: &mut [Vec3], positions: &[Vec3], indices: &[u32]) {
+    let mut bad = false;
+    for n in normals.iter_mut() {
+        let l2 = n.length_squared();
+        if n.is_finite() && l2 > 1e-30 && l2.is_finite() {
+            *n /= l2.sqrt();
+        } else {
+            *n = Vec3::ZERO;
+            bad = true;
+        }
+    }
+    if !bad {
+        return;
+    }
+    let mut acc = vec![Vec3::ZERO; normals.len()];
+    let mut first = vec![Vec3::ZERO; normals.len()];
+    for t in indices.chunks_exact(3) {
+        let (a, b, c) = (
+            positions[t[0] as usize],
+            positions[t[1] as usize],
+            positions[t[2] as usize],
+        );
+        let g = (b - a).cross(c - a);
+        for &v in t {
+            acc[v as usize] += g;
+            if first[v as usize] == Vec3::ZERO {
+                first[v as usize] = g.normalize_or_zero();
+            }
+        }
+    }
+    for (i, n) in normals.iter_mut().enumerate() {
+        if *n == Vec3::ZERO {
+            let a = acc[i].normalize_or_zero();
+            *n = if a != Vec3::ZERO { a } else { first[i] };
+            if *n == Vec3::ZERO {
+                *n = Vec3::Z;
+            }
+        }
+    }
+}
+
+/// KHR_texture_transform as a UV matrix: `T(offset) * R(rotation) * S(scale)`, with
+/// `R` mapping (u, v) -> (u cos r + v sin r, -u sin r + v cos r) -- a counter-clockwise rotation
+/// of the UVs in glTF's v-down texture space (consistent with the extension's worked example and
+/// with Blender's importer, glTF-Blender-IO `texture_transform_gltf_to_blender`).
+pub fn texture_transform_matrix(offset: Vec2, rotation: f32, scale: Vec2) -> Mat3 {
+    let (s, c) = rotation.sin_cos();
+    let r = Mat3::from_cols(Vec3::new(c, -s, 0.0), Vec3::new(s, c, 0.0), Vec3::Z);
+    Mat3::from_translation(offset) * r * Mat3::from_scale(scale)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn light_units() {
+        // A 1000 W Blender point light is exported as 1000 / (4 pi) * 683 cd.
+        let cd = 1000.0 / (4.0 * std::f32::consts::PI) * 683.0;
+        let i = gltf_light_intensity_to_prism(cd);
+        assert!((i - 1000.0 / (4.0 * std::f32::consts::PI)).abs() < 1e-3);
+        // A sun of strength 3 W/m^2 is exported as 3 * 683 lux.
+        assert!((gltf_light_intensity_to_prism(3.0 * 683.0) - 3.0).abs() < 1e-5);
+    }
+
+    #[test]
+    fn strips_and_fans() {
+        let s = triangulate(Mode::TriangleStrip, &[0, 1, 2, 3, 4]).unwrap();
+        assert_eq!(s, vec![[0, 1, 2], [1, 3, 2], [2, 3, 4]]);
+        let f = triangulate(Mode::TriangleFan, &[0, 1, 2, 3]).unwrap();
+        assert_eq!(f, vec![[1, 2, 0], [2, 3, 0]]);
+        assert!(triangulate(Mode::Triangles, &[0, 1]).is_err());
+        assert!(triangulate(Mode::TriangleStrip, &[0, 1])
+            .unwrap()
+            .is_empty());
+    }
+
+    #[test]
+    fn texture_transform_example_from_spec() {
+        // "utilizes only the lower left quadrant of the source image, rotated clockwise 90 deg"
+        let m = texture_transform_matrix(
+            Vec2::new(0.0, 1.0),
+            std::f32::consts::FRAC_PI_2,
+            Vec2::splat(0.5),
+        );
+        let t = |u: f32, v: f32| {
+            let p = m * Vec3::new(u, v, 1.0);
+            Vec2::new(p.x, p.y)
+        };
+        for (uv, want) in [
+            ((0.0, 0.0), (0.0, 1.0)),
+            ((1.0, 0.0), (0.0, 0.5)),
+            ((0.0, 1.0), (0.5, 1.0)),
+            ((1.0, 1.0), (0.5, 0.5)),
+        ] {
+            let got = t(uv.0, uv.1);
+            assert!(
+                (got - Vec2::new(want.0, want.1)).length() < 1e-6,
+                "{uv:?} -> {got:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn glb_container_checks() {
+        assert!(split_glb(b"glTF").unwrap_err().contains("truncated"));
+        let mut g = b"glTF".to_vec();
+        g.extend(2u32.to_le_bytes());
+        g.extend(100u32.to_le_bytes());
+        g.extend([0u8; 20]);
+        assert!(split_glb(&g).unwrap_err().contains("truncated GLB"));
+        // A valid container: JSON chunk "{}  ".
+        let mut g = b"glTF".to_vec();
+        g.extend(2u32.to_le_bytes());
+        g.extend(24u32.to_le_bytes());
+        g.extend(4u32.to_le_bytes());
+        g.extend(0x4E4F_534Au32.to_le_bytes());
+        g.extend(b"{}  ");
+        let (j, b) = split_glb(&g).unwrap();
+        assert_eq!(j, b"{}  ");
+        assert!(b.is_none());
+    }
+}

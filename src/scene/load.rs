@@ -1,0 +1,98 @@
+//! The scene loading entry point: glTF + optional material JSON sidecar -> [`SceneDesc`].
+
+use std::path::{Path, PathBuf};
+
+use crate::error::PrismError;
+use crate::scene::desc::SceneDesc;
+use crate::scene::gltf_import::import_gltf;
+use crate::scene::materials_json::load_materials_file;
+
+/// `<dir>/<stem>.materials.json` for `<dir>/<stem>.gltf|.glb`.
+pub fn sidecar_path_for(scene_path: &Path) -> PathBuf {
+    let stem = scene_path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    scene_path.with_file_name(format!("{stem}.materials.json"))
+}
+
+/// Loads a `.gltf` / `.glb` scene and its material sidecar.
+///
+/// * `materials_path`: the sidecar; when `None`, `<scene stem>.materials.json` beside the scene
+///   is used if it exists.
+/// * `camera_name`: pick the camera whose node or camera name matches (default: the first camera
+///   node in traversal order).
+///
+/// Every problem with the input is a one-line [`PrismError::Input`] naming the file; in
+/// particular a scene with no light at all (no emissive material on an instanced mesh, no
+/// punctual light, and a black world) is rejected.
+pub fn load_scene(
+    scene_path: &Path,
+    materials_path: Option<&Path>,
+    camera_name: Option<&str>,
+) -> Result<SceneDesc, PrismError> {
+    let file = scene_path.display().to_string();
+    let ext = scene_path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("gltf") | Some("glb") => {}
+        _ => {
+            return Err(PrismError::input(format!(
+                "{file}: unsupported scene format (expected a .gltf or .glb file)"
+            )))
+        }
+    }
+    let imported = import_gltf(scene_path, camera_name)?;
+    let mut scene = imported.scene;
+
+    let sidecar = match materials_path {
+        Some(p) => Some(p.to_path_buf()),
+        None => {
+            let p = sidecar_path_for(scene_path);
+            p.is_file().then_some(p)
+        }
+    };
+    if let Some(sidecar) = sidecar {
+        let names: Vec<String> = imported.material_names.iter().flatten().cloned().collect();
+        let mf = load_materials_file(&sidecar, Some(&names))?;
+        for (name, ov) in &mf.materials {
+            for (i, n) in imported.material_names.iter().enumerate() {
+                if n.as_deref() == Some(name.as_str()) {
+                    scene.materials[i].sidecar = Some(ov.clone());
+                }
+            }
+        }
+        if let Some(w) = mf.world {
+            scene.world = w;
+        }
+        scene.render = mf.render;
+    }
+
+    if !has_light(&scene) {
+        return Err(PrismError::input(format!(
+            "{file}: the scene has no light (no emissive material on any mesh, no KHR_lights_punctual light, and the world strength is 0)"
+        )));
+    }
+    Ok(scene)
+}
+
+/// True when something in the scene emits: an instanced mesh with an emissive material, a
+/// punctual light with non-zero power, or a non-black world.
+pub fn has_light(scene: &SceneDesc) -> bool {
+    let emissive_mesh = scene.instances.iter().any(|inst| {
+        scene
+            .meshes
+            .get(inst.mesh)
+            .and_then(|m| m.material)
+            .and_then(|mi| scene.materials.get(mi))
+            .is_some_and(|mat| mat.gltf.emissive.max_element() > 0.0)
+    });
+    let punctual = scene
+        .lights
+        .iter()
+        .any(|l| l.intensity > 0.0 && l.color.max_element() > 0.0);
+    let world = scene.world.strength > 0.0 && scene.world.color.max_element() > 0.0;
+    emissive_mesh || punctual || world
+}

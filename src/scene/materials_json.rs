@@ -1,0 +1,665 @@
+//! The material JSON sidecar (`<scene>.materials.json`), schema version 1.
+//!
+//! ```json
+//! { "version": 1,
+//!   "materials": {
+//!     "Marble":  { "subsurface": { "preset": "Marble", "scale": 1000.0, "eta": 1.33, "g": 0.0 } },
+//!     "Skin":    { "subsurface": { "sigma_a": [0.032, 0.17, 0.48], "sigma_s": [0.74, 0.88, 1.01],
+//!                                  "scale": 1000.0, "eta": 1.4 } },
+//!     "Wax":     { "subsurface": { "reflectance": [0.8, 0.7, 0.6], "mfp": [0.01, 0.005, 0.0025],
+//!                                  "eta": 1.33 } },
+//!     "Diamond": { "dielectric": { "cauchy": { "a": 2.38, "b": 0.0117 }, "roughness": 0.0 } } },
+//!   "world": { "color": [0.05, 0.05, 0.05], "strength": 1.0 },
+//!   "render": { "spp": 64, "width": 512, "height": 512, "max_depth": 16 } }
+//! ```
+//!
+//! * `materials.<glTF material name>`: exactly one of `subsurface` | `dielectric`.
+//! * `subsurface`: exactly one of `preset` | `sigma_a` + `sigma_s` | `reflectance` + `mfp`;
+//!   optional `scale` (> 0, default 1), `eta` (> 0, default 1.33), `g` (in (-1,1), default 0),
+//!   `roughness` (in [0,1], default 0), `method` (`"table"` default | `"random_walk"`).
+//!   Coefficients are non-negative RGB triples, `mfp` positive, `reflectance` in [0,1].
+//! * `dielectric`: exactly one of `ior` (> 0) | `cauchy` `{a > 0, b >= 0, c >= 0 (default 0)}`
+//!   (lambda in micrometres); `roughness` in [0,1], default 0.
+//! * `world`: `color` (non-negative RGB, default black), `strength` (>= 0, default 1 when the
+//!   block is present). Without a `world` block the world is black with strength 0.
+//! * `render`: `spp`, `width`, `height` (positive integers), `max_depth` (integer >= 0),
+//!   `wavelengths` (`"hero"` | `"single"` | `"stratified"`).
+//!
+//! Validation is strict and every error is one line:
+//! `<file>: <json path, e.g. materials.Skin.subsurface.sigma_a[1]>: <what is wrong>`
+//! (JSON syntax errors: `<file>:<line>:<column>: invalid JSON: ...`).
+
+use std::path::Path;
+
+use glam::Vec3;
+use serde_json::{Map, Value};
+
+use crate::error::PrismError;
+use crate::scene::desc::{
+    DielectricDesc, IorDesc, MaterialOverride, RenderDefaults, SubsurfaceCoefficients,
+    SubsurfaceDesc, WorldDesc,
+};
+
+/// The only sidecar schema version this Prism reads.
+pub const SIDECAR_VERSION: u64 = 1;
+
+/// Measured media of Jensen et al. 2001, "A Practical Model for Subsurface Light Transport",
+/// Table (Figure 5). Only the names are validated here; the coefficients live with the BSSRDF.
+pub const SUBSURFACE_PRESETS: &[&str] = &[
+    "Apple",
+    "Chicken1",
+    "Chicken2",
+    "Cream",
+    "Ketchup",
+    "Marble",
+    "Potato",
+    "Skimmilk",
+    "Skin1",
+    "Skin2",
+    "Spectralon",
+    "Wholemilk",
+];
+
+/// Accepted values of `render.wavelengths`.
+pub const WAVELENGTH_MODES: &[&str] = &["hero", "single", "stratified"];
+
+/// Accepted values of `subsurface.method`.
+pub const SUBSURFACE_METHODS: &[&str] = &["table", "random_walk"];
+
+/// A parsed, validated sidecar.
+#[derive(Clone, Debug, Default)]
+pub struct MaterialsFile {
+    /// Overrides by glTF material name, in the order the file lists them.
+    pub materials: Vec<(String, MaterialOverride)>,
+    /// `None` when the file has no `world` block.
+    pub world: Option<WorldDesc>,
+    pub render: RenderDefaults,
+}
+
+/// Reads and validates a sidecar file. `gltf_material_names`, when given, are the material names
+/// of the scene: a sidecar entry naming no glTF material is an error.
+pub fn load_materials_file(
+    path: &Path,
+    gltf_material_names: Option<&[String]>,
+) -> Result<MaterialsFile, PrismError> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path)
+        .map_err(|e| PrismError::input(format!("{file}: cannot read: {}", io_msg(&e))))?;
+    let text = String::from_utf8(bytes)
+        .map_err(|e| PrismError::input(format!("{file}: not valid UTF-8 text: {e}")))?;
+    parse_materials_json(&text, &file, gltf_material_names)
+}
+
+/// `std::io::Error` text without the trailing " (os error N)".
+pub(crate) fn io_msg(e: &std::io::Error) -> String {
+    let s = e.to_string();
+    match s.find(" (os error") {
+        Some(i) => s[..i].to_string(),
+        None => s,
+    }
+}
+
+/// Validates sidecar text; `file` is only used in messages.
+pub fn parse_materials_json(
+    text: &str,
+    file: &str,
+    gltf_material_names: Option<&[String]>,
+) -> Result<MaterialsFile, PrismError> {
+    let root: Value = serde_json::from_str(text).map_err(|e| syntax_error(text, file, &e))?;
+    let v = Validator { file };
+    v.root(&root, gltf_material_names)
+}
+
+fn syntax_error(text: &str, file: &str, e: &serde_json::Error) -> PrismError {
+    let full = e.to_string();
+    // serde_json appends " at line L column C"; we put the position first, compiler-style.
+    let msg = match full.rfind(" at line ") {
+        Some(i) => full[..i].to_string(),
+        None => full,
+    };
+    let (line, col) = (e.line(), e.column());
+    let mut hint = String::new();
+    if line > 0 {
+        if let Some(l) = text.lines().nth(line - 1) {
+            let start = col.saturating_sub(1).min(l.len());
+            let rest = l.get(start..).unwrap_or("");
+            let rest_trim = rest.trim_start_matches(['-', '+']);
+            if ["NaN", "nan", "Infinity", "inf", "Inf"]
+                .iter()
+                .any(|w| rest_trim.starts_with(w))
+            {
+                hint = " (NaN and Infinity are not valid JSON numbers)".into();
+            }
+        }
+    }
+    if msg.contains("number out of range") {
+        hint = " (the number is too large to be finite)".into();
+    }
+    PrismError::input(format!("{file}:{line}:{col}: invalid JSON: {msg}{hint}"))
+}
+
+/// A JSON path for messages: `materials.Skin.subsurface.sigma_a[1]`.
+#[derive(Clone)]
+struct JPath(String);
+
+impl JPath {
+    fn root() -> Self {
+        JPath(String::new())
+    }
+    fn key(&self, k: &str) -> Self {
+        let simple = !k.is_empty()
+            && k.chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-');
+        let mut s = self.0.clone();
+        if simple {
+            if !s.is_empty() {
+                s.push('.');
+            }
+            s.push_str(k);
+        } else {
+            s.push_str(&format!("[{}]", Value::String(k.to_string())));
+        }
+        JPath(s)
+    }
+    fn idx(&self, i: usize) -> Self {
+        JPath(format!("{}[{i}]", self.0))
+    }
+    fn show(&self) -> &str {
+        if self.0.is_empty() {
+            "(top level)"
+        } else {
+            &self.0
+        }
+    }
+}
+
+fn kind(v: &Value) -> &'static str {
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "a boolean",
+        Value::Number(_) => "a number",
+        Value::String(_) => "a string",
+        Value::Array(_) => "an array",
+        Value::Object(_) => "an object",
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Range {
+    /// >= 0
+    NonNeg,
+    /// > 0
+    Positive,
+    /// [0, 1]
+    Unit,
+    /// (-1, 1)
+    OpenSigned,
+}
+
+struct Validator<'a> {
+    file: &'a str,
+}
+
+type R<T> = Result<T, PrismError>;
+
+impl Validator<'_> {
+    fn err(&self, path: &JPath, msg: impl std::fmt::Display) -> PrismError {
+        PrismError::input(format!("{}: {}: {}", self.file, path.show(), msg))
+    }
+
+    fn object<'v>(&self, v: &'v Value, path: &JPath) -> R<&'v Map<String, Value>> {
+        v.as_object()
+            .ok_or_else(|| self.err(path, format!("expected an object, found {}", kind(v))))
+    }
+
+    fn check_keys(&self, m: &Map<String, Value>, allowed: &[&str], path: &JPath) -> R<()> {
+        for k in m.keys() {
+            if !allowed.contains(&k.as_str()) {
+                return Err(self.err(
+                    &path.key(k),
+                    format!(
+                        "unknown key '{k}' (expected one of: {})",
+                        allowed.join(", ")
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn number(&self, v: &Value, path: &JPath, range: Range) -> R<f32> {
+        let (x, shown) = match v {
+            Value::Number(n) => (n.as_f64().unwrap_or(f64::NAN), n.to_string()),
+            _ => return Err(self.err(path, format!("expected a number, found {}", kind(v)))),
+        };
+        let f = x as f32;
+        if !f.is_finite() {
+            return Err(self.err(
+                path,
+                format!("{shown} is not a finite number (too large for 32-bit floats)"),
+            ));
+        }
+        let (ok, what) = match range {
+            Range::NonNeg => (f >= 0.0, "must be non-negative"),
+            Range::Positive => (f > 0.0, "must be positive"),
+            Range::Unit => ((0.0..=1.0).contains(&f), "must be in [0, 1]"),
+            Range::OpenSigned => (f > -1.0 && f < 1.0, "must be in (-1, 1)"),
+        };
+        if !ok {
+            return Err(self.err(path, format!("{what}, got {shown}")));
+        }
+        Ok(f)
+    }
+
+    fn rgb(&self, v: &Value, path: &JPath, range: Range) -> R<Vec3> {
+        let a = v.as_array().ok_or_else(|| {
+            self.err(
+                path,
+                format!("expected an array of 3 numbers, found {}", kind(v)),
+            )
+        })?;
+        if a.len() != 3 {
+            return Err(self.err(
+                path,
+                format!("expected an array of 3 numbers, found {} elements", a.len()),
+            ));
+        }
+        let mut out = [0.0f32; 3];
+        for (i, e) in a.iter().enumerate() {
+            out[i] = self.number(e, &path.idx(i), range)?;
+        }
+        Ok(Vec3::from_array(out))
+    }
+
+    fn uint(&self, v: &Value, path: &JPath, min: u64) -> R<u32> {
+        let n = match v {
+            Value::Number(n) => n,
+            _ => return Err(self.err(path, format!("expected an integer, found {}", kind(v)))),
+        };
+        let x = if let Some(u) = n.as_u64() {
+            u
+        } else if let Some(i) = n.as_i64() {
+            return Err(self.err(path, format!("must be an integer >= {min}, got {i}")));
+        } else {
+            let f = n.as_f64().unwrap_or(f64::NAN);
+            if f.fract() != 0.0 || !f.is_finite() {
+                return Err(self.err(path, format!("expected an integer, got {f}")));
+            }
+            if f < 0.0 {
+                return Err(self.err(path, format!("must be an integer >= {min}, got {f}")));
+            }
+            if f > u32::MAX as f64 {
+                return Err(self.err(path, format!("{f} is too large")));
+            }
+            f as u64
+        };
+        if x < min {
+            return Err(self.err(path, format!("must be an integer >= {min}, got {x}")));
+        }
+        u32::try_from(x).map_err(|_| self.err(path, format!("{x} is too large")))
+    }
+
+    fn string<'v>(&self, v: &'v Value, path: &JPath, allowed: &[&str], what: &str) -> R<&'v str> {
+        let s = v
+            .as_str()
+            .ok_or_else(|| self.err(path, format!("expected a string, found {}", kind(v))))?;
+        if !allowed.contains(&s) {
+            return Err(self.err(
+                path,
+                format!("unknown {what} '{s}' (valid: {})", allowed.join(", ")),
+            ));
+        }
+        Ok(s)
+    }
+
+    fn root(&self, root: &Value, names: Option<&[String]>) -> R<MaterialsFile> {
+        let top = JPath::root();
+        let m = self.object(root, &top)?;
+        self.check_keys(m, &["version", "materials", "world", "render"], &top)?;
+        let vpath = top.key("version");
+        match m.get("version") {
+            None => {
+                return Err(self.err(
+                    &vpath,
+                    format!("missing (this Prism reads version {SIDECAR_VERSION})"),
+                ))
+            }
+            Some(v) => {
+                if v.as_u64() != Some(SIDECAR_VERSION) && v.as_f64() != Some(1.0) {
+                    return Err(self.err(
+                        &vpath,
+                        format!(
+                            "unsupported version {v} (this Prism reads version {SIDECAR_VERSION})"
+                        ),
+                    ));
+                }
+            }
+        }
+        let mut out = MaterialsFile::default();
+        if let Some(mats) = m.get("materials") {
+            let mpath = top.key("materials");
+            let mats = self.object(mats, &mpath)?;
+            for (name, def) in mats {
+                let p = mpath.key(name);
+                let ov = self.material(def, &p)?;
+                if let Some(names) = names {
+                    if !names.iter().any(|n| n == name) {
+                        let list = if names.is_empty() {
+                            "the scene has no named materials".to_string()
+                        } else {
+                            let q: Vec<String> = names.iter().map(|n| format!("'{n}'")).collect();
+                            format!("materials in the scene: {}", q.join(", "))
+                        };
+                        return Err(self.err(
+                            &p,
+                            format!("no material named '{name}' in the glTF ({list})"),
+                        ));
+                    }
+                }
+                out.materials.push((name.clone(), ov));
+            }
+        }
+        if let Some(w) = m.get("world") {
+            out.world = Some(self.world(w, &top.key("world"))?);
+        }
+        if let Some(r) = m.get("render") {
+            out.render = self.render(r, &top.key("render"))?;
+        }
+        Ok(out)
+    }
+
+    fn material(&self, v: &Value, path: &JPath) -> R<MaterialOverride> {
+        let m = self.object(v, path)?;
+        self.check_keys(m, &["subsurface", "dielectric"], path)?;
+        match (m.get("subsurface"), m.get("dielectric")) {
+            (Some(s), None) => Ok(MaterialOverride::Subsurface(
+                self.subsurface(s, &path.key("subsurface"))?,
+            )),
+            (None, Some(d)) => Ok(MaterialOverride::Dielectric(
+                self.dielectric(d, &path.key("dielectric"))?,
+            )),
+            (Some(_), Some(_)) => Err(self.err(
+                path,
+                "give exactly one of 'subsurface' or 'dielectric', not both",
+            )),
+            (None, None) => Err(self.err(
+                path,
+                "empty material: give exactly one of 'subsurface' or 'dielectric'",
+            )),
+        }
+    }
+
+    fn subsurface(&self, v: &Value, path: &JPath) -> R<SubsurfaceDesc> {
+        let m = self.object(v, path)?;
+        self.check_keys(
+            m,
+            &[
+                "preset",
+                "sigma_a",
+                "sigma_s",
+                "reflectance",
+                "mfp",
+                "scale",
+                "eta",
+                "g",
+                "roughness",
+                "method",
+            ],
+            path,
+        )?;
+        let has = |k: &str| m.contains_key(k);
+        let groups: Vec<&str> = [
+            ("preset", has("preset")),
+            ("sigma_a + sigma_s", has("sigma_a") || has("sigma_s")),
+            ("reflectance + mfp", has("reflectance") || has("mfp")),
+        ]
+        .iter()
+        .filter(|g| g.1)
+        .map(|g| g.0)
+        .collect();
+        if groups.len() != 1 {
+            let found = if groups.is_empty() {
+                "none given".to_string()
+            } else {
+                format!("found {}", groups.join(" and "))
+            };
+            return Err(self.err(
+                path,
+                format!(
+                    "give exactly one of 'preset', 'sigma_a' + 'sigma_s', or 'reflectance' + 'mfp' ({found})"
+                ),
+            ));
+        }
+        let pair = |a: &str, b: &str| -> R<(&Value, &Value)> {
+            match (m.get(a), m.get(b)) {
+                (Some(x), Some(y)) => Ok((x, y)),
+                (Some(_), None) => Err(self.err(path, format!("'{a}' needs '{b}'"))),
+                _ => Err(self.err(path, format!("'{b}' needs '{a}'"))),
+            }
+        };
+        let coefficients = match groups[0] {
+            "preset" => {
+                let p = path.key("preset");
+                let name = self.string(&m["preset"], &p, SUBSURFACE_PRESETS, "preset")?;
+                SubsurfaceCoefficients::Preset(name.to_string())
+            }
+            "sigma_a + sigma_s" => {
+                let (a, s) = pair("sigma_a", "sigma_s")?;
+                SubsurfaceCoefficients::Explicit {
+                    sigma_a: self.rgb(a, &path.key("sigma_a"), Range::NonNeg)?,
+                    sigma_s: self.rgb(s, &path.key("sigma_s"), Range::NonNeg)?,
+                }
+            }
+            _ => {
+                let (r, d) = pair("reflectance", "mfp")?;
+                SubsurfaceCoefficients::Reflectance {
+                    reflectance: self.rgb(r, &path.key("reflectance"), Range::Unit)?,
+                    mfp: self.rgb(d, &path.key("mfp"), Range::Positive)?,
+                }
+            }
+        };
+        let opt = |k: &str, range: Range, default: f32| -> R<f32> {
+            match m.get(k) {
+                Some(x) => self.number(x, &path.key(k), range),
+                None => Ok(default),
+            }
+        };
+        let method = match m.get("method") {
+            Some(x) => self
+                .string(x, &path.key("method"), SUBSURFACE_METHODS, "method")?
+                .to_string(),
+            None => "table".to_string(),
+        };
+        Ok(SubsurfaceDesc {
+            coefficients,
+            scale: opt("scale", Range::Positive, 1.0)?,
+            eta: opt("eta", Range::Positive, 1.33)?,
+            g: opt("g", Range::OpenSigned, 0.0)?,
+            roughness: opt("roughness", Range::Unit, 0.0)?,
+            method,
+        })
+    }
+
+    fn dielectric(&self, v: &Value, path: &JPath) -> R<DielectricDesc> {
+        let m = self.object(v, path)?;
+        self.check_keys(m, &["ior", "cauchy", "roughness"], path)?;
+        let ior = match (m.get("ior"), m.get("cauchy")) {
+            (Some(x), None) => {
+                IorDesc::Constant(self.number(x, &path.key("ior"), Range::Positive)?)
+            }
+            (None, Some(c)) => {
+                let cp = path.key("cauchy");
+                let cm = self.object(c, &cp)?;
+                self.check_keys(cm, &["a", "b", "c"], &cp)?;
+                let a = match cm.get("a") {
+                    Some(x) => self.number(x, &cp.key("a"), Range::Positive)?,
+                    None => return Err(self.err(&cp, "missing 'a'")),
+                };
+                let b = match cm.get("b") {
+                    Some(x) => self.number(x, &cp.key("b"), Range::NonNeg)?,
+                    None => return Err(self.err(&cp, "missing 'b'")),
+                };
+                let c = match cm.get("c") {
+                    Some(x) => self.number(x, &cp.key("c"), Range::NonNeg)?,
+                    None => 0.0,
+                };
+                IorDesc::Cauchy { a, b, c }
+            }
+            (Some(_), Some(_)) => {
+                return Err(self.err(path, "give exactly one of 'ior' or 'cauchy', not both"))
+            }
+            (None, None) => return Err(self.err(path, "give exactly one of 'ior' or 'cauchy'")),
+        };
+        let roughness = match m.get("roughness") {
+            Some(x) => self.number(x, &path.key("roughness"), Range::Unit)?,
+            None => 0.0,
+        };
+        Ok(DielectricDesc { ior, roughness })
+    }
+
+    fn world(&self, v: &Value, path: &JPath) -> R<WorldDesc> {
+        let m = self.object(v, path)?;
+        self.check_keys(m, &["color", "strength"], path)?;
+        let color = match m.get("color") {
+            Some(c) => self.rgb(c, &path.key("color"), Range::NonNeg)?,
+            None => Vec3::ZERO,
+        };
+        let strength = match m.get("strength") {
+            Some(s) => self.number(s, &path.key("strength"), Range::NonNeg)?,
+            None => 1.0,
+        };
+        Ok(WorldDesc { color, strength })
+    }
+
+    fn render(&self, v: &Value, path: &JPath) -> R<RenderDefaults> {
+        let m = self.object(v, path)?;
+        self.check_keys(
+            m,
+            &["spp", "width", "height", "max_depth", "wavelengths"],
+            path,
+        )?;
+        let get = |k: &str, min: u64| -> R<Option<u32>> {
+            m.get(k)
+                .map(|x| self.uint(x, &path.key(k), min))
+                .transpose()
+        };
+        Ok(RenderDefaults {
+            spp: get("spp", 1)?,
+            width: get("width", 1)?,
+            height: get("height", 1)?,
+            max_depth: get("max_depth", 0)?,
+            wavelengths: m
+                .get("wavelengths")
+                .map(|x| {
+                    self.string(
+                        x,
+                        &path.key("wavelengths"),
+                        WAVELENGTH_MODES,
+                        "wavelength mode",
+                    )
+                    .map(str::to_string)
+                })
+                .transpose()?,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(s: &str) -> Result<MaterialsFile, String> {
+        let names: Vec<String> = ["Marble", "Skin", "Wax", "Diamond"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        parse_materials_json(s, "m.json", Some(&names)).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn errors_are_one_line_with_paths() {
+        let cases: &[(&str, &str)] = &[
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"sigma_a":[0.1,-0.2,0.3],"sigma_s":[1,1,1]}}}}"#,
+                "m.json: materials.Skin.subsurface.sigma_a[1]: must be non-negative, got -0.2",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"sigma_a":[0.1,1e300,0.3],"sigma_s":[1,1,1]}}}}"#,
+                "m.json: materials.Skin.subsurface.sigma_a[1]: 1e+300 is not a finite number",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"sigma_a":[0.1,0.3],"sigma_s":[1,1,1]}}}}"#,
+                "materials.Skin.subsurface.sigma_a: expected an array of 3 numbers, found 2 elements",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"sigma_a":[0.1,0.2,0.3]}}}}"#,
+                "materials.Skin.subsurface: 'sigma_a' needs 'sigma_s'",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Jelly"}}}}"#,
+                "materials.Skin.subsurface.preset: unknown preset 'Jelly' (valid: Apple, Chicken1",
+            ),
+            (
+                r#"{"version":1,"materials":{"Glass":{"dielectric":{"ior":1.5}}}}"#,
+                "materials.Glass: no material named 'Glass' in the glTF (materials in the scene: 'Marble'",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","colour":1}}}}"#,
+                "materials.Skin.subsurface.colour: unknown key 'colour'",
+            ),
+            (r#"{"version":2}"#, "m.json: version: unsupported version 2"),
+            (r#"{"materials":{}}"#, "m.json: version: missing"),
+            (
+                "{\"version\":1,\n \"world\": {\"strength\": NaN}}",
+                "m.json:2:24: invalid JSON: expected value (NaN and Infinity are not valid JSON numbers)",
+            ),
+            (
+                "{\"version\":1, \"world\": {\"strength\": 1e999}}",
+                "invalid JSON: number out of range",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","g":1.0}}}}"#,
+                "materials.Skin.subsurface.g: must be in (-1, 1), got 1",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"ior":1.5,"cauchy":{"a":1,"b":0}}}}}"#,
+                "materials.Diamond.dielectric: give exactly one of 'ior' or 'cauchy'",
+            ),
+            (
+                r#"{"version":1,"render":{"spp":0}}"#,
+                "render.spp: must be an integer >= 1, got 0",
+            ),
+            (
+                r#"{"version":1,"render":{"wavelengths":"all"}}"#,
+                "render.wavelengths: unknown wavelength mode 'all' (valid: hero, single, stratified)",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","mfp":[1,1,1]}}}}"#,
+                "materials.Skin.subsurface: give exactly one of 'preset', 'sigma_a' + 'sigma_s', or 'reflectance' + 'mfp' (found preset and reflectance + mfp)",
+            ),
+        ];
+        for (json, want) in cases {
+            let e = parse(json).expect_err(json);
+            assert!(e.contains(want), "{json}\n got: {e}\nwant: {want}");
+            assert!(!e.contains('\n'), "multi-line error: {e}");
+        }
+    }
+
+    #[test]
+    fn defaults() {
+        let f = parse(r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1"}}},"world":{"color":[1,1,1]}}"#)
+            .unwrap();
+        let MaterialOverride::Subsurface(s) = &f.materials[0].1 else {
+            panic!()
+        };
+        assert_eq!(s.scale, 1.0);
+        assert_eq!(s.eta, 1.33);
+        assert_eq!(s.g, 0.0);
+        assert_eq!(s.roughness, 0.0);
+        assert_eq!(s.method, "table");
+        assert_eq!(f.world.as_ref().unwrap().strength, 1.0);
+        let f = parse(r#"{"version":1}"#).unwrap();
+        assert!(f.world.is_none());
+        assert!(f.materials.is_empty());
+    }
+}
