@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Runs every test of the project. Installs what the tests need on a fresh machine.
+# Usage: scripts/test.sh            (everything)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+echo "== cargo fmt / clippy"
+cargo fmt --all -- --check
+cargo clippy --all-targets -- -D warnings
+
+echo "== Rust unit, statistical, image and CLI tests"
+cargo test --all-targets

@@ -1,0 +1,77 @@
+//! Scenes built in code (no files) for integration tests of the renderer.
+#![allow(dead_code)]
+
+use glam::{Mat4, Vec3};
+use prism::scene::{
+    CameraDesc, GltfMaterialDesc, InstanceDesc, MaterialDesc, MaterialOverride, MeshDesc,
+    SceneDesc, WorldDesc,
+};
+
+/// UV sphere with smooth normals, radius 1 at the origin.
+pub fn sphere_mesh(material: usize, segments: u32, rings: u32) -> MeshDesc {
+    let mut positions = Vec::new();
+    let mut indices = Vec::new();
+    for r in 0..=rings {
+        let theta = std::f32::consts::PI * r as f32 / rings as f32;
+        for s in 0..=segments {
+            let phi = 2.0 * std::f32::consts::PI * s as f32 / segments as f32;
+            positions.push(Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()));
+        }
+    }
+    let row = segments + 1;
+    for r in 0..rings {
+        for s in 0..segments {
+            let (a, b, c, d) = (r * row + s, r * row + s + 1, (r + 1) * row + s, (r + 1) * row + s + 1);
+            // Counter-clockwise seen from outside.
+            indices.extend_from_slice(&[a, b, c, b, d, c]);
+        }
+    }
+    MeshDesc {
+        name: "sphere".into(),
+        normals: Some(positions.clone()),
+        positions,
+        uvs: None,
+        indices,
+        material: Some(material),
+    }
+}
+
+pub fn diffuse_material(name: &str, albedo: Vec3) -> MaterialDesc {
+    MaterialDesc {
+        gltf: GltfMaterialDesc {
+            name: name.into(),
+            base_color: albedo.extend(1.0),
+            metallic: 0.0,
+            roughness: 1.0,
+            specular: 0.0,
+            ..Default::default()
+        },
+        sidecar: None,
+    }
+}
+
+pub fn material_with(gltf: GltfMaterialDesc, sidecar: Option<MaterialOverride>) -> MaterialDesc {
+    MaterialDesc { gltf, sidecar }
+}
+
+/// Camera at (0, 0, distance) looking at the origin.
+pub fn camera(distance: f32, yfov: f32) -> CameraDesc {
+    CameraDesc {
+        name: "cam".into(),
+        camera_to_world: Mat4::from_translation(Vec3::new(0.0, 0.0, distance)),
+        yfov,
+        aspect: None,
+    }
+}
+
+/// One unit sphere of `material` in a uniform world of radiance `world`.
+pub fn furnace_scene(material: MaterialDesc, world: Vec3) -> SceneDesc {
+    SceneDesc {
+        meshes: vec![sphere_mesh(0, 64, 32)],
+        instances: vec![InstanceDesc { mesh: 0, object_to_world: Mat4::IDENTITY, name: "sphere".into() }],
+        materials: vec![material],
+        camera: Some(camera(3.0, 0.8)),
+        world: WorldDesc { color: world, strength: 1.0 },
+        ..Default::default()
+    }
+}
