@@ -1,0 +1,745 @@
+//! Scene loading through the library API: small glTF files built in the test
+//! (tests/common/gltf_builder.rs), the material sidecar, and the malformed corpus.
+
+#[path = "common/gltf_builder.rs"]
+mod gltf_builder;
+#[path = "common/malformed_cases.rs"]
+mod malformed_cases;
+
+use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+use std::path::Path;
+
+use glam::{Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
+use gltf_builder::*;
+use prism::scene::materials_json::{parse_materials_json, SUBSURFACE_PRESETS};
+use prism::scene::{
+    load_scene, IorDesc, MaterialOverride, PunctualKind, SceneDesc, SubsurfaceCoefficients,
+};
+use prism::PrismError;
+use serde_json::json;
+
+fn load(path: &Path) -> SceneDesc {
+    match load_scene(path, None, None) {
+        Ok(s) => s,
+        Err(e) => panic!("load_scene({}) failed: {e}", path.display()),
+    }
+}
+
+fn input_error(r: Result<SceneDesc, PrismError>) -> String {
+    match r {
+        Err(PrismError::Input(m)) => {
+            assert!(!m.contains('\n'), "multi-line message: {m}");
+            m
+        }
+        Err(e) => panic!("expected an input error, got internal error {e}"),
+        Ok(_) => panic!("expected an input error, the scene loaded"),
+    }
+}
+
+fn approx_mat(a: Mat4, b: Mat4) -> bool {
+    a.abs_diff_eq(b, 1e-5)
+}
+
+fn approx(a: f32, b: f32) -> bool {
+    (a - b).abs() <= 1e-5 * (1.0 + b.abs())
+}
+
+#[test]
+fn instancing_one_mesh_two_nodes() {
+    let dir = test_dir("instancing");
+    let mut b = GltfBuilder::basic();
+    // Node 0 ("Light") uses mesh 0; add two more uses of the same mesh.
+    b.root(json!({ "name": "CopyA", "mesh": 0, "translation": [2.0, 0.0, 0.0] }));
+    b.root(json!({ "name": "CopyB", "mesh": 0, "scale": [2.0, 2.0, 2.0] }));
+    let s = load(&b.write_gltf(&dir.join("inst.gltf")));
+    assert_eq!(s.meshes.len(), 1, "the shared mesh must not be copied");
+    assert_eq!(s.instances.len(), 3);
+    assert!(s.instances.iter().all(|i| i.mesh == 0));
+    let by_name = |n: &str| s.instances.iter().find(|i| i.name == n).unwrap();
+    assert!(approx_mat(by_name("Light").object_to_world, Mat4::IDENTITY));
+    assert!(approx_mat(
+        by_name("CopyA").object_to_world,
+        Mat4::from_translation(Vec3::new(2.0, 0.0, 0.0))
+    ));
+    assert!(approx_mat(
+        by_name("CopyB").object_to_world,
+        Mat4::from_scale(Vec3::splat(2.0))
+    ));
+    assert_eq!(s.meshes[0].indices.len(), 6);
+    assert_eq!(s.meshes[0].positions.len(), 4);
+}
+
+#[test]
+fn node_hierarchy_composes_trs_and_matrix() {
+    let dir = test_dir("hierarchy");
+    let mut b = GltfBuilder::basic();
+    let q = Quat::from_rotation_y(FRAC_PI_2);
+    let parent_m = Mat4::from_scale_rotation_translation(
+        Vec3::new(1.0, 2.0, 3.0),
+        q,
+        Vec3::new(1.0, 0.0, 0.0),
+    );
+    let child_m = Mat4::from_translation(Vec3::new(0.0, 5.0, 0.0))
+        * Mat4::from_rotation_x(0.3)
+        * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)); // negative determinant: kept as is
+    let grandchild_m = Mat4::from_translation(Vec3::new(0.0, 0.0, -1.0));
+    let gc = b.node(json!({
+        "name": "Grandchild", "mesh": 0, "translation": [0.0, 0.0, -1.0]
+    }));
+    let child = b.node(json!({
+        "name": "Child", "mesh": 0, "matrix": child_m.to_cols_array(), "children": [gc]
+    }));
+    b.root(json!({
+        "name": "Parent",
+        "translation": [1.0, 0.0, 0.0],
+        "rotation": q.to_array(),
+        "scale": [1.0, 2.0, 3.0],
+        "children": [child]
+    }));
+    let s = load(&b.write_gltf(&dir.join("h.gltf")));
+    let by_name = |n: &str| s.instances.iter().find(|i| i.name == n).unwrap();
+    assert!(approx_mat(
+        by_name("Child").object_to_world,
+        parent_m * child_m
+    ));
+    assert!(approx_mat(
+        by_name("Grandchild").object_to_world,
+        parent_m * child_m * grandchild_m
+    ));
+    assert!(by_name("Child").object_to_world.determinant() < 0.0);
+}
+
+#[test]
+fn strips_and_fans_become_triangle_lists() {
+    let dir = test_dir("strips");
+    let mut b = GltfBuilder::basic();
+    // Strip over 5 vertices in the z = 0 plane: 3 triangles, all non-degenerate.
+    let strip_pos = b.positions(&[
+        [0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [2.0, 0.0, 0.0],
+    ]);
+    let strip = GltfBuilder::prim(strip_pos, None, None, TRIANGLE_STRIP);
+    // Fan around vertex 0, indexed (indices reversed order of the vertex array).
+    let fan_pos = b.positions(&[
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ]);
+    let fan_idx = b.indices_u32(&[0, 1, 2, 3]);
+    let fan = GltfBuilder::prim(fan_pos, Some(fan_idx), None, TRIANGLE_FAN);
+    let m = b.mesh("StripFan", vec![strip, fan]);
+    b.root(json!({ "name": "SF", "mesh": m }));
+    let s = load(&b.write_gltf(&dir.join("sf.gltf")));
+    let strip = s
+        .meshes
+        .iter()
+        .find(|m| m.name.contains("primitive 0") && m.name.contains("StripFan"))
+        .unwrap();
+    let fan = s
+        .meshes
+        .iter()
+        .find(|m| m.name.contains("primitive 1"))
+        .unwrap();
+    // glTF order: strip triangle i = (i, i+1+i%2, i+2-i%2); fan triangle i = (i+1, i+2, 0).
+    let tri_pos = |m: &prism::scene::MeshDesc| -> Vec<[Vec3; 3]> {
+        m.indices
+            .chunks(3)
+            .map(|t| {
+                [
+                    m.positions[t[0] as usize],
+                    m.positions[t[1] as usize],
+                    m.positions[t[2] as usize],
+                ]
+            })
+            .collect()
+    };
+    let v = |x: f32, y: f32| Vec3::new(x, y, 0.0);
+    assert_eq!(
+        tri_pos(strip),
+        vec![
+            [v(0., 0.), v(0., 1.), v(1., 0.)],
+            [v(0., 1.), v(1., 1.), v(1., 0.)],
+            [v(1., 0.), v(1., 1.), v(2., 0.)],
+        ]
+    );
+    assert_eq!(
+        tri_pos(fan),
+        vec![
+            [v(1., 0.), v(1., 1.), v(0., 0.)],
+            [v(1., 1.), v(0., 1.), v(0., 0.)]
+        ]
+    );
+    // All strip triangles have the same orientation (normal -z for this layout).
+    for t in tri_pos(strip) {
+        assert!((t[1] - t[0]).cross(t[2] - t[0]).z < 0.0);
+    }
+}
+
+#[test]
+fn points_and_lines_are_skipped_with_one_warning() {
+    let dir = test_dir("points");
+    let mut b = GltfBuilder::basic();
+    let p = b.positions(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    let m = b.mesh(
+        "Cloud",
+        vec![
+            GltfBuilder::prim(p, None, None, POINTS),
+            GltfBuilder::prim(p, None, None, LINES),
+            GltfBuilder::prim(p, None, None, POINTS),
+        ],
+    );
+    b.root(json!({ "name": "Cloud", "mesh": m }));
+    let s = load(&b.write_gltf(&dir.join("p.gltf")));
+    assert_eq!(
+        s.meshes.len(),
+        1,
+        "only the emissive quad is a triangle mesh"
+    );
+    let w: Vec<&String> = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("point/line"))
+        .collect();
+    assert_eq!(w.len(), 1, "{:?}", s.warnings);
+    assert!(w[0].contains("skipped 3 point/line primitives"), "{}", w[0]);
+}
+
+#[test]
+fn degenerate_triangles_dropped_and_normals_normalised() {
+    let dir = test_dir("degenerate");
+    let mut b = GltfBuilder::basic();
+    let pos = b.positions(&[
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [2.0, 0.0, 0.0],
+        [f32::NAN, 0.0, 0.0],
+    ]);
+    let nrm = b.vec3(&[
+        [0.0, 0.0, 2.0],
+        [0.0, 0.0, 0.5],
+        [0.0, 0.0, 0.0], // degenerate: replaced by the face normal
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, 1.0],
+    ]);
+    let uv = b.vec2(&[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0], [0.5, 0.5]]);
+    // One good triangle, one zero-area (collinear), one with a NaN vertex, one repeated index.
+    let idx = b.indices_u16(&[0, 1, 2, 0, 1, 3, 0, 4, 2, 2, 2, 1]);
+    let mut prim = GltfBuilder::prim(pos, Some(idx), None, TRIANGLES);
+    prim["attributes"]["NORMAL"] = json!(nrm);
+    prim["attributes"]["TEXCOORD_0"] = json!(uv);
+    let m = b.mesh("Mixed", vec![prim]);
+    b.root(json!({ "name": "Mixed", "mesh": m }));
+    let s = load(&b.write_gltf(&dir.join("d.gltf")));
+    let mesh = s.meshes.iter().find(|m| m.name.contains("Mixed")).unwrap();
+    assert_eq!(mesh.indices.len(), 3);
+    assert_eq!(
+        mesh.positions.len(),
+        3,
+        "unused vertices are compacted away"
+    );
+    assert!(mesh.positions.iter().all(|p| p.is_finite()));
+    let n = mesh.normals.as_ref().unwrap();
+    for v in n {
+        assert!(approx(v.length(), 1.0), "{v:?}");
+        assert!(approx(v.z, 1.0), "{v:?}");
+    }
+    let uvs = mesh.uvs.as_ref().unwrap();
+    assert_eq!(uvs.len(), 3);
+    assert_eq!(uvs[1], Vec2::new(1.0, 0.0));
+}
+
+#[test]
+fn material_fields() {
+    let dir = test_dir("materials");
+    let mut b = GltfBuilder::basic();
+    for e in [
+        "KHR_materials_specular",
+        "KHR_materials_transmission",
+        "KHR_materials_ior",
+        "KHR_materials_volume",
+        "KHR_texture_transform",
+        "KHR_materials_dispersion",
+    ] {
+        b.use_ext(e);
+    }
+    // 2x1 PNG: sRGB 128 grey, and (metallicRoughness) linear data.
+    let png = png_bytes(2, 1, &[[128, 128, 128, 255], [255, 64, 0, 255]]);
+    let img = b.image_embedded(&png, "image/png");
+    let tex = b.texture(
+        img,
+        Some(json!({ "magFilter": 9728, "wrapS": 33071, "wrapT": 10497 })),
+    );
+    let diffuse = b.material(json!({
+        "name": "Diffuse",
+        "pbrMetallicRoughness": {
+            "baseColorFactor": [0.5, 0.25, 1.0, 1.0],
+            "metallicFactor": 0.0,
+            "roughnessFactor": 0.6,
+            "baseColorTexture": { "index": tex, "extensions": { "KHR_texture_transform": {
+                "offset": [0.5, 0.0], "rotation": 0.0, "scale": [2.0, 2.0] } } },
+            "metallicRoughnessTexture": { "index": tex }
+        },
+        "extensions": { "KHR_materials_specular": {
+            "specularFactor": 0.0, "specularColorFactor": [1.0, 0.5, 0.25] } }
+    }));
+    let glass = b.material(json!({
+        "name": "Glass",
+        "doubleSided": true,
+        "pbrMetallicRoughness": { "metallicFactor": 0.0, "roughnessFactor": 0.0 },
+        "extensions": {
+            "KHR_materials_transmission": { "transmissionFactor": 1.0 },
+            "KHR_materials_ior": { "ior": 1.45 },
+            "KHR_materials_volume": { "thicknessFactor": 0.1, "attenuationColor": [0.9, 0.8, 0.7], "attenuationDistance": 0.5 },
+            "KHR_materials_dispersion": { "dispersion": 0.5 }
+        }
+    }));
+    let q1 = b.quad_mesh("D", Some(diffuse));
+    let q2 = b.quad_mesh("G", Some(glass));
+    b.root(json!({ "name": "D", "mesh": q1 }));
+    b.root(json!({ "name": "G", "mesh": q2 }));
+    let s = load(&b.write_gltf(&dir.join("m.gltf")));
+
+    let emitter = &s.materials[0].gltf;
+    assert_eq!(emitter.name, "Emitter");
+    assert_eq!(
+        emitter.emissive,
+        Vec3::splat(5.0),
+        "emissiveFactor x emissiveStrength"
+    );
+
+    let d = &s.materials[diffuse].gltf;
+    assert_eq!(d.name, "Diffuse");
+    assert_eq!(d.base_color, Vec4::new(0.5, 0.25, 1.0, 1.0));
+    assert_eq!(d.metallic, 0.0);
+    assert_eq!(d.roughness, 0.6);
+    assert_eq!(
+        d.specular, 0.0,
+        "Blender's specularFactor 0 must be honoured"
+    );
+    assert_eq!(d.specular_color, Vec3::new(1.0, 0.5, 0.25));
+    assert_eq!(d.transmission, 0.0);
+    assert_eq!(d.ior, 1.5, "default IOR");
+    assert!(!d.double_sided);
+    let bt = d.base_color_texture.unwrap();
+    let mt = d.metallic_roughness_texture.unwrap();
+    assert_ne!(
+        bt.texture, mt.texture,
+        "sRGB and linear decodes are cached separately"
+    );
+    let want = Mat3::from_translation(Vec2::new(0.5, 0.0)) * Mat3::from_scale(Vec2::splat(2.0));
+    assert!(bt.uv_transform.abs_diff_eq(want, 1e-6));
+    assert_eq!(mt.uv_transform, Mat3::IDENTITY);
+    let srgb = &s.textures[bt.texture];
+    let lin = &s.textures[mt.texture];
+    assert_eq!((srgb.width, srgb.height), (2, 1));
+    let grey = prism::spectrum::rgb::srgb_to_linear(128.0 / 255.0);
+    assert!(approx(srgb.texels[0].x, grey), "{:?}", srgb.texels[0]);
+    assert!(approx(srgb.texels[0].w, 1.0));
+    assert!(approx(lin.texels[0].x, 128.0 / 255.0));
+    assert!(approx(lin.texels[1].y, 64.0 / 255.0));
+    assert!(!srgb.bilinear, "magFilter NEAREST");
+    assert_eq!(srgb.wrap_repeat, [false, true], "wrapS clamp, wrapT repeat");
+
+    let g = &s.materials[glass].gltf;
+    assert_eq!(g.transmission, 1.0);
+    assert!(approx(g.ior, 1.45));
+    assert_eq!(g.attenuation_color, Vec3::new(0.9, 0.8, 0.7));
+    assert_eq!(g.attenuation_distance, 0.5);
+    assert!(g.double_sided);
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("KHR_materials_dispersion")),
+        "dispersion is reported, not fatal: {:?}",
+        s.warnings
+    );
+    assert!(s.materials.iter().all(|m| m.sidecar.is_none()));
+}
+
+#[test]
+fn missing_image_file_is_named() {
+    let dir = test_dir("missing_image");
+    let mut b = GltfBuilder::basic();
+    let img = b.image_uri("textures/albedo%20map.png");
+    let tex = b.texture(img, None);
+    let m = b.material(
+        json!({ "name": "T", "pbrMetallicRoughness": { "baseColorTexture": { "index": tex } } }),
+    );
+    let q = b.quad_mesh("T", Some(m));
+    b.root(json!({ "name": "T", "mesh": q }));
+    let path = b.write_gltf(&dir.join("t.gltf"));
+    let e = input_error(load_scene(&path, None, None));
+    assert!(
+        e.contains("t.gltf: image 0: cannot read 'textures/albedo%20map.png'"),
+        "{e}"
+    );
+    // With the file present (percent-decoded name) it loads.
+    std::fs::create_dir_all(dir.join("textures")).unwrap();
+    std::fs::write(
+        dir.join("textures/albedo map.png"),
+        png_bytes(1, 1, &[[255, 0, 0, 255]]),
+    )
+    .unwrap();
+    let s = load(&path);
+    assert_eq!(s.textures.len(), 1);
+    assert!(approx(s.textures[0].texels[0].x, 1.0));
+}
+
+#[test]
+fn punctual_light_units_and_transforms() {
+    let dir = test_dir("lights");
+    let mut b = GltfBuilder::new();
+    let q = b.quad_mesh("Floor", None);
+    b.root(json!({ "name": "Floor", "mesh": q }));
+    let c = b.camera("Cam", 0.8, Some(1.5));
+    b.root(json!({ "name": "CamNode", "camera": c }));
+    // Blender exports a P-watt point light as P / (4 pi) * 683 cd, a sun of S W/m^2 as S * 683 lux.
+    let p_watts = 1000.0f32;
+    let cd = p_watts / (4.0 * PI) * 683.0;
+    let point = b.light(
+        json!({ "name": "Bulb", "type": "point", "color": [1.0, 0.9, 0.8], "intensity": cd }),
+    );
+    let spot = b.light(json!({ "name": "Spot", "type": "spot", "intensity": cd,
+        "spot": { "innerConeAngle": 0.2, "outerConeAngle": FRAC_PI_4 } }));
+    let sun = b.light(json!({ "name": "Sun", "type": "directional", "intensity": 3.0 * 683.0 }));
+    b.root(json!({ "name": "BulbNode", "translation": [1.0, 2.0, 3.0],
+        "extensions": { "KHR_lights_punctual": { "light": point } } }));
+    // Spot rotated so local -Z points down (-Y): rotation of +90 deg about X.
+    let down = Quat::from_rotation_x(-FRAC_PI_2);
+    b.root(
+        json!({ "name": "SpotNode", "translation": [0.0, 4.0, 0.0], "rotation": down.to_array(),
+        "extensions": { "KHR_lights_punctual": { "light": spot } } }),
+    );
+    let parent = b.node(json!({ "name": "SunNode",
+        "extensions": { "KHR_lights_punctual": { "light": sun } } }));
+    b.root(
+        json!({ "name": "SunParent", "rotation": Quat::from_rotation_y(FRAC_PI_2).to_array(),
+        "children": [parent] }),
+    );
+    let s = load(&b.write_gltf(&dir.join("l.gltf")));
+    assert_eq!(s.lights.len(), 3);
+    let l = |n: &str| s.lights.iter().find(|l| l.name == n).unwrap();
+
+    let bulb = l("Bulb");
+    assert_eq!(bulb.kind, PunctualKind::Point);
+    assert!(
+        approx(bulb.intensity, p_watts / (4.0 * PI)),
+        "{}",
+        bulb.intensity
+    );
+    assert_eq!(bulb.color, Vec3::new(1.0, 0.9, 0.8));
+    assert!(bulb.position.abs_diff_eq(Vec3::new(1.0, 2.0, 3.0), 1e-6));
+
+    let sp = l("Spot");
+    assert_eq!(
+        sp.kind,
+        PunctualKind::Spot {
+            inner_cone: 0.2,
+            outer_cone: FRAC_PI_4
+        }
+    );
+    assert!(
+        approx(sp.intensity, p_watts / (4.0 * PI)),
+        "spot = point of the same power"
+    );
+    assert!(
+        sp.direction.abs_diff_eq(Vec3::NEG_Y, 1e-6),
+        "{:?}",
+        sp.direction
+    );
+    assert!(sp.position.abs_diff_eq(Vec3::new(0.0, 4.0, 0.0), 1e-6));
+
+    let sun = l("Sun");
+    assert_eq!(sun.kind, PunctualKind::Directional);
+    assert!(approx(sun.intensity, 3.0));
+    // -Z rotated +90 deg about Y is -X.
+    assert!(
+        sun.direction.abs_diff_eq(Vec3::NEG_X, 1e-6),
+        "{:?}",
+        sun.direction
+    );
+
+    let cam = s.camera.as_ref().unwrap();
+    assert_eq!(cam.aspect, Some(1.5));
+    assert!(approx(cam.yfov, 0.8));
+}
+
+#[test]
+fn camera_selection_by_name() {
+    let dir = test_dir("cameras");
+    let mut b = GltfBuilder::basic(); // "Camera" node with camera "CameraData" at z = 3
+    let c2 = b.camera("Closeup", 0.3, None);
+    let holder =
+        b.node(json!({ "name": "CloseNode", "camera": c2, "translation": [0.0, 0.0, 1.0] }));
+    b.root(json!({ "name": "Rig", "translation": [5.0, 0.0, 0.0], "children": [holder] }));
+    let path = b.write_gltf(&dir.join("c.gltf"));
+
+    let first = load_scene(&path, None, None).unwrap().camera.unwrap();
+    assert_eq!(first.name, "Camera");
+    assert!(approx(first.yfov, 0.7));
+    assert!(first
+        .camera_to_world
+        .abs_diff_eq(Mat4::from_translation(Vec3::new(0.0, 0.0, 3.0)), 1e-6));
+    assert_eq!(first.aspect, None);
+
+    let by_node = load_scene(&path, None, Some("CloseNode"))
+        .unwrap()
+        .camera
+        .unwrap();
+    assert_eq!(by_node.name, "CloseNode");
+    assert!(approx(by_node.yfov, 0.3));
+    assert!(by_node
+        .camera_to_world
+        .abs_diff_eq(Mat4::from_translation(Vec3::new(5.0, 0.0, 1.0)), 1e-6));
+
+    let by_cam = load_scene(&path, None, Some("Closeup"))
+        .unwrap()
+        .camera
+        .unwrap();
+    assert_eq!(by_cam.name, "CloseNode");
+    let by_data = load_scene(&path, None, Some("CameraData"))
+        .unwrap()
+        .camera
+        .unwrap();
+    assert_eq!(by_data.name, "Camera");
+
+    let e = input_error(load_scene(&path, None, Some("Nope")));
+    assert!(e.contains("no camera named 'Nope'"), "{e}");
+    assert!(e.contains("'Camera' (camera 'CameraData')"), "{e}");
+    assert!(e.contains("'CloseNode' (camera 'Closeup')"), "{e}");
+}
+
+#[test]
+fn orthographic_camera_is_rejected() {
+    let dir = test_dir("ortho");
+    let mut b = GltfBuilder::basic();
+    b.cameras[0] = json!({ "type": "orthographic",
+        "orthographic": { "xmag": 1.0, "ymag": 1.0, "znear": 0.1, "zfar": 10.0 } });
+    let e = input_error(load_scene(&b.write_gltf(&dir.join("o.gltf")), None, None));
+    assert!(e.contains("orthographic"), "{e}");
+}
+
+#[test]
+fn glb_and_external_buffers_load() {
+    let dir = test_dir("glb");
+    let b = GltfBuilder::basic();
+    let glb = load(&b.write_glb(&dir.join("scene.glb")));
+    let ext = load(&b.write_gltf_external(&dir.join("ext.gltf"), "ext.bin", true));
+    for s in [&glb, &ext] {
+        assert_eq!(s.meshes.len(), 1);
+        assert_eq!(s.meshes[0].indices, vec![0, 1, 2, 0, 2, 3]);
+        assert_eq!(s.meshes[0].positions[2], Vec3::new(0.5, 0.5, 0.0));
+    }
+    let e = input_error(load_scene(
+        &b.write_gltf_external(&dir.join("gone.gltf"), "gone.bin", false),
+        None,
+        None,
+    ));
+    assert!(
+        e.ends_with("gone.gltf: buffer 0: cannot read 'gone.bin': No such file or directory"),
+        "{e}"
+    );
+}
+
+#[test]
+fn sidecar_auto_discovery_and_explicit_path() {
+    let dir = test_dir("sidecar");
+    let mut b = GltfBuilder::basic();
+    let skin = b.material(json!({ "name": "Skin" }));
+    let q = b.quad_mesh("S", Some(skin));
+    b.root(json!({ "name": "S", "mesh": q }));
+    let path = b.write_gltf(&dir.join("room.gltf"));
+
+    // No sidecar: nothing overridden, black world.
+    let s = load(&path);
+    assert!(s.materials.iter().all(|m| m.sidecar.is_none()));
+    assert_eq!(s.world.strength, 0.0);
+
+    std::fs::write(
+        dir.join("room.materials.json"),
+        r#"{ "version": 1,
+             "materials": { "Skin": { "subsurface": { "preset": "Skin1", "scale": 1000.0 } } },
+             "world": { "color": [0.1, 0.2, 0.3], "strength": 2.0 },
+             "render": { "spp": 16, "wavelengths": "hero" } }"#,
+    )
+    .unwrap();
+    let s = load(&path);
+    match &s.materials[skin].sidecar {
+        Some(MaterialOverride::Subsurface(ss)) => {
+            assert_eq!(
+                ss.coefficients,
+                SubsurfaceCoefficients::Preset("Skin1".into())
+            );
+            assert_eq!(ss.scale, 1000.0);
+        }
+        other => panic!("expected a subsurface override, got {other:?}"),
+    }
+    assert!(s.materials[0].sidecar.is_none());
+    assert_eq!(s.world.color, Vec3::new(0.1, 0.2, 0.3));
+    assert_eq!(s.world.strength, 2.0);
+    assert_eq!(s.render.spp, Some(16));
+    assert_eq!(s.render.wavelengths.as_deref(), Some("hero"));
+
+    // An explicit path wins over the auto-discovered file.
+    let other = dir.join("other.json");
+    std::fs::write(
+        &other,
+        r#"{ "version": 1, "materials": { "Skin": { "dielectric": { "ior": 1.33 } } } }"#,
+    )
+    .unwrap();
+    let s = load_scene(&path, Some(&other), None).unwrap();
+    assert!(matches!(
+        &s.materials[skin].sidecar,
+        Some(MaterialOverride::Dielectric(d)) if d.ior == IorDesc::Constant(1.33) && d.roughness == 0.0
+    ));
+    assert_eq!(s.world.strength, 0.0);
+
+    // An explicit path that does not exist is an error naming it.
+    let e = input_error(load_scene(&path, Some(&dir.join("nope.json")), None));
+    assert!(e.contains("nope.json: cannot read"), "{e}");
+}
+
+#[test]
+fn world_light_alone_is_enough() {
+    let dir = test_dir("world_light");
+    let mut b = GltfBuilder::new();
+    let q = b.quad_mesh("Q", None);
+    b.root(json!({ "name": "Q", "mesh": q }));
+    let c = b.camera("C", 0.7, None);
+    b.root(json!({ "name": "C", "camera": c }));
+    let path = b.write_gltf(&dir.join("w.gltf"));
+    let e = input_error(load_scene(&path, None, None));
+    assert!(e.contains("the scene has no light"), "{e}");
+    std::fs::write(
+        dir.join("w.materials.json"),
+        r#"{ "version": 1, "world": { "color": [1, 1, 1], "strength": 0.5 } }"#,
+    )
+    .unwrap();
+    let s = load(&path);
+    assert_eq!(s.world.strength, 0.5);
+}
+
+#[test]
+fn sidecar_full_example_parses() {
+    let text = r#"{ "version": 1,
+  "materials": {
+    "Marble":  { "subsurface": { "preset": "Marble", "scale": 1000.0, "eta": 1.33, "g": 0.0 } },
+    "Skin":    { "subsurface": { "sigma_a": [0.032, 0.17, 0.48], "sigma_s": [0.74, 0.88, 1.01], "scale": 1000.0, "eta": 1.4 } },
+    "Wax":     { "subsurface": { "reflectance": [0.8, 0.7, 0.6], "mfp": [0.01, 0.005, 0.0025], "eta": 1.33 } },
+    "Diamond": { "dielectric": { "cauchy": { "a": 2.38, "b": 0.0117 }, "roughness": 0.0 } } },
+  "world": { "color": [0.05, 0.05, 0.05], "strength": 1.0 },
+  "render": { "spp": 64, "width": 512, "height": 512, "max_depth": 16 } }"#;
+    let names: Vec<String> = ["Marble", "Skin", "Wax", "Diamond", "Unused"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let f = parse_materials_json(text, "example.materials.json", Some(&names)).unwrap();
+    assert_eq!(f.materials.len(), 4);
+    let get = |n: &str| &f.materials.iter().find(|(m, _)| m == n).unwrap().1;
+    let MaterialOverride::Subsurface(marble) = get("Marble") else {
+        panic!()
+    };
+    assert_eq!(
+        marble.coefficients,
+        SubsurfaceCoefficients::Preset("Marble".into())
+    );
+    assert_eq!(
+        (marble.scale, marble.eta, marble.g, marble.roughness),
+        (1000.0, 1.33, 0.0, 0.0)
+    );
+    assert_eq!(marble.method, "table");
+    let MaterialOverride::Subsurface(skin) = get("Skin") else {
+        panic!()
+    };
+    assert_eq!(
+        skin.coefficients,
+        SubsurfaceCoefficients::Explicit {
+            sigma_a: Vec3::new(0.032, 0.17, 0.48),
+            sigma_s: Vec3::new(0.74, 0.88, 1.01)
+        }
+    );
+    assert_eq!((skin.scale, skin.eta), (1000.0, 1.4));
+    let MaterialOverride::Subsurface(wax) = get("Wax") else {
+        panic!()
+    };
+    assert_eq!(
+        wax.coefficients,
+        SubsurfaceCoefficients::Reflectance {
+            reflectance: Vec3::new(0.8, 0.7, 0.6),
+            mfp: Vec3::new(0.01, 0.005, 0.0025)
+        }
+    );
+    assert_eq!((wax.scale, wax.eta), (1.0, 1.33));
+    let MaterialOverride::Dielectric(diamond) = get("Diamond") else {
+        panic!()
+    };
+    assert_eq!(
+        diamond.ior,
+        IorDesc::Cauchy {
+            a: 2.38,
+            b: 0.0117,
+            c: 0.0
+        }
+    );
+    assert_eq!(diamond.roughness, 0.0);
+    let w = f.world.unwrap();
+    assert_eq!((w.color, w.strength), (Vec3::splat(0.05), 1.0));
+    assert_eq!(f.render.spp, Some(64));
+    assert_eq!(f.render.width, Some(512));
+    assert_eq!(f.render.height, Some(512));
+    assert_eq!(f.render.max_depth, Some(16));
+    assert_eq!(f.render.wavelengths, None);
+    assert_eq!(SUBSURFACE_PRESETS.len(), 12);
+    assert!(SUBSURFACE_PRESETS.contains(&"Wholemilk"));
+}
+
+#[test]
+fn cornell_scene_loads() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell/cornell.gltf");
+    let s = load(&path);
+    assert!(!s.meshes.is_empty());
+    assert!(!s.instances.is_empty());
+    assert!(s.camera.is_some());
+    assert_eq!(
+        s.render.spp,
+        Some(64),
+        "cornell.materials.json is auto-discovered"
+    );
+    let light = s.materials.iter().find(|m| m.gltf.name == "Light").unwrap();
+    assert!(light.gltf.emissive.max_element() > 0.0);
+}
+
+#[test]
+fn malformed_corpus_through_library() {
+    let dir = malformed_cases::corpus_dir();
+    let mut failures = Vec::new();
+    for (file, fragment) in malformed_cases::CASES {
+        let path = dir.join(file);
+        match std::panic::catch_unwind(|| load_scene(&path, None, None)) {
+            Err(_) => failures.push(format!("{file}: panicked")),
+            Ok(Ok(_)) => failures.push(format!("{file}: loaded without error")),
+            Ok(Err(PrismError::Internal(m))) => {
+                failures.push(format!("{file}: internal error {m}"))
+            }
+            Ok(Err(PrismError::Input(m))) => {
+                if !m.contains(fragment) || m.contains('\n') {
+                    failures.push(format!("{file}: got '{m}', want '{fragment}'"));
+                }
+                if !m.contains(&path.display().to_string()) && !m.contains(".materials.json") {
+                    failures.push(format!("{file}: message does not name the file: {m}"));
+                }
+            }
+        }
+    }
+    let (file, fragment) = malformed_cases::NONEXISTENT;
+    let e = input_error(load_scene(&dir.join(file), None, None));
+    if !e.contains(fragment) {
+        failures.push(format!("{file}: got '{e}'"));
+    }
+    assert!(failures.is_empty(), "\n{}", failures.join("\n"));
+}
