@@ -743,3 +743,127 @@ fn malformed_corpus_through_library() {
     }
     assert!(failures.is_empty(), "\n{}", failures.join("\n"));
 }
+
+/// Deterministic corruption fuzzing: flipped bytes, truncations and JSON edits of valid files
+/// must give input errors (or load), never panic.
+#[test]
+fn corrupted_files_never_panic() {
+    let dir = test_dir("fuzz");
+    let mut b = GltfBuilder::basic();
+    let png = png_bytes(2, 2, &[[10, 20, 30, 255]; 4]);
+    let img = b.image_embedded(&png, "image/png");
+    let tex = b.texture(img, None);
+    let m = b.material(
+        json!({ "name": "T", "pbrMetallicRoughness": { "baseColorTexture": { "index": tex } } }),
+    );
+    let q = b.quad_mesh("T", Some(m));
+    b.root(json!({ "name": "T", "mesh": q, "children": [] }));
+    b.light(json!({ "type": "spot", "spot": { "outerConeAngle": 0.5 } }));
+    b.root(json!({ "name": "L", "extensions": { "KHR_lights_punctual": { "light": 0 } } }));
+    let glb = b.to_glb();
+    let gltf = serde_json::to_vec(&b.to_json()).unwrap();
+    let mut seed = 0x2545_F491_4F6C_DD1Du64;
+    let mut rnd = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        seed
+    };
+    let glb_path = dir.join("f.glb");
+    let gltf_path = dir.join("f.gltf");
+    let mut outcomes = [0usize; 2];
+    // PRISM_FUZZ_ITERS=N runs a longer campaign.
+    let iters: usize = std::env::var("PRISM_FUZZ_ITERS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(600);
+    for iter in 0..iters {
+        let (src, path) = if iter % 2 == 0 {
+            (&glb, &glb_path)
+        } else {
+            (&gltf, &gltf_path)
+        };
+        let mut data = src.clone();
+        match rnd() % 4 {
+            0 => data.truncate((rnd() as usize) % data.len()),
+            1 => {
+                for _ in 0..1 + rnd() % 4 {
+                    let i = (rnd() as usize) % data.len();
+                    data[i] = rnd() as u8;
+                }
+            }
+            2 => {
+                // Replace a digit with another one (keeps JSON valid more often).
+                let digits: Vec<usize> = (0..data.len())
+                    .filter(|&i| data[i].is_ascii_digit())
+                    .collect();
+                if !digits.is_empty() {
+                    let i = digits[(rnd() as usize) % digits.len()];
+                    data[i] = b'0' + (rnd() % 10) as u8;
+                }
+            }
+            _ => {
+                let i = (rnd() as usize) % data.len();
+                data.insert(i, b"9-.e,]}"[(rnd() % 7) as usize]);
+            }
+        }
+        std::fs::write(path, &data).unwrap();
+        let r = std::panic::catch_unwind(|| load_scene(path, None, None));
+        match r {
+            Err(_) => panic!(
+                "iteration {iter}: load_scene panicked (file kept at {})",
+                path.display()
+            ),
+            Ok(Ok(_)) => outcomes[0] += 1,
+            Ok(Err(PrismError::Input(m))) => {
+                assert!(!m.contains('\n'), "{m}");
+                outcomes[1] += 1;
+            }
+            Ok(Err(e)) => panic!("iteration {iter}: internal error {e}"),
+        }
+    }
+    assert!(outcomes[1] > 0);
+}
+
+#[test]
+fn deep_hierarchies_and_node_explosions() {
+    let dir = test_dir("deep");
+    // A 20000-level chain of nested nodes loads (no recursion limit, no stack overflow).
+    let mut b = GltfBuilder::basic();
+    let depth = 20000;
+    let first = b.nodes.len();
+    for k in 0..depth {
+        let mut n = json!({ "name": format!("N{k}"), "translation": [0.0, 0.001, 0.0] });
+        if k + 1 < depth {
+            n["children"] = json!([first + k + 1]);
+        } else {
+            n["mesh"] = json!(0);
+        }
+        b.node(n);
+    }
+    b.scene_nodes.push(first);
+    let s = load(&b.write_gltf(&dir.join("chain.gltf")));
+    let leaf = s
+        .instances
+        .iter()
+        .find(|i| i.name == format!("N{}", depth - 1))
+        .unwrap();
+    let y = leaf.object_to_world.w_axis.y;
+    assert!((y - 0.001 * depth as f32).abs() < 1e-2, "{y}");
+
+    // 40 levels each referencing the next level twice: 2^40 paths -> input error, quickly.
+    let mut b = GltfBuilder::basic();
+    let first = b.nodes.len();
+    for k in 0..40 {
+        let mut n = json!({ "name": format!("D{k}") });
+        if k + 1 < 40 {
+            n["children"] = json!([first + k + 1, first + k + 1]);
+        } else {
+            n["mesh"] = json!(0);
+        }
+        b.node(n);
+    }
+    b.scene_nodes.push(first);
+    let e = input_error(load_scene(&b.write_gltf(&dir.join("dag.gltf")), None, None));
+    assert!(e.contains("instantiates more than"), "{e}");
+}

@@ -66,8 +66,9 @@ pub struct GltfImport {
     pub material_names: Vec<Option<String>>,
 }
 
-/// Longest chain of nested nodes accepted (deeper graphs are almost surely cyclic).
-const MAX_NODE_DEPTH: usize = 1024;
+/// Most node visits accepted: a node may legally be reached along several paths (instancing),
+/// and a malicious DAG could otherwise reach exponentially many instances.
+const MAX_NODE_VISITS: usize = 1 << 22;
 /// Upper bound for accessor element counts not backed by a buffer view (sparse-only accessors).
 const MAX_SPARSE_BASE_ELEMENTS: usize = 1 << 27;
 
@@ -352,10 +353,7 @@ impl Importer<'_> {
                 (0..is_child.len()).filter(|&i| !is_child[i]).collect()
             }
         };
-        let mut ancestors = Vec::new();
-        for r in roots {
-            self.visit(r, Mat4::IDENTITY, &mut ancestors)?;
-        }
+        self.traverse(&roots)?;
         if self.skipped_non_triangle > 0 {
             let n = self.skipped_non_triangle;
             let s = if n == 1 { "" } else { "s" };
@@ -387,29 +385,62 @@ impl Importer<'_> {
         }
     }
 
-    fn visit(
-        &mut self,
-        index: usize,
-        parent: Mat4,
-        ancestors: &mut Vec<usize>,
-    ) -> Result<(), String> {
+    /// Depth-first, pre-order traversal (the order that decides the default camera), iterative
+    /// so that deep hierarchies cannot overflow the stack; cycles are input errors.
+    fn traverse(&mut self, roots: &[usize]) -> Result<(), String> {
+        enum Step {
+            Enter(usize, Mat4),
+            Exit(usize),
+        }
+        let n_nodes = self.doc.nodes().len();
+        let mut on_path = vec![false; n_nodes];
+        let mut visits = 0usize;
+        let mut stack: Vec<Step> = roots
+            .iter()
+            .rev()
+            .map(|&r| Step::Enter(r, Mat4::IDENTITY))
+            .collect();
+        while let Some(step) = stack.pop() {
+            match step {
+                Step::Exit(i) => on_path[i] = false,
+                Step::Enter(i, parent) => {
+                    if i >= n_nodes {
+                        return Err(format!("node {i} does not exist"));
+                    }
+                    if on_path[i] {
+                        let node = self.doc.nodes().nth(i).unwrap();
+                        return Err(format!(
+                            "{}: the node hierarchy has a cycle (the node is its own ancestor)",
+                            Self::node_label(&node)
+                        ));
+                    }
+                    visits += 1;
+                    if visits > MAX_NODE_VISITS {
+                        return Err(format!(
+                            "the node hierarchy instantiates more than {MAX_NODE_VISITS} nodes"
+                        ));
+                    }
+                    let world = self.visit(i, parent)?;
+                    on_path[i] = true;
+                    stack.push(Step::Exit(i));
+                    let node = self.doc.nodes().nth(i).unwrap();
+                    let children: Vec<usize> = node.children().map(|c| c.index()).collect();
+                    for c in children.into_iter().rev() {
+                        stack.push(Step::Enter(c, world));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Handles one node (mesh instances, camera, light); returns its world transform.
+    fn visit(&mut self, index: usize, parent: Mat4) -> Result<Mat4, String> {
         let node = self
             .doc
             .nodes()
             .nth(index)
             .ok_or_else(|| format!("node {index} does not exist"))?;
-        if ancestors.contains(&index) {
-            return Err(format!(
-                "{}: the node hierarchy has a cycle (the node is its own ancestor)",
-                Self::node_label(&node)
-            ));
-        }
-        if ancestors.len() >= MAX_NODE_DEPTH {
-            return Err(format!(
-                "{}: node hierarchy deeper than {MAX_NODE_DEPTH} levels",
-                Self::node_label(&node)
-            ));
-        }
         let local = match node.transform() {
             gltf::scene::Transform::Matrix { matrix } => Mat4::from_cols_array_2d(&matrix),
             gltf::scene::Transform::Decomposed {
@@ -470,13 +501,7 @@ impl Importer<'_> {
         if let Some(li) = light_index {
             self.light(li, &node_name, world)?;
         }
-        ancestors.push(index);
-        let children: Vec<usize> = node.children().map(|c| c.index()).collect();
-        for c in children {
-            self.visit(c, world, ancestors)?;
-        }
-        ancestors.pop();
-        Ok(())
+        Ok(world)
     }
 
     // ---------------------------------------------------------------- lights
