@@ -1,1 +1,335 @@
-fn main() {}
+//! `prism` command line: parse flags, load the scene, render, report progress, write the EXR,
+//! map errors to exit codes (0 success, 2 bad input, 1 internal error).
+
+use clap::{Parser, Subcommand, ValueEnum};
+use prism::error::{PrismError, Result};
+use prism::render::{render, Progress, RenderSettings, RenderStats};
+use prism::scene::{load_scene, Scene};
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+static CANCEL: AtomicBool = AtomicBool::new(false);
+
+#[derive(Parser)]
+#[command(name = "prism", version, about = "Spectral path tracer: glTF + material JSON in, EXR out")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum ProgressMode {
+    Bar,
+    Json,
+    None,
+}
+
+#[derive(clap::Args, Clone)]
+struct SceneArgs {
+    /// glTF 2.0 scene (.gltf or .glb)
+    scene: PathBuf,
+    /// Material JSON sidecar (default: <scene stem>.materials.json beside the scene, if present)
+    #[arg(long)]
+    materials: Option<PathBuf>,
+    /// Samples per pixel (default: the JSON's render.spp, else 64)
+    #[arg(long)]
+    spp: Option<u32>,
+    #[arg(long)]
+    width: Option<u32>,
+    #[arg(long)]
+    height: Option<u32>,
+    /// Maximum number of bounces (default: the JSON's render.max_depth, else 16)
+    #[arg(long)]
+    max_depth: Option<u32>,
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Camera node or camera name (default: the scene's first camera)
+    #[arg(long)]
+    camera: Option<String>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene to an OpenEXR file (float32 RGBA, linear Rec.709).
+    Render {
+        #[command(flatten)]
+        scene: SceneArgs,
+        /// Output EXR (default: <scene stem>.exr in the current directory)
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Worker threads (default: all cores)
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Progress on stderr: an interactive bar, JSON lines, or nothing (default: bar on a terminal)
+        #[arg(long, value_enum)]
+        progress: Option<ProgressMode>,
+        /// Also write the image after every progressive pass to this EXR (for live previews)
+        #[arg(long)]
+        preview: Option<PathBuf>,
+    },
+    /// Convert an EXR to an sRGB PNG for viewing (clamped, optional exposure in stops).
+    ToPng {
+        input: PathBuf,
+        output: PathBuf,
+        #[arg(long, default_value_t = 0.0)]
+        exposure: f32,
+    },
+    /// Measure samples/s and rays/s per thread on a scene (default: the Cornell box).
+    Bench {
+        #[arg(default_value = "scenes/cornell/cornell.gltf")]
+        scene: PathBuf,
+        #[arg(long, default_value_t = 256)]
+        width: u32,
+        #[arg(long, default_value_t = 256)]
+        height: u32,
+        #[arg(long, default_value_t = 64)]
+        spp: u32,
+        #[arg(long, default_value_t = 16)]
+        max_depth: u32,
+        /// Thread counts to measure, e.g. 1,2
+        #[arg(long, value_delimiter = ',', default_value = "1,2")]
+        threads: Vec<usize>,
+        /// Repetitions per thread count (the median is reported)
+        #[arg(long, default_value_t = 3)]
+        repeat: usize,
+    },
+}
+
+fn main() {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Render { scene, output, threads, progress, preview } => {
+            run_render(&scene, output, threads, progress, preview)
+        }
+        Command::ToPng { input, output, exposure } => to_png(&input, &output, exposure),
+        Command::Bench { scene, width, height, spp, max_depth, threads, repeat } => {
+            run_bench(&scene, width, height, spp, max_depth, &threads, repeat)
+        }
+    };
+    if let Err(e) = result {
+        // One line, whatever the message contained.
+        let msg = e.to_string().replace('\n', " ");
+        eprintln!("prism: error: {msg}");
+        std::process::exit(e.exit_code());
+    }
+}
+
+fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
+    let desc = load_scene(&args.scene, args.materials.as_deref(), args.camera.as_deref())?;
+    let defaults = desc.render.clone();
+    let scene = Scene::build(desc)?;
+    let settings = RenderSettings {
+        width: args.width.or(defaults.width).unwrap_or(512),
+        height: args.height.or(defaults.height).unwrap_or(512),
+        spp: args.spp.or(defaults.spp).unwrap_or(64),
+        max_depth: args.max_depth.or(defaults.max_depth).unwrap_or(16),
+        seed: args.seed,
+    };
+    if settings.width == 0 || settings.height == 0 || settings.width > 32768 || settings.height > 32768 {
+        return Err(PrismError::input(format!(
+            "image size {}x{} is out of range (1 to 32768 per side)",
+            settings.width, settings.height
+        )));
+    }
+    if settings.spp == 0 {
+        return Err(PrismError::input("--spp must be at least 1"));
+    }
+    if settings.max_depth > 1024 {
+        return Err(PrismError::input("--max-depth must be at most 1024"));
+    }
+    Ok((scene, settings))
+}
+
+fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(t) = threads {
+        if t == 0 {
+            return Err(PrismError::input("--threads must be at least 1"));
+        }
+        builder = builder.num_threads(t);
+    }
+    builder.build().map_err(|e| PrismError::internal(format!("cannot start worker threads: {e}")))
+}
+
+fn json_escape(s: &str) -> String {
+    serde_json::Value::String(s.to_string()).to_string()
+}
+
+fn run_render(
+    args: &SceneArgs,
+    output: Option<PathBuf>,
+    threads: Option<usize>,
+    progress: Option<ProgressMode>,
+    preview: Option<PathBuf>,
+) -> Result<()> {
+    let mode = progress.unwrap_or(if std::io::stderr().is_terminal() { ProgressMode::Bar } else { ProgressMode::None });
+    let output = output.unwrap_or_else(|| {
+        let stem = args.scene.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or("prism".into());
+        PathBuf::from(format!("{stem}.exr"))
+    });
+    let load_start = Instant::now();
+    let (scene, settings) = load(args)?;
+    let pool = thread_pool(threads)?;
+    for w in &scene.warnings {
+        match mode {
+            ProgressMode::Json => eprintln!("{{\"event\":\"warning\",\"message\":{}}}", json_escape(w)),
+            _ => eprintln!("prism: warning: {w}"),
+        }
+    }
+    if mode == ProgressMode::Json {
+        eprintln!(
+            "{{\"event\":\"start\",\"width\":{},\"height\":{},\"spp\":{},\"threads\":{},\"load_s\":{:.4}}}",
+            settings.width,
+            settings.height,
+            settings.spp,
+            pool.current_num_threads(),
+            load_start.elapsed().as_secs_f64()
+        );
+    }
+    ctrlc::set_handler(|| CANCEL.store(true, Ordering::SeqCst))
+        .map_err(|e| PrismError::internal(format!("cannot install the signal handler: {e}")))?;
+
+    let total = settings.width as u64 * settings.height as u64 * settings.spp as u64;
+    let bar = (mode == ProgressMode::Bar).then(|| {
+        let b = indicatif::ProgressBar::new(total);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {percent}% (eta {eta})")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    let on_progress = |p: &Progress| match mode {
+        ProgressMode::Json => {
+            let mut err = std::io::stderr().lock();
+            let _ = writeln!(
+                err,
+                "{{\"event\":\"progress\",\"fraction\":{:.6},\"samples_done\":{},\"elapsed_s\":{:.3}{}}}",
+                p.fraction,
+                p.samples_done,
+                p.elapsed.as_secs_f64(),
+                p.pass_spp.map(|s| format!(",\"pass_spp\":{s}")).unwrap_or_default()
+            );
+        }
+        ProgressMode::Bar => {
+            if let Some(b) = &bar {
+                b.set_position(p.samples_done);
+            }
+        }
+        ProgressMode::None => {}
+    };
+    let mut preview_error = None;
+    let mut on_pass = |film: &prism::film::Film, spp: u32| {
+        if let Some(path) = &preview {
+            if spp < settings.spp {
+                match write_atomically(path, |tmp| film.write_exr(tmp)) {
+                    Ok(()) if mode == ProgressMode::Json => {
+                        eprintln!("{{\"event\":\"preview\",\"path\":{},\"spp\":{spp}}}", json_escape(&path.to_string_lossy()))
+                    }
+                    Ok(()) => {}
+                    Err(e) => preview_error = Some(e),
+                }
+            }
+        }
+    };
+    let (film, stats) = pool.install(|| render(&scene, &settings, &CANCEL, &on_progress, &mut on_pass));
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    if let Some(e) = preview_error {
+        return Err(e);
+    }
+    write_atomically(&output, |tmp| film.write_exr(tmp))?;
+    report_done(mode, &stats, &output);
+    Ok(())
+}
+
+/// Writes to a temporary sibling and renames, so readers never see a half-written EXR.
+fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.partial.exr"));
+    write(&tmp)?;
+    std::fs::rename(&tmp, path).map_err(|e| PrismError::internal(format!("{}: cannot write: {e}", path.display())))
+}
+
+fn report_done(mode: ProgressMode, stats: &RenderStats, output: &Path) {
+    match mode {
+        ProgressMode::Json => eprintln!(
+            "{{\"event\":\"done\",\"seconds\":{:.4},\"rays\":{},\"samples\":{},\"discarded\":{},\"cancelled\":{},\"output\":{}}}",
+            stats.seconds,
+            stats.rays,
+            stats.samples,
+            stats.discarded,
+            stats.cancelled,
+            json_escape(&output.to_string_lossy())
+        ),
+        _ => eprintln!(
+            "prism: {} {} in {:.2} s: {} samples, {:.2} Mrays/s, {} non-finite samples discarded -> {}",
+            if stats.cancelled { "interrupted" } else { "rendered" },
+            if stats.cancelled { "after" } else { "" },
+            stats.seconds,
+            stats.samples,
+            stats.rays as f64 / stats.seconds.max(1e-9) / 1e6,
+            stats.discarded,
+            output.display()
+        ),
+    }
+}
+
+fn run_bench(
+    scene_path: &Path,
+    width: u32,
+    height: u32,
+    spp: u32,
+    max_depth: u32,
+    threads: &[usize],
+    repeat: usize,
+) -> Result<()> {
+    let args = SceneArgs {
+        scene: scene_path.to_path_buf(),
+        materials: None,
+        spp: Some(spp),
+        width: Some(width),
+        height: Some(height),
+        max_depth: Some(max_depth),
+        seed: 0,
+        camera: None,
+    };
+    let (scene, settings) = load(&args)?;
+    for &t in threads {
+        let pool = thread_pool(Some(t))?;
+        let mut runs: Vec<RenderStats> = (0..repeat.max(1))
+            .map(|_| pool.install(|| render(&scene, &settings, &CANCEL, &|_| {}, &mut |_, _| {}).1))
+            .collect();
+        runs.sort_by(|a, b| a.seconds.total_cmp(&b.seconds));
+        let median = &runs[runs.len() / 2];
+        let samples_per_s = median.samples as f64 / median.seconds;
+        let rays_per_s = median.rays as f64 / median.seconds;
+        println!(
+            "{{\"engine\":\"prism\",\"scene\":{},\"width\":{width},\"height\":{height},\"spp\":{spp},\"threads\":{t},\"seconds_median\":{:.4},\"samples_per_second\":{:.0},\"rays_per_second\":{:.0},\"rays_per_second_per_thread\":{:.0}}}",
+            json_escape(&scene_path.to_string_lossy()),
+            median.seconds,
+            samples_per_s,
+            rays_per_s,
+            rays_per_s / t as f64
+        );
+    }
+    Ok(())
+}
+
+fn to_png(input: &Path, output: &Path, exposure: f32) -> Result<()> {
+    let (w, h, px) = prism::film::read_exr_rgba(input)?;
+    let scale = 2f32.powf(exposure);
+    let bytes: Vec<u8> = px
+        .iter()
+        .flat_map(|p| {
+            (0..3).map(move |c| {
+                let v = prism::spectrum::rgb::linear_to_srgb((p[c] * scale).clamp(0.0, 1.0));
+                (v * 255.0 + 0.5) as u8
+            })
+        })
+        .collect();
+    image::save_buffer(output, &bytes, w, h, image::ColorType::Rgb8)
+        .map_err(|e| PrismError::internal(format!("{}: cannot write PNG: {e}", output.display())))
+}

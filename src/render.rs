@@ -90,7 +90,16 @@ pub fn render(
     let start = Instant::now();
     let finished = AtomicBool::new(false);
 
+    /// Stops the reporter thread even if a worker panics (else the scope would never join).
+    struct SetOnDrop<'a>(&'a AtomicBool);
+    impl Drop for SetOnDrop<'_> {
+        fn drop(&mut self) {
+            self.0.store(true, Ordering::Relaxed);
+        }
+    }
+
     std::thread::scope(|s| {
+        let _stop_reporter = SetOnDrop(&finished);
         // Reporter: decoupled from the workers so they never block on I/O.
         s.spawn(|| {
             let mut last_report = Instant::now();
@@ -152,7 +161,6 @@ pub fn render(
                 on_pass(&film, spp_done);
             }
         }
-        finished.store(true, Ordering::Relaxed);
     });
 
     let stats = RenderStats {

@@ -257,8 +257,8 @@ impl Geometry {
                 0.0,
                 r.tmax,
             );
-            best.instance = inst_id;
             let before = best;
+            best.instance = inst_id;
             let t = self.meshes[inst.mesh as usize].intersect(&local, &mut best);
             if t == f32::INFINITY {
                 best = before;
