@@ -867,3 +867,16 @@ fn deep_hierarchies_and_node_explosions() {
     let e = input_error(load_scene(&b.write_gltf(&dir.join("dag.gltf")), None, None));
     assert!(e.contains("instantiates more than"), "{e}");
 }
+
+#[test]
+fn names_with_newlines_stay_on_one_line() {
+    let dir = test_dir("newline_names");
+    let mut b = GltfBuilder::basic();
+    b.nodes[1]["name"] = json!("Cam\nera");
+    let e = input_error(load_scene(
+        &b.write_gltf(&dir.join("n.gltf")),
+        None,
+        Some("x"),
+    ));
+    assert!(e.contains("'Cam era'"), "{e}");
+}

@@ -31,6 +31,18 @@ pub fn load_scene(
     materials_path: Option<&Path>,
     camera_name: Option<&str>,
 ) -> Result<SceneDesc, PrismError> {
+    load_scene_inner(scene_path, materials_path, camera_name).map_err(|e| match e {
+        // Names inside messages come from the files: keep every message on one line.
+        PrismError::Input(m) => PrismError::Input(m.replace(['\r', '\n'], " ")),
+        other => other,
+    })
+}
+
+fn load_scene_inner(
+    scene_path: &Path,
+    materials_path: Option<&Path>,
+    camera_name: Option<&str>,
+) -> Result<SceneDesc, PrismError> {
     let file = scene_path.display().to_string();
     let ext = scene_path
         .extension()
