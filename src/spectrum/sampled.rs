@@ -202,11 +202,15 @@ impl SampledWavelengths {
 const VIS_CENTER: f32 = 538.0;
 const VIS_K: f32 = 0.0072;
 
+/// tanh of the range ends: the CDF's bounds, computed once (they sit on the per-sample path).
 fn vis_tanh_bounds() -> (f32, f32) {
-    (
-        (VIS_K * (LAMBDA_MIN - VIS_CENTER)).tanh(),
-        (VIS_K * (LAMBDA_MAX - VIS_CENTER)).tanh(),
-    )
+    static BOUNDS: std::sync::LazyLock<(f32, f32)> = std::sync::LazyLock::new(|| {
+        (
+            (VIS_K * (LAMBDA_MIN - VIS_CENTER)).tanh(),
+            (VIS_K * (LAMBDA_MAX - VIS_CENTER)).tanh(),
+        )
+    });
+    *BOUNDS
 }
 
 /// Density (per nm) of `sample_visible_wavelength` on [LAMBDA_MIN, LAMBDA_MAX].
