@@ -3,7 +3,7 @@
 //! One light is chosen per sample in proportion to an estimate of its emitted power.
 
 use super::desc::{PunctualKind, PunctualLightDesc, TextureDesc};
-use super::material::{lookup, Material};
+use super::material::Material;
 use crate::geometry::Geometry;
 use crate::math::{sampling, DiscreteDistribution, Frame, PI};
 use crate::spectrum::{RgbIlluminantSpectrum, SampledSpectrum, SampledWavelengths};
