@@ -1,0 +1,238 @@
+//! End-to-end checks of the RGB <-> spectrum conversions: sRGB -> upsampled spectrum -> CIE XYZ
+//! (by deterministic quadrature, and by the renderer's Monte Carlo estimator) -> sRGB.
+
+use glam::Vec3;
+use prism::spectrum::{
+    cie, rgb, spectrum_to_xyz, RgbAlbedoSpectrum, RgbIlluminantSpectrum, RgbUnboundedSpectrum,
+    SampledWavelengths, LAMBDA_MAX, LAMBDA_MIN,
+};
+
+/// XYZ of `f` over 360-830 nm, normalised so a constant 1 has Y = 1: composite Simpson with 8
+/// panels per nm, in f64. (Written independently of `cie::integrate_xyz`.)
+fn quad_xyz(f: impl Fn(f32) -> f32) -> Vec3 {
+    const PANELS_PER_NM: usize = 8;
+    let n = (LAMBDA_MAX - LAMBDA_MIN) as usize * PANELS_PER_NM;
+    let h = 1.0 / PANELS_PER_NM as f64;
+    let mut acc = [0.0f64; 3];
+    for k in 0..=n {
+        let w = match k {
+            0 => 1.0,
+            _ if k == n => 1.0,
+            _ if k % 2 == 1 => 4.0,
+            _ => 2.0,
+        };
+        let l = (LAMBDA_MIN as f64 + k as f64 * h) as f32;
+        let v = f(l) as f64 * w;
+        let cmf = cie::cie_xyz_bar(l);
+        for (a, c) in acc.iter_mut().zip(cmf.to_array()) {
+            *a += v * c as f64;
+        }
+    }
+    let s = h / 3.0 / cie::CIE_Y_INTEGRAL as f64;
+    Vec3::new(
+        (acc[0] * s) as f32,
+        (acc[1] * s) as f32,
+        (acc[2] * s) as f32,
+    )
+}
+
+/// Linear sRGB of a reflectance lit by the renderer's white light, RGB (1, 1, 1) emission.
+fn reflected_rgb(s: &RgbAlbedoSpectrum) -> Vec3 {
+    let white = RgbIlluminantSpectrum::new(Vec3::ONE);
+    rgb::xyz_to_linear_srgb(quad_xyz(|l| s.eval(l) * white.eval(l)))
+}
+
+/// Deterministic uniform numbers in [0, 1) (SplitMix64).
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn colour(&mut self) -> Vec3 {
+        Vec3::new(self.next(), self.next(), self.next())
+    }
+}
+
+/// A 17^3 grid over [0, 1]^3 (nodes at multiples of 1/16, mostly off the table's nodes),
+/// random colours, and colours near the cube's faces, edges and corners.
+fn test_colours() -> Vec<Vec3> {
+    let mut out = vec![];
+    let g = 17;
+    for b in 0..g {
+        for gg in 0..g {
+            for r in 0..g {
+                out.push(Vec3::new(r as f32, gg as f32, b as f32) / (g - 1) as f32);
+            }
+        }
+    }
+    let mut rng = Rng(42);
+    out.extend((0..3000).map(|_| rng.colour()));
+    let ends = [0.0, 0.003, 0.02, 0.49, 0.51, 0.98, 0.997, 1.0];
+    for _ in 0..1000 {
+        let pick = |rng: &mut Rng| ends[(rng.next() * ends.len() as f32) as usize];
+        let mut c = rng.colour();
+        for k in 0..3 {
+            if rng.next() < 0.6 {
+                c[k] = (pick(&mut rng) + 0.01 * (rng.next() - 0.5)).clamp(0.0, 1.0);
+            }
+        }
+        out.push(c);
+    }
+    out
+}
+
+#[test]
+fn albedo_roundtrip_within_1e3() {
+    let mut worst = (0.0f32, Vec3::ZERO, Vec3::ZERO);
+    let colours = test_colours();
+    for &c in &colours {
+        let back = reflected_rgb(&RgbAlbedoSpectrum::new(c));
+        let err = (back - c).abs().max_element();
+        if err > worst.0 {
+            worst = (err, c, back);
+        }
+    }
+    println!(
+        "albedo round trip over {} colours: max error {:.2e} at {} -> {}",
+        colours.len(),
+        worst.0,
+        worst.1,
+        worst.2
+    );
+    assert!(worst.0 < 1e-3, "{worst:?}");
+}
+
+#[test]
+fn illuminant_roundtrip_within_1e3() {
+    let mut worst = 0.0f32;
+    for (n, &c) in test_colours().iter().enumerate() {
+        // Emission of any magnitude; errors relative to the brightest channel.
+        let m = [1.0, 0.01, 40.0][n % 3];
+        let e = RgbIlluminantSpectrum::new(c * m);
+        let back = rgb::xyz_to_linear_srgb(quad_xyz(|l| e.eval(l)));
+        let err = (back - c * m).abs().max_element() / (c.max_element() * m).max(1e-30);
+        worst = worst.max(err);
+        assert!(err < 1e-3, "{c} x {m} -> {back}");
+    }
+    println!("illuminant round trip: max error / max component {worst:.2e}");
+}
+
+#[test]
+fn d65_normalised_white_is_rgb_one() {
+    let white = RgbIlluminantSpectrum::new(Vec3::ONE);
+    let xyz = quad_xyz(|l| white.eval(l));
+    let rgb = rgb::xyz_to_linear_srgb(xyz);
+    println!("white: XYZ {xyz}, RGB {rgb}");
+    assert!((rgb - Vec3::ONE).abs().max_element() < 1e-3, "{rgb}");
+    assert!((xyz.y - 1.0).abs() < 1e-4, "{xyz}");
+    // The same as the normalised CIE D65, and Y = 1 through the public helper too.
+    for l in [380.0, 460.0, 560.0, 700.0] {
+        assert!((white.eval(l) - cie::d65_normalized(l)).abs() < 1e-6);
+    }
+    assert!((cie::integrate_xyz(cie::d65_normalized, 2).y - 1.0).abs() < 1e-5);
+    // A flat reflectance under it is exactly grey.
+    let grey = reflected_rgb(&RgbAlbedoSpectrum::new(Vec3::splat(0.18)));
+    assert!(
+        (grey - Vec3::splat(0.18)).abs().max_element() < 1e-5,
+        "{grey}"
+    );
+}
+
+#[test]
+fn monte_carlo_estimator_converges_to_quadrature() {
+    const N: usize = 1_000_000;
+    let white = RgbIlluminantSpectrum::new(Vec3::ONE);
+    let albedos = [
+        Vec3::new(0.8, 0.1, 0.05),
+        Vec3::new(0.1, 0.6, 0.3),
+        Vec3::new(0.2, 0.3, 0.9),
+        Vec3::splat(0.5),
+    ];
+    let mut rng = Rng(7);
+    for c in albedos {
+        let s = RgbAlbedoSpectrum::new(c);
+        let exact = quad_xyz(|l| s.eval(l) * white.eval(l));
+        // Independent uniform hero wavelengths, the renderer's per-path estimator, averaged.
+        let (mut sum, mut sum2) = ([0.0f64; 3], [0.0f64; 3]);
+        for _ in 0..N {
+            let w = SampledWavelengths::sample_hero(rng.next());
+            let xyz = spectrum_to_xyz(&(s.sample(&w) * white.sample(&w)), &w);
+            for k in 0..3 {
+                sum[k] += xyz[k] as f64;
+                sum2[k] += (xyz[k] as f64).powi(2);
+            }
+        }
+        let mean = sum.map(|v| v / N as f64);
+        let std_err: [f64; 3] =
+            std::array::from_fn(|k| ((sum2[k] / N as f64 - mean[k] * mean[k]) / N as f64).sqrt());
+        let mc = Vec3::from_array(mean.map(|v| v as f32));
+        let rel = ((mc - exact).abs() / exact).max_element();
+        let sigmas = (0..3)
+            .map(|k| (mean[k] - exact[k] as f64).abs() / std_err[k])
+            .fold(0.0, f64::max);
+        println!(
+            "{c}: MC {mc} vs quadrature {exact}, relative error {rel:.1e} ({sigmas:.1} standard errors)"
+        );
+        assert!(rel < 5e-3, "{c}: {mc} vs {exact}");
+        assert!(
+            sigmas < 5.0,
+            "{c}: {mc} vs {exact}: {sigmas} standard errors"
+        );
+    }
+    // An emitter, straight into the estimator, with stratified hero wavelengths: converges much
+    // faster, which checks that the estimator's normalisation matches the quadrature closely.
+    let e = RgbIlluminantSpectrum::new(Vec3::new(3.0, 1.0, 0.2));
+    let exact = quad_xyz(|l| e.eval(l));
+    let mut sum = Vec3::ZERO.as_dvec3();
+    for i in 0..N {
+        let w = SampledWavelengths::sample_hero((i as f32 + rng.next()) / N as f32);
+        sum += spectrum_to_xyz(&e.sample(&w), &w).as_dvec3();
+    }
+    let mc = (sum / N as f64).as_vec3();
+    let rel = ((mc - exact).abs() / exact).max_element();
+    println!("emitter: stratified MC {mc} vs quadrature {exact}, relative error {rel:.1e}");
+    assert!(rel < 1e-4, "{mc} vs {exact}");
+}
+
+#[test]
+fn albedo_spectra_stay_in_unit_interval() {
+    let mut rng = Rng(3);
+    let mut colours = test_colours();
+    colours.extend((0..500).map(|_| rng.colour() * 4.0 - Vec3::splat(1.0))); // clamped
+    for c in colours {
+        let s = RgbAlbedoSpectrum::new(c);
+        for i in 0..=940 {
+            let l = LAMBDA_MIN + 0.5 * i as f32;
+            let v = s.eval(l);
+            assert!((0.0..=1.0).contains(&v), "{c} at {l} nm: {v}");
+        }
+    }
+}
+
+#[test]
+fn unbounded_spectra_reproduce_large_magnitudes() {
+    for c in [
+        Vec3::new(5.0, 0.2, 30.0),
+        Vec3::new(120.0, 3.0, 0.5),
+        Vec3::new(0.002, 0.04, 0.001),
+        Vec3::new(2.5, 2.5, 0.0),
+        Vec3::splat(17.0),
+    ] {
+        let s = RgbUnboundedSpectrum::new(c);
+        // Coefficients (e.g. sigma_a) are looked up under the same D65 convention as albedo.
+        let white = RgbIlluminantSpectrum::new(Vec3::ONE);
+        let back = rgb::xyz_to_linear_srgb(quad_xyz(|l| s.eval(l) * white.eval(l)));
+        let err = (back - c).abs().max_element() / c.max_element();
+        println!("{c} -> {back} (error / max {err:.1e})");
+        assert!(err < 1e-3, "{c} -> {back}");
+        // Non-negative everywhere and bounded by twice the largest component.
+        for i in 0..=470 {
+            let v = s.eval(LAMBDA_MIN + i as f32);
+            assert!(v >= 0.0 && v <= 2.0 * c.max_element(), "{v}");
+        }
+    }
+}
