@@ -284,12 +284,14 @@ fn material_fields() {
                 "offset": [0.5, 0.0], "rotation": 0.0, "scale": [2.0, 2.0] } } },
             "metallicRoughnessTexture": { "index": tex }
         },
+        "normalTexture": { "index": tex },
         "extensions": { "KHR_materials_specular": {
             "specularFactor": 0.0, "specularColorFactor": [1.0, 0.5, 0.25] } }
     }));
     let glass = b.material(json!({
         "name": "Glass",
         "doubleSided": true,
+        "alphaMode": "BLEND",
         "pbrMetallicRoughness": { "metallicFactor": 0.0, "roughnessFactor": 0.0 },
         "extensions": {
             "KHR_materials_transmission": { "transmissionFactor": 1.0 },
@@ -359,6 +361,20 @@ fn material_fields() {
         s.warnings
     );
     assert!(s.materials.iter().all(|m| m.sidecar.is_none()));
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("material 'Diffuse': normalTexture not supported yet")),
+        "{:?}",
+        s.warnings
+    );
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("material 'Glass': alphaMode Blend")),
+        "{:?}",
+        s.warnings
+    );
 }
 
 #[test]

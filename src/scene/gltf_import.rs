@@ -1015,6 +1015,39 @@ impl Importer<'_> {
                 ));
             }
         }
+        // Inputs the renderer does not model yet: reported once, never fatal.
+        let mut ignored: Vec<&str> = Vec::new();
+        if m.normal_texture().is_some() {
+            ignored.push("normalTexture");
+        }
+        if m.transmission()
+            .is_some_and(|t| t.transmission_texture().is_some())
+        {
+            ignored.push("transmissionTexture");
+        }
+        if let Some(sp) = m.specular() {
+            if sp.specular_texture().is_some() {
+                ignored.push("specularTexture");
+            }
+            if sp.specular_color_texture().is_some() {
+                ignored.push("specularColorTexture");
+            }
+        }
+        if m.volume().is_some_and(|v| v.thickness_texture().is_some()) {
+            ignored.push("thicknessTexture");
+        }
+        if !ignored.is_empty() {
+            self.warn_once(format!(
+                "{label}: {} not supported yet and ignored",
+                ignored.join(", ")
+            ));
+        }
+        if !matches!(m.alpha_mode(), gltf::material::AlphaMode::Opaque) {
+            self.warn_once(format!(
+                "{label}: alphaMode {:?} is not supported yet; rendered opaque",
+                m.alpha_mode()
+            ));
+        }
         let base_color_texture = match pbr.base_color_texture() {
             Some(t) => Some(self.texture_ref(&t, ColorSpace::Srgb, &label, "baseColorTexture")?),
             None => None,
