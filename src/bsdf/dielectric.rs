@@ -103,7 +103,7 @@ impl DielectricBsdf {
     /// discrete probability of the chosen branch; f holds (branch albedo) / |cos_i|.
     fn sample_smooth(&self, wo: Vec3, uc: f32) -> Option<BsdfSample> {
         let cos_o = wo.z;
-        if !(cos_o != 0.0) || !wo.is_finite() {
+        if cos_o == 0.0 || !wo.is_finite() {
             return None;
         }
         let eta = self.hero_eta();
@@ -152,7 +152,7 @@ impl DielectricBsdf {
     /// Rough interface: a visible normal from D_wo, then reflection with probability F(wo.wm)
     /// or refraction through the microfacet.
     fn sample_rough(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
-        if !(wo.z != 0.0) || !wo.is_finite() {
+        if wo.z == 0.0 || !wo.is_finite() {
             return None;
         }
         let eta = self.hero_eta();
@@ -205,7 +205,13 @@ impl DielectricBsdf {
     fn eval_with_eta(&self, wo: Vec3, wi: Vec3, eta: f32) -> RoughEval {
         let zero = RoughEval::default();
         let (cos_o, cos_i) = (wo.z, wi.z);
-        if !(cos_o != 0.0 && cos_i != 0.0) || !(eta > 0.0) || !eta.is_finite() {
+        if cos_o == 0.0
+            || cos_i == 0.0
+            || !wo.is_finite()
+            || !wi.is_finite()
+            || !(eta > 0.0)
+            || !eta.is_finite()
+        {
             return zero;
         }
         let reflection = cos_o * cos_i > 0.0;
