@@ -8,14 +8,14 @@
 //!
 //! For every table entry (see `prism::spectrum::upsample` for the layout) we find the
 //! coefficients `c` of `s(lambda) = S(c0 t^2 + c1 t + c2)` whose colour under the normalised
-//! D65 illuminant matches the entry's RGB in CIELAB (paper section 4.1): the residual is
+//! D65 illuminant matches the entry's RGB in CIELAB (as in the paper): the residual is
 //! `Lab(XYZ(s)) - Lab(M rgb)`, with `XYZ(s) = int s D65 cmf / int ybar` computed by Simpson's
-//! rule (two panels per nm, exact for the piecewise-linear CIE tables times a quadratic) from
-//! the renderer's own tables in `prism::spectrum::cie`, and `M` the renderer's sRGB -> XYZ
-//! matrix. The 3x3 nonlinear system is solved by Levenberg-Marquardt with the analytic
+//! rule with two panels per nm (exact for the product of the piecewise-linear D65 and CMF
+//! tables, so only the smooth sigmoid is approximated) from the renderer's own tables in
+//! `prism::spectrum::cie`, and `M` the renderer's sRGB -> XYZ matrix. The 3x3 nonlinear system is solved by Levenberg-Marquardt with the analytic
 //! Jacobian, in double precision.
 //!
-//! The problem is well behaved only near a good initial guess, so (paper section 4.2) the
+//! The problem is well behaved only near a good initial guess, so (as in the paper) the
 //! solutions are continued outward from the grey axis, where the answer is known in closed form
 //! (`c0 = c1 = 0`): first across the middle-brightness z-slice of each cube, from its grey
 //! corner towards the saturated edges, then from that slice up and down each z-column, every

@@ -3,12 +3,12 @@
 //! Upsampling", Computer Graphics Forum 38(2) (Eurographics 2019).
 //!
 //! A reflectance is `s(lambda) = S(c0 t^2 + c1 t + c2)` with the sigmoid
-//! `S(x) = 1/2 + x / (2 sqrt(1 + x^2))` (paper eq. 3), which is smooth, bounded to (0, 1) and
+//! `S(x) = 1/2 + x / (2 sqrt(1 + x^2))` of the paper, which is smooth, bounded to (0, 1) and
 //! needs three coefficients. Unlike the paper we write the quadratic in the normalised
 //! wavelength `t = (lambda - 595 nm) / 235 nm`, which maps 360-830 nm to [-1, 1]: the
 //! coefficients then stay O(1..1e3) and f32 evaluation does not cancel catastrophically.
 //!
-//! The coefficients of linear sRGB colours are precomputed (paper section 4) by the optimiser
+//! The coefficients of linear sRGB colours are precomputed, as in the paper, by the optimiser
 //! `tools/rgb2spec_opt.rs`, which fits each table entry in CIELAB against the CIE 1931 observer
 //! under D65 (the tables of [`cie`]), so a reflectance lit by the normalised D65 illuminant
 //! reproduces its RGB through the film's XYZ -> sRGB. Regenerate the table with
@@ -17,11 +17,16 @@
 //! cargo run --release --bin prism-rgb2spec-opt -- src/spectrum/data/rgb2spec_srgb.bin
 //! ```
 //!
-//! Table layout (paper section 4.2): three cubes, one per channel that is largest; in cube `l`
+//! Table layout (as in the paper): three cubes, one per channel that is largest; in cube `l`
 //! the axes are `z = rgb[l]` (remapped nonlinearly, see [`RgbToSpectrumTable::z_node`]),
 //! `x = rgb[(l+1)%3] / z` and `y = rgb[(l+2)%3] / z` (nodes crowded towards 0 and 1, see
 //! [`RgbToSpectrumTable::xy_node`]). Lookups interpolate the coefficients trilinearly; no
 //! optimisation happens at run time.
+//!
+//! Accuracy (measured by the optimiser and `tests/spectrum_roundtrip.rs`, linear sRGB -> spectrum
+//! -> XYZ by quadrature -> linear sRGB): at resolution 64 (9.4 MB) the worst error over a 17^3
+//! grid plus 2 million random colours is 6.7e-4 per channel; resolution 48 gives 1.1e-3 and 32
+//! gives 2.5e-3, so 64 is the smallest of these that stays under 1e-3.
 //!
 //! File format (little endian): 8-byte magic `PRSMR2SP`, u32 version (1), u32 resolution `n`,
 //! then `3 * n^3 * 3` f32 coefficients indexed `[l][z][y][x][coefficient]`.
@@ -34,7 +39,7 @@ use std::sync::OnceLock;
 pub const SIGMOID_LAMBDA_MID: f32 = 595.0;
 pub const SIGMOID_LAMBDA_HALF: f32 = 235.0;
 
-/// The sigmoid `S(x) = 1/2 + x / (2 sqrt(1 + x^2))` (paper eq. 3), with its limits at
+/// The sigmoid `S(x) = 1/2 + x / (2 sqrt(1 + x^2))` of the paper, with its limits at
 /// +-infinity (NaN maps to 0).
 #[inline]
 pub fn sigmoid(x: f32) -> f32 {
@@ -278,7 +283,7 @@ impl RgbAlbedoSpectrum {
 
 /// Upsample a non-negative colour of any magnitude: `scale * s(lambda)` where `s` is the
 /// reflectance of `rgb / scale` and `scale = 2 max(rgb)` (so the shape is looked up at
-/// brightness 1/2, where the model has head room both ways; pbrt-v4 section 4.6.6 does the same).
+/// brightness 1/2, where the model has head room both ways, as pbrt-v4's RGBUnboundedSpectrum does).
 #[inline]
 fn unbounded(rgb: Vec3) -> (f32, SigmoidPolynomial) {
     let rgb = rgb.max(Vec3::ZERO); // also maps NaN to 0
