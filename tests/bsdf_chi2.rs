@@ -837,3 +837,30 @@ fn degenerate_inputs_are_finite() {
         assert_eq!(b.pdf(dir(-0.5, 0.0), dir(0.5, 1.0)), 0.0);
     }
 }
+
+#[test]
+fn eval_pdf_matches_eval_and_pdf() {
+    let bsdfs = [
+        diffuse(color()),
+        metallic_roughness(color(), 0.4, 0.5, 1.0),
+        dielectric(1.5, 0.4),
+        Bsdf::Dielectric(DielectricBsdf {
+            eta: SampledSpectrum([1.5, 1.52, 1.54, 1.56]),
+            alpha: 0.2,
+            transmission_tint: color(),
+        }),
+    ];
+    let mut rng = Pcg32::new(61, 7);
+    for b in &bsdfs {
+        let mut nonzero = 0;
+        for _ in 0..5_000 {
+            let wo = dir(2.0 * rng.next_f32() - 1.0, 6.3 * rng.next_f32());
+            let wi = dir(2.0 * rng.next_f32() - 1.0, 6.3 * rng.next_f32());
+            let (f, pdf) = b.eval_pdf(wo, wi);
+            assert_eq!(f, b.eval(wo, wi));
+            assert_eq!(pdf, b.pdf(wo, wi));
+            nonzero += (pdf > 0.0) as usize;
+        }
+        assert!(nonzero > 1_000, "{b:?}");
+    }
+}

@@ -54,25 +54,7 @@ impl DielectricBsdf {
     }
 
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
-        if self.is_specular() {
-            return SampledSpectrum::ZERO;
-        }
-        if !self.is_dispersive() {
-            let r = self.eval_with_eta(wo, wi, self.hero_eta());
-            return self.spectral(r.f, r.transmission);
-        }
-        let mut f = SampledSpectrum::ZERO;
-        let mut transmission = false;
-        for i in 0..N_WAVELENGTHS {
-            let r = self.eval_with_eta(wo, wi, self.eta[i]);
-            f[i] = r.f;
-            transmission |= r.transmission;
-        }
-        if transmission {
-            f * self.transmission_tint
-        } else {
-            f
-        }
+        self.eval_pdf(wo, wi).0
     }
 
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -80,6 +62,28 @@ impl DielectricBsdf {
             return 0.0;
         }
         self.eval_with_eta(wo, wi, self.hero_eta()).pdf
+    }
+
+    /// `(eval(wo, wi), pdf(wo, wi))` in one pass.
+    pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (SampledSpectrum, f32) {
+        if self.is_specular() {
+            return (SampledSpectrum::ZERO, 0.0);
+        }
+        let hero = self.eval_with_eta(wo, wi, self.hero_eta());
+        if !self.is_dispersive() {
+            return (self.spectral(hero.f, hero.transmission), hero.pdf);
+        }
+        // Each wavelength's own BSDF value; the pdf is the hero's (it decides directions).
+        let mut f = SampledSpectrum::ZERO;
+        f[0] = hero.f;
+        for i in 1..N_WAVELENGTHS {
+            f[i] = self.eval_with_eta(wo, wi, self.eta[i]).f;
+        }
+        // Transmission is a property of the geometry (wo, wi on opposite sides).
+        if wo.z * wi.z < 0.0 {
+            f *= self.transmission_tint;
+        }
+        (f, hero.pdf)
     }
 
     pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {

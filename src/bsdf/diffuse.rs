@@ -21,6 +21,10 @@ impl DiffuseBsdf {
         cosine_hemisphere_pdf(wi.z)
     }
 
+    pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (SampledSpectrum, f32) {
+        (self.eval(wo, wi), self.pdf(wo, wi))
+    }
+
     pub fn sample(&self, wo: Vec3, _uc: f32, u: Vec2) -> Option<BsdfSample> {
         if !(wo.z > 0.0) {
             return None;

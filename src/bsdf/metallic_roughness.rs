@@ -82,7 +82,7 @@ impl MetallicRoughnessBsdf {
     }
 
     /// f(wo, wi) and the mixture pdf of `wi`, shared by `eval`, `pdf` and `sample`.
-    fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (SampledSpectrum, f32) {
+    pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (SampledSpectrum, f32) {
         if !(wo.z > 0.0 && wi.z > 0.0) {
             return (SampledSpectrum::ZERO, 0.0);
         }

@@ -98,6 +98,15 @@ impl Bsdf {
         }
     }
 
+    /// `(eval(wo, wi), pdf(wo, wi))` computed in one pass (what light sampling with MIS needs).
+    pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (SampledSpectrum, f32) {
+        match self {
+            Bsdf::Diffuse(b) => b.eval_pdf(wo, wi),
+            Bsdf::MetallicRoughness(b) => b.eval_pdf(wo, wi),
+            Bsdf::Dielectric(b) => b.eval_pdf(wo, wi),
+        }
+    }
+
     /// Samples `wi` given `wo`; `uc` chooses the lobe, `u` the direction. `None` when the
     /// sample carries no energy (direction below the surface, total absorption, degenerate
     /// input). For non-specular samples `f == eval(wo, wi)` and `pdf == pdf(wo, wi)`.
