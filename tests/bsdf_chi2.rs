@@ -498,6 +498,10 @@ fn fresnel_reference_values() {
     let crit_cos = (1.0f32 - 1.0 / 2.25).sqrt();
     assert_eq!(fresnel_dielectric(-(crit_cos - 1e-3), 1.5), 1.0);
     assert!(fresnel_dielectric(-(crit_cos + 1e-3), 1.5) < 1.0);
+    // Both polarisations (Born & Wolf 1.5.2, eqs. 21a/b), reference values computed in f64:
+    // 60 degrees, and Brewster's angle (tan = eta) where only the s-part reflects.
+    assert!((fresnel_dielectric(0.5, 1.5) - 0.089_186_71).abs() < 1e-6);
+    assert!((fresnel_dielectric(0.554_700_2, 1.5) - 0.073_964_5).abs() < 1e-6);
     // Grazing incidence reflects everything; eta = 1 nothing.
     assert_eq!(fresnel_dielectric(0.0, 1.5), 1.0);
     assert_eq!(fresnel_dielectric(0.7, 1.0), 0.0);

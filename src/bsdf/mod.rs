@@ -67,8 +67,9 @@ pub struct MetallicRoughnessBsdf {
     pub ior: f32,
 }
 
-/// Dielectric interface: smooth (alpha == 0: exact Fresnel, specular reflection + refraction)
-/// or rough (Walter et al. 2007 GGX microfacet BRDF + BTDF).
+/// Dielectric interface: smooth (alpha < 1e-3, or eta == 1: exact Fresnel, specular reflection
+/// + refraction) or rough (Walter et al. 2007 GGX microfacet BRDF + BTDF). See `dielectric.rs`
+/// for the dispersion rules (`eta[0]` decides directions).
 #[derive(Clone, Copy, Debug)]
 pub struct DielectricBsdf {
     /// Relative IOR (inside / outside) per wavelength; all equal for non-dispersive glass.
