@@ -13,7 +13,11 @@ use std::time::Instant;
 static CANCEL: AtomicBool = AtomicBool::new(false);
 
 #[derive(Parser)]
-#[command(name = "prism", version, about = "Spectral path tracer: glTF + material JSON in, EXR out")]
+#[command(
+    name = "prism",
+    version,
+    about = "Spectral path tracer: glTF + material JSON in, EXR out"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -100,13 +104,27 @@ enum Command {
 fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render { scene, output, threads, progress, preview } => {
-            run_render(&scene, output, threads, progress, preview)
-        }
-        Command::ToPng { input, output, exposure } => to_png(&input, &output, exposure),
-        Command::Bench { scene, width, height, spp, max_depth, threads, repeat } => {
-            run_bench(&scene, width, height, spp, max_depth, &threads, repeat)
-        }
+        Command::Render {
+            scene,
+            output,
+            threads,
+            progress,
+            preview,
+        } => run_render(&scene, output, threads, progress, preview),
+        Command::ToPng {
+            input,
+            output,
+            exposure,
+        } => to_png(&input, &output, exposure),
+        Command::Bench {
+            scene,
+            width,
+            height,
+            spp,
+            max_depth,
+            threads,
+            repeat,
+        } => run_bench(&scene, width, height, spp, max_depth, &threads, repeat),
     };
     if let Err(e) = result {
         // One line, whatever the message contained.
@@ -117,7 +135,11 @@ fn main() {
 }
 
 fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
-    let desc = load_scene(&args.scene, args.materials.as_deref(), args.camera.as_deref())?;
+    let desc = load_scene(
+        &args.scene,
+        args.materials.as_deref(),
+        args.camera.as_deref(),
+    )?;
     let defaults = desc.render.clone();
     let scene = Scene::build(desc)?;
     let settings = RenderSettings {
@@ -127,7 +149,11 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
         max_depth: args.max_depth.or(defaults.max_depth).unwrap_or(16),
         seed: args.seed,
     };
-    if settings.width == 0 || settings.height == 0 || settings.width > 32768 || settings.height > 32768 {
+    if settings.width == 0
+        || settings.height == 0
+        || settings.width > 32768
+        || settings.height > 32768
+    {
         return Err(PrismError::input(format!(
             "image size {}x{} is out of range (1 to 32768 per side)",
             settings.width, settings.height
@@ -150,7 +176,9 @@ fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
         }
         builder = builder.num_threads(t);
     }
-    builder.build().map_err(|e| PrismError::internal(format!("cannot start worker threads: {e}")))
+    builder
+        .build()
+        .map_err(|e| PrismError::internal(format!("cannot start worker threads: {e}")))
 }
 
 fn json_escape(s: &str) -> String {
@@ -164,9 +192,17 @@ fn run_render(
     progress: Option<ProgressMode>,
     preview: Option<PathBuf>,
 ) -> Result<()> {
-    let mode = progress.unwrap_or(if std::io::stderr().is_terminal() { ProgressMode::Bar } else { ProgressMode::None });
+    let mode = progress.unwrap_or(if std::io::stderr().is_terminal() {
+        ProgressMode::Bar
+    } else {
+        ProgressMode::None
+    });
     let output = output.unwrap_or_else(|| {
-        let stem = args.scene.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or("prism".into());
+        let stem = args
+            .scene
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or("prism".into());
         PathBuf::from(format!("{stem}.exr"))
     });
     let load_start = Instant::now();
@@ -174,7 +210,9 @@ fn run_render(
     let pool = thread_pool(threads)?;
     for w in &scene.warnings {
         match mode {
-            ProgressMode::Json => eprintln!("{{\"event\":\"warning\",\"message\":{}}}", json_escape(w)),
+            ProgressMode::Json => {
+                eprintln!("{{\"event\":\"warning\",\"message\":{}}}", json_escape(w))
+            }
             _ => eprintln!("prism: warning: {w}"),
         }
     }
@@ -195,8 +233,10 @@ fn run_render(
     let bar = (mode == ProgressMode::Bar).then(|| {
         let b = indicatif::ProgressBar::new(total);
         b.set_style(
-            indicatif::ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {percent}% (eta {eta})")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            indicatif::ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {wide_bar} {percent}% (eta {eta})",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         b
     });
@@ -225,7 +265,10 @@ fn run_render(
             if spp < settings.spp {
                 match write_atomically(path, |tmp| film.write_exr(tmp)) {
                     Ok(()) if mode == ProgressMode::Json => {
-                        eprintln!("{{\"event\":\"preview\",\"path\":{},\"spp\":{spp}}}", json_escape(&path.to_string_lossy()))
+                        eprintln!(
+                            "{{\"event\":\"preview\",\"path\":{},\"spp\":{spp}}}",
+                            json_escape(&path.to_string_lossy())
+                        )
                     }
                     Ok(()) => {}
                     Err(e) => preview_error = Some(e),
@@ -233,7 +276,8 @@ fn run_render(
             }
         }
     };
-    let (film, stats) = pool.install(|| render(&scene, &settings, &CANCEL, &on_progress, &mut on_pass));
+    let (film, stats) =
+        pool.install(|| render(&scene, &settings, &CANCEL, &on_progress, &mut on_pass));
     if let Some(b) = bar {
         b.finish_and_clear();
     }
@@ -247,10 +291,14 @@ fn run_render(
 
 /// Writes to a temporary sibling and renames, so readers never see a half-written EXR.
 fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let tmp = path.with_file_name(format!(".{name}.partial.exr"));
     write(&tmp)?;
-    std::fs::rename(&tmp, path).map_err(|e| PrismError::internal(format!("{}: cannot write: {e}", path.display())))
+    std::fs::rename(&tmp, path)
+        .map_err(|e| PrismError::internal(format!("{}: cannot write: {e}", path.display())))
 }
 
 fn report_done(mode: ProgressMode, stats: &RenderStats, output: &Path) {

@@ -6,7 +6,7 @@
 use crate::film::Film;
 use crate::geometry::Ray;
 use crate::integrator::PathTracer;
-use crate::sampler::Sampler;
+use crate::sampler::{stratified_per_pixel, Sampler};
 use crate::scene::Scene;
 use crate::spectrum::{spectrum_to_xyz, SampledWavelengths};
 use glam::Vec2;
@@ -25,7 +25,13 @@ pub struct RenderSettings {
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings { width: 512, height: 512, spp: 64, max_depth: 16, seed: 0 }
+        RenderSettings {
+            width: 512,
+            height: 512,
+            spp: 64,
+            max_depth: 16,
+            seed: 0,
+        }
     }
 }
 
@@ -125,31 +131,37 @@ pub fn render(
                 break;
             }
             let (s0, s1) = (spp_done, spp_done + pass);
-            film.pixels.par_chunks_mut(w * BAND_ROWS).enumerate().for_each(|(band, pixels)| {
-                let mut band_rays = 0u64;
-                let mut band_discarded = 0u64;
-                for (i, px) in pixels.iter_mut().enumerate() {
-                    if cancel.load(Ordering::Relaxed) {
-                        break;
-                    }
-                    let index = band * w * BAND_ROWS + i;
-                    let (x, y) = ((index % w) as f32, (index / w) as f32);
-                    for sample in s0..s1 {
-                        let mut sampler = Sampler::new(index as u64, sample as u64, settings.seed);
-                        let mut wavelengths = SampledWavelengths::sample_hero(sampler.next_1d());
-                        let raster = Vec2::new(x, y) + sampler.next_2d();
-                        let ray: Ray = camera.generate_ray(raster);
-                        let result = tracer.radiance(ray, &mut wavelengths, &mut sampler);
-                        band_rays += result.rays as u64;
-                        if !px.add(spectrum_to_xyz(&result.radiance, &wavelengths)) {
-                            band_discarded += 1;
+            film.pixels
+                .par_chunks_mut(w * BAND_ROWS)
+                .enumerate()
+                .for_each(|(band, pixels)| {
+                    let mut band_rays = 0u64;
+                    let mut band_discarded = 0u64;
+                    for (i, px) in pixels.iter_mut().enumerate() {
+                        if cancel.load(Ordering::Relaxed) {
+                            break;
                         }
+                        let index = band * w * BAND_ROWS + i;
+                        let (x, y) = ((index % w) as f32, (index / w) as f32);
+                        for sample in s0..s1 {
+                            let mut sampler =
+                                Sampler::new(index as u64, sample as u64, settings.seed);
+                            let u_lambda =
+                                stratified_per_pixel(index as u64, sample as u64, settings.seed, 0);
+                            let mut wavelengths = SampledWavelengths::sample_hero(u_lambda);
+                            let raster = Vec2::new(x, y) + sampler.next_2d();
+                            let ray: Ray = camera.generate_ray(raster);
+                            let result = tracer.radiance(ray, &mut wavelengths, &mut sampler);
+                            band_rays += result.rays as u64;
+                            if !px.add(spectrum_to_xyz(&result.radiance, &wavelengths)) {
+                                band_discarded += 1;
+                            }
+                        }
+                        samples_done.fetch_add((s1 - s0) as u64, Ordering::Relaxed);
                     }
-                    samples_done.fetch_add((s1 - s0) as u64, Ordering::Relaxed);
-                }
-                rays.fetch_add(band_rays, Ordering::Relaxed);
-                discarded.fetch_add(band_discarded, Ordering::Relaxed);
-            });
+                    rays.fetch_add(band_rays, Ordering::Relaxed);
+                    discarded.fetch_add(band_discarded, Ordering::Relaxed);
+                });
             spp_done = s1;
             if !cancel.load(Ordering::Relaxed) {
                 on_progress(&Progress {

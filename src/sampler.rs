@@ -25,7 +25,10 @@ impl Sampler {
     pub fn new(pixel_index: u64, sample_index: u64, seed: u64) -> Self {
         let stream = mix64(pixel_index ^ mix64(seed.wrapping_add(0x9e37_79b9_7f4a_7c15)));
         let start = mix64(sample_index.wrapping_add(mix64(stream)));
-        let mut s = Sampler { state: 0, inc: (stream << 1) | 1 };
+        let mut s = Sampler {
+            state: 0,
+            inc: (stream << 1) | 1,
+        };
         s.next_u32();
         s.state = s.state.wrapping_add(start);
         s.next_u32();
@@ -55,9 +58,46 @@ impl Sampler {
     }
 }
 
+/// Van der Corput radical inverse in base 2: the first N values of successive indices are
+/// stratified over [0, 1) for every N.
+#[inline]
+pub fn radical_inverse_base2(index: u32) -> f32 {
+    (index.reverse_bits() >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// A value in [0, 1) for sample `sample_index` of a pixel, stratified over that pixel's
+/// successive samples (van der Corput) and decorrelated between pixels by a random rotation
+/// (Cranley & Patterson 1976). Used for the hero wavelength: it turns most of the colour noise
+/// of spectral rendering into stratification error, which falls much faster with the spp.
+pub fn stratified_per_pixel(pixel_index: u64, sample_index: u64, seed: u64, dimension: u64) -> f32 {
+    let rotation = (mix64(pixel_index ^ mix64(seed ^ mix64(dimension.wrapping_add(0x5bd1_e995))))
+        >> 40) as f32
+        * (1.0 / 16_777_216.0);
+    let v = radical_inverse_base2(sample_index as u32) + rotation;
+    if v >= 1.0 {
+        v - 1.0
+    } else {
+        v
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn stratified_values_cover_strata() {
+        for n in [4u64, 16, 64] {
+            let mut strata = vec![0; n as usize];
+            for i in 0..n {
+                let v = stratified_per_pixel(3, i, 1, 0);
+                assert!((0.0..1.0).contains(&v));
+                strata[(v * n as f32) as usize] += 1;
+            }
+            // A rotated (0,1)-sequence puts at most 2 points in each of n strata.
+            assert!(strata.iter().all(|&c| c <= 2), "{strata:?}");
+        }
+    }
 
     #[test]
     fn deterministic_and_uniform() {

@@ -17,7 +17,10 @@ fn temp_dir(name: &str) -> PathBuf {
 }
 
 fn json_lines(stderr: &str) -> Vec<serde_json::Value> {
-    stderr.lines().filter_map(|l| serde_json::from_str(l).ok()).collect()
+    stderr
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect()
 }
 
 #[test]
@@ -26,7 +29,16 @@ fn render_writes_exr_and_json_progress() {
     let out = dir.join("c.exr");
     let preview = dir.join("preview.exr");
     let o = prism()
-        .args(["render", "scenes/cornell/cornell.gltf", "--spp", "8", "--width", "40", "--height", "30"])
+        .args([
+            "render",
+            "scenes/cornell/cornell.gltf",
+            "--spp",
+            "8",
+            "--width",
+            "40",
+            "--height",
+            "30",
+        ])
         .args(["--progress", "json", "--threads", "2", "-o"])
         .arg(&out)
         .arg("--preview")
@@ -40,7 +52,8 @@ fn render_writes_exr_and_json_progress() {
     assert_eq!(kinds.first(), Some(&"start"), "{stderr}");
     assert_eq!(kinds.last(), Some(&"done"), "{stderr}");
     assert!(kinds.contains(&"preview") && preview.exists());
-    let progress: Vec<&serde_json::Value> = events.iter().filter(|e| e["event"] == "progress").collect();
+    let progress: Vec<&serde_json::Value> =
+        events.iter().filter(|e| e["event"] == "progress").collect();
     assert!(!progress.is_empty());
     for p in &progress {
         let f = p["fraction"].as_f64().unwrap();
@@ -56,7 +69,9 @@ fn render_writes_exr_and_json_progress() {
 
     let (w, h, px) = read_exr_rgba(&out).unwrap();
     assert_eq!((w, h), (40, 30));
-    assert!(px.iter().all(|p| p.iter().all(|v| v.is_finite()) && p[3] == 1.0));
+    assert!(px
+        .iter()
+        .all(|p| p.iter().all(|v| v.is_finite()) && p[3] == 1.0));
     let mean: f32 = px.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() / (3 * px.len()) as f32;
     assert!(mean > 0.05 && mean < 2.0, "implausible mean {mean}");
     std::fs::remove_dir_all(dir).ok();
@@ -68,7 +83,16 @@ fn sigint_stops_quickly_and_writes_partial_image() {
     let dir = temp_dir("sigint");
     let out = dir.join("partial.exr");
     let mut child = prism()
-        .args(["render", "scenes/cornell/cornell.gltf", "--spp", "100000", "--width", "64", "--height", "64"])
+        .args([
+            "render",
+            "scenes/cornell/cornell.gltf",
+            "--spp",
+            "100000",
+            "--width",
+            "64",
+            "--height",
+            "64",
+        ])
         .args(["--progress", "json", "--threads", "2", "-o"])
         .arg(&out)
         .stderr(Stdio::piped())
@@ -86,15 +110,24 @@ fn sigint_stops_quickly_and_writes_partial_image() {
     }
     assert!(saw_pass, "no progress before the stream ended");
     let t0 = Instant::now();
-    let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
     assert!(status.success());
     let rest: Vec<String> = lines.map_while(|l| l.ok()).collect();
     let exit = child.wait().unwrap();
     let took = t0.elapsed();
     assert!(took < Duration::from_millis(1500), "took {took:?} to stop");
     assert!(exit.success(), "exit status {exit:?}");
-    let done: Vec<serde_json::Value> = rest.iter().filter_map(|l| serde_json::from_str(l).ok()).collect();
-    let done = done.iter().find(|e| e["event"] == "done").expect("done event");
+    let done: Vec<serde_json::Value> = rest
+        .iter()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect();
+    let done = done
+        .iter()
+        .find(|e| e["event"] == "done")
+        .expect("done event");
     assert_eq!(done["cancelled"], true);
     let (w, h, px) = read_exr_rgba(&out).unwrap();
     assert_eq!((w, h), (64, 64));

@@ -12,43 +12,83 @@ use std::sync::atomic::AtomicBool;
 
 fn render_mean(desc: SceneDesc, spp: u32) -> (Vec3, Vec<[f32; 4]>) {
     let scene = Scene::build(desc).expect("scene builds");
-    let settings = RenderSettings { width: 32, height: 32, spp, max_depth: 64, seed: 7 };
-    let (film, stats) = render(&scene, &settings, &AtomicBool::new(false), &|_| {}, &mut |_, _| {});
+    let settings = RenderSettings {
+        width: 32,
+        height: 32,
+        spp,
+        max_depth: 64,
+        seed: 7,
+    };
+    let (film, stats) = render(
+        &scene,
+        &settings,
+        &AtomicBool::new(false),
+        &|_| {},
+        &mut |_, _| {},
+    );
     assert_eq!(stats.discarded, 0);
     let rgba = film.to_rgba();
-    let mean = rgba.iter().map(|p| Vec3::new(p[0], p[1], p[2])).sum::<Vec3>() / rgba.len() as f32;
+    let mean = rgba
+        .iter()
+        .map(|p| Vec3::new(p[0], p[1], p[2]))
+        .sum::<Vec3>()
+        / rgba.len() as f32;
     (mean, rgba)
+}
+
+/// Mean colour of a block of pixels of a 32x32 image (single pixels carry a few percent of
+/// spectral noise at these sample counts; blocks average it out).
+fn region_mean(rgba: &[[f32; 4]], xs: std::ops::Range<usize>, ys: std::ops::Range<usize>) -> Vec3 {
+    let mut sum = Vec3::ZERO;
+    let mut n = 0.0;
+    for y in ys {
+        for x in xs.clone() {
+            let p = rgba[y * 32 + x];
+            sum += Vec3::new(p[0], p[1], p[2]);
+            n += 1.0;
+        }
+    }
+    sum / n
 }
 
 fn assert_furnace(desc: SceneDesc, spp: u32, tol: f32) {
     let (mean, rgba) = render_mean(desc, spp);
     for c in mean.to_array() {
-        assert!((c - 1.0).abs() < tol, "furnace mean {mean} deviates from 1 by more than {tol}");
+        assert!(
+            (c - 1.0).abs() < tol,
+            "furnace mean {mean} deviates from 1 by more than {tol}"
+        );
     }
-    // The centre pixels see the sphere itself: they too must be 1.
-    let centre: Vec3 = [(15, 15), (16, 16), (15, 16), (16, 15)]
-        .iter()
-        .map(|&(x, y)| {
-            let p = rgba[y * 32 + x];
-            Vec3::new(p[0], p[1], p[2])
-        })
-        .sum::<Vec3>()
-        / 4.0;
+    // The central 8x8 pixels see the sphere itself: they too must be 1.
+    let centre = region_mean(&rgba, 12..20, 12..20);
     for c in centre.to_array() {
-        assert!((c - 1.0).abs() < 3.0 * tol, "sphere centre {centre} is not 1");
+        assert!(
+            (c - 1.0).abs() < 2.0 * tol,
+            "sphere centre {centre} is not 1"
+        );
     }
 }
 
 #[test]
 fn white_furnace_diffuse_albedo_one() {
-    assert_furnace(furnace_scene(diffuse_material("white", Vec3::ONE), Vec3::ONE), 64, 0.01);
+    assert_furnace(
+        furnace_scene(diffuse_material("white", Vec3::ONE), Vec3::ONE),
+        64,
+        0.01,
+    );
 }
 
 #[test]
 fn white_furnace_smooth_dielectric() {
     let glass = material_with(
-        GltfMaterialDesc { name: "glass".into(), ..Default::default() },
-        Some(MaterialOverride::Dielectric(DielectricDesc { ior: IorDesc::Constant(1.5), roughness: 0.0 })),
+        GltfMaterialDesc {
+            name: "glass".into(),
+            ..Default::default()
+        },
+        Some(MaterialOverride::Dielectric(DielectricDesc {
+            ior: IorDesc::Constant(1.5),
+            roughness: 0.0,
+        })),
     );
     assert_furnace(furnace_scene(glass, Vec3::ONE), 64, 0.01);
 }
@@ -57,11 +97,17 @@ fn white_furnace_smooth_dielectric() {
 fn grey_world_scales_linearly() {
     // A grey world of 0.25 with a diffuse sphere of albedo 0.5: the background is 0.25 and
     // the sphere (single bounce, convex) 0.125.
-    let (_, rgba) = render_mean(furnace_scene(diffuse_material("grey", Vec3::splat(0.5)), Vec3::splat(0.25)), 64);
-    let corner = rgba[0];
-    let centre = rgba[16 * 32 + 16];
+    let (_, rgba) = render_mean(
+        furnace_scene(
+            diffuse_material("grey", Vec3::splat(0.5)),
+            Vec3::splat(0.25),
+        ),
+        64,
+    );
+    let corner = region_mean(&rgba, 0..6, 0..6);
+    let centre = region_mean(&rgba, 12..20, 12..20);
     for c in 0..3 {
-        assert!((corner[c] - 0.25).abs() < 0.0025, "background {corner:?}");
-        assert!((centre[c] - 0.125).abs() < 0.01, "sphere {centre:?}");
+        assert!((corner[c] - 0.25).abs() < 0.005, "background {corner}");
+        assert!((centre[c] - 0.125).abs() < 0.0025, "sphere {centre}");
     }
 }

@@ -16,14 +16,33 @@ const REFERENCE: &str = "tests/data/cornell_64_ref.exr";
 const REFERENCE_SPP: u32 = 8192;
 
 fn cornell() -> Scene {
-    let desc = load_scene(Path::new("scenes/cornell/cornell.gltf"), None, None).expect("Cornell box loads");
+    let desc = load_scene(Path::new("scenes/cornell/cornell.gltf"), None, None)
+        .expect("Cornell box loads");
     Scene::build(desc).expect("Cornell box builds")
 }
 
 fn render_with(scene: &Scene, spp: u32, seed: u64, threads: usize) -> Film {
-    let settings = RenderSettings { width: SIZE, height: SIZE, spp, max_depth: 16, seed };
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-    pool.install(|| render(scene, &settings, &AtomicBool::new(false), &|_| {}, &mut |_, _| {})).0
+    let settings = RenderSettings {
+        width: SIZE,
+        height: SIZE,
+        spp,
+        max_depth: 16,
+        seed,
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        render(
+            scene,
+            &settings,
+            &AtomicBool::new(false),
+            &|_| {},
+            &mut |_, _| {},
+        )
+    })
+    .0
 }
 
 /// Box-downsamples by `k` (averaging k x k blocks): removes most per-pixel noise while keeping
@@ -84,9 +103,18 @@ fn cornell_matches_reference() {
     let (mt, mr) = (channel_means(&test), channel_means(&reference));
     for c in 0..3 {
         let rel = (mt[c] - mr[c]).abs() / mr[c];
-        assert!(rel < 0.02, "channel {c}: mean {} vs reference {} ({:.2}%)", mt[c], mr[c], rel * 100.0);
+        assert!(
+            rel < 0.02,
+            "channel {c}: mean {} vs reference {} ({:.2}%)",
+            mt[c],
+            mr[c],
+            rel * 100.0
+        );
     }
-    let e = rel_mse(&downsample(&test, SIZE as usize, 4), &downsample(&reference, SIZE as usize, 4));
+    let e = rel_mse(
+        &downsample(&test, SIZE as usize, 4),
+        &downsample(&reference, SIZE as usize, 4),
+    );
     eprintln!("relMSE (4x4 averaged) = {e:.5}; means {mt:?} vs {mr:?}");
     assert!(e < 0.01, "relative MSE {e} exceeds 0.01");
 }
@@ -96,8 +124,16 @@ fn thread_count_does_not_change_the_image() {
     let scene = cornell();
     let one = render_with(&scene, 4, 9, 1);
     let two = render_with(&scene, 4, 9, 2);
-    let a: Vec<u32> = one.to_rgba().iter().flat_map(|p| p.map(f32::to_bits)).collect();
-    let b: Vec<u32> = two.to_rgba().iter().flat_map(|p| p.map(f32::to_bits)).collect();
+    let a: Vec<u32> = one
+        .to_rgba()
+        .iter()
+        .flat_map(|p| p.map(f32::to_bits))
+        .collect();
+    let b: Vec<u32> = two
+        .to_rgba()
+        .iter()
+        .flat_map(|p| p.map(f32::to_bits))
+        .collect();
     assert!(a == b, "1-thread and 2-thread renders differ");
     // And a different seed does change it (the test would be vacuous otherwise).
     let other = render_with(&scene, 4, 10, 2);

@@ -17,7 +17,9 @@ pub fn read_exr_rgba(path: &Path) -> Result<(u32, u32, Vec<[f32; 4]>)> {
     let image = read_first_rgba_layer_from_file(
         path,
         |res, _| (res.width(), vec![[0f32; 4]; res.width() * res.height()]),
-        |(w, px), pos, (r, g, b, a): (f32, f32, f32, f32)| px[pos.y() * *w + pos.x()] = [r, g, b, a],
+        |(w, px), pos, (r, g, b, a): (f32, f32, f32, f32)| {
+            px[pos.y() * *w + pos.x()] = [r, g, b, a]
+        },
     )
     .map_err(|e| PrismError::input(format!("{}: cannot read EXR: {e}", path.display())))?;
     let size = image.layer_data.size;

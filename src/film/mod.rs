@@ -35,7 +35,11 @@ impl FilmPixel {
             return Vec3::ZERO;
         }
         let n = self.samples as f64;
-        let xyz = Vec3::new((self.xyz[0] / n) as f32, (self.xyz[1] / n) as f32, (self.xyz[2] / n) as f32);
+        let xyz = Vec3::new(
+            (self.xyz[0] / n) as f32,
+            (self.xyz[1] / n) as f32,
+            (self.xyz[2] / n) as f32,
+        );
         let rgb = xyz_to_linear_srgb(xyz);
         if rgb.is_finite() {
             rgb
@@ -53,7 +57,11 @@ pub struct Film {
 
 impl Film {
     pub fn new(width: u32, height: u32) -> Self {
-        Film { width, height, pixels: vec![FilmPixel::default(); width as usize * height as usize] }
+        Film {
+            width,
+            height,
+            pixels: vec![FilmPixel::default(); width as usize * height as usize],
+        }
     }
 
     /// Linear Rec.709 RGBA, row 0 = top of the image, alpha 1.

@@ -84,9 +84,25 @@ impl Mesh {
         let mut build_time = Duration::ZERO;
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&tris, build_params(), &mut build_time);
         // Reorder triangles into leaf order so traversal needs no indirection.
-        let tris = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
-        let indices = bvh.primitive_indices.iter().map(|&i| indices[i as usize]).collect();
-        Mesh { positions, normals, uvs, indices, material, tris, bvh }
+        let tris = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| tris[i as usize])
+            .collect();
+        let indices = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| indices[i as usize])
+            .collect();
+        Mesh {
+            positions,
+            normals,
+            uvs,
+            indices,
+            material,
+            tris,
+            bvh,
+        }
     }
 
     pub fn triangle_count(&self) -> usize {
@@ -108,12 +124,21 @@ impl Mesh {
         let mut hit = obvhs::ray::RayHit::none();
         let origin = Vec3::from(ray.origin);
         let dir = Vec3::from(ray.direction);
-        let mut local = BlasHit { t: ray.tmax, ..*best };
+        let mut local = BlasHit {
+            t: ray.tmax,
+            ..*best
+        };
         self.bvh.ray_traverse(*ray, &mut hit, |r, id| {
             let tri = &self.tris[id];
             match intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax) {
                 Some((t, b1, b2)) => {
-                    local = BlasHit { t, prim: id as u32, b1, b2, instance: best.instance };
+                    local = BlasHit {
+                        t,
+                        prim: id as u32,
+                        b1,
+                        b2,
+                        instance: best.instance,
+                    };
                     t
                 }
                 None => f32::INFINITY,
@@ -228,7 +253,13 @@ impl Geometry {
             obvhs::cwbvh::builder::build_cwbvh(&aabbs, build_params(), &mut build_time)
         };
         let tlas_order = tlas.primitive_indices.clone();
-        Geometry { meshes, instances, tlas, tlas_order, bounds }
+        Geometry {
+            meshes,
+            instances,
+            tlas,
+            tlas_order,
+            bounds,
+        }
     }
 
     /// World-space bounding box of everything (empty box if there is no geometry).
@@ -246,7 +277,10 @@ impl Geometry {
             return None;
         }
         let world = BvhRay::new(ray.origin.into(), ray.dir.into(), 0.0, t_max);
-        let mut best = BlasHit { t: t_max, ..Default::default() };
+        let mut best = BlasHit {
+            t: t_max,
+            ..Default::default()
+        };
         let mut rh = obvhs::ray::RayHit::none();
         self.tlas.ray_traverse(world, &mut rh, |r, id| {
             let inst_id = self.tlas_order[id];

@@ -41,8 +41,14 @@ mod tests {
         let h = intersect_triangle(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z, v0, e1, e2, 10.0);
         let (t, b1, b2) = h.unwrap();
         assert!((t - 1.0).abs() < 1e-6 && (b1 - 0.25).abs() < 1e-6 && (b2 - 0.25).abs() < 1e-6);
-        assert!(intersect_triangle(Vec3::new(0.75, 0.75, 1.0), -Vec3::Z, v0, e1, e2, 10.0).is_none());
-        assert!(intersect_triangle(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z, v0, e1, e2, 0.5).is_none());
-        assert!(intersect_triangle(Vec3::new(0.25, 0.25, 1.0), Vec3::Z, v0, e1, e2, 10.0).is_none());
+        assert!(
+            intersect_triangle(Vec3::new(0.75, 0.75, 1.0), -Vec3::Z, v0, e1, e2, 10.0).is_none()
+        );
+        assert!(
+            intersect_triangle(Vec3::new(0.25, 0.25, 1.0), -Vec3::Z, v0, e1, e2, 0.5).is_none()
+        );
+        assert!(
+            intersect_triangle(Vec3::new(0.25, 0.25, 1.0), Vec3::Z, v0, e1, e2, 10.0).is_none()
+        );
     }
 }

@@ -31,7 +31,12 @@ impl<'a> PathTracer<'a> {
 
     /// Radiance arriving along `ray` for the path's wavelengths. May terminate the secondary
     /// wavelengths (dispersion), which is why `w` is mutable.
-    pub fn radiance(&self, mut ray: Ray, w: &mut SampledWavelengths, sampler: &mut Sampler) -> PathSample {
+    pub fn radiance(
+        &self,
+        mut ray: Ray,
+        w: &mut SampledWavelengths,
+        sampler: &mut Sampler,
+    ) -> PathSample {
         let scene = self.scene;
         let geometry = &scene.geometry;
         let lights = &scene.lights;
@@ -51,7 +56,11 @@ impl<'a> PathTracer<'a> {
             let Some(hit) = geometry.intersect(&ray, f32::INFINITY) else {
                 let le = lights.environment_radiance(w);
                 if !le.is_black() {
-                    let weight = if specular_bounce { 1.0 } else { power_heuristic(prev_pdf, lights.environment_pdf()) };
+                    let weight = if specular_bounce {
+                        1.0
+                    } else {
+                        power_heuristic(prev_pdf, lights.environment_pdf())
+                    };
                     l += beta * le * weight;
                 }
                 break;
@@ -70,7 +79,8 @@ impl<'a> PathTracer<'a> {
                     let weight = if specular_bounce {
                         1.0
                     } else {
-                        let light_pdf = lights.triangle_pdf(hit.instance, hit.prim, sp.area, hit.t, cos_light);
+                        let light_pdf =
+                            lights.triangle_pdf(hit.instance, hit.prim, sp.area, hit.t, cos_light);
                         power_heuristic(prev_pdf, light_pdf)
                     };
                     l += beta * le * weight;
@@ -84,7 +94,11 @@ impl<'a> PathTracer<'a> {
             let transmissive = matches!(bsdf, Bsdf::Dielectric(_));
             // Reflective models shade both faces alike: turn the normals towards the viewer.
             // Dielectrics keep the outward normal so that inside/outside (eta) stays meaningful.
-            let (ns, ng) = if !transmissive && sp.ng.dot(wo_world) < 0.0 { (-sp.ns, -sp.ng) } else { (sp.ns, sp.ng) };
+            let (ns, ng) = if !transmissive && sp.ng.dot(wo_world) < 0.0 {
+                (-sp.ns, -sp.ng)
+            } else {
+                (sp.ns, sp.ng)
+            };
             let frame = Frame::from_normal_tangent(ns, sp.dpdu);
             let wo = frame.to_local(wo_world);
 
@@ -92,7 +106,15 @@ impl<'a> PathTracer<'a> {
             let u_light = sampler.next_1d();
             let u_light2 = sampler.next_2d();
             if !bsdf.is_specular() {
-                if let Some(ls) = lights.sample(geometry, &scene.materials, &scene.textures, sp.p, u_light, u_light2, w) {
+                if let Some(ls) = lights.sample(
+                    geometry,
+                    &scene.materials,
+                    &scene.textures,
+                    sp.p,
+                    u_light,
+                    u_light2,
+                    w,
+                ) {
                     let wi = frame.to_local(ls.wi);
                     let f = bsdf.eval(wo, wi) * wi.z.abs();
                     // A direction on the wrong geometric side would leak light through the surface.
@@ -102,7 +124,11 @@ impl<'a> PathTracer<'a> {
                         rays += 1;
                         let origin = offset_ray_origin(sp.p, ng, ls.wi);
                         if !geometry.occluded(&Ray::new(origin, ls.wi), ls.distance) {
-                            let weight = if ls.delta { 1.0 } else { power_heuristic(ls.pdf, bsdf.pdf(wo, wi)) };
+                            let weight = if ls.delta {
+                                1.0
+                            } else {
+                                power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
+                            };
                             let mut contrib = beta * f * ls.li * (weight / ls.pdf);
                             if let Some(sigma_a) = medium {
                                 // Only reachable through a transmissive surface of the same object.
@@ -117,7 +143,9 @@ impl<'a> PathTracer<'a> {
             }
 
             // Continue the path by sampling the BSDF.
-            let Some(bs) = bsdf.sample(wo, sampler.next_1d(), sampler.next_2d()) else { break };
+            let Some(bs) = bsdf.sample(wo, sampler.next_1d(), sampler.next_2d()) else {
+                break;
+            };
             if !(bs.pdf > 0.0) || bs.f.is_black() {
                 break;
             }
@@ -141,9 +169,17 @@ impl<'a> PathTracer<'a> {
                 let entering = wi_world.dot(sp.ng) < 0.0;
                 if let Bsdf::Dielectric(d) = &bsdf {
                     let eta = d.eta[0];
-                    eta_scale *= if entering { eta * eta } else { 1.0 / (eta * eta) };
+                    eta_scale *= if entering {
+                        eta * eta
+                    } else {
+                        1.0 / (eta * eta)
+                    };
                 }
-                medium = if entering { material.absorption(w) } else { None };
+                medium = if entering {
+                    material.absorption(w)
+                } else {
+                    None
+                };
             }
             if !beta.is_finite() {
                 break;

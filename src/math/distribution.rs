@@ -12,7 +12,13 @@ impl DiscreteDistribution {
     pub fn new(weights: &[f32]) -> Self {
         let clean: Vec<f64> = weights
             .iter()
-            .map(|&w| if w.is_finite() && w > 0.0 { w as f64 } else { 0.0 })
+            .map(|&w| {
+                if w.is_finite() && w > 0.0 {
+                    w as f64
+                } else {
+                    0.0
+                }
+            })
             .collect();
         let total: f64 = clean.iter().sum();
         let n = clean.len();
@@ -25,7 +31,11 @@ impl DiscreteDistribution {
         let mut acc = 0.0f64;
         cdf.push(0.0);
         for (i, &w) in clean.iter().enumerate() {
-            acc += if total > 0.0 { w / total } else { 1.0 / n as f64 };
+            acc += if total > 0.0 {
+                w / total
+            } else {
+                1.0 / n as f64
+            };
             cdf.push(if i + 1 == n { 1.0 } else { acc as f32 });
         }
         DiscreteDistribution { cdf, pmf }
@@ -49,7 +59,11 @@ impl DiscreteDistribution {
         // First i with cdf[i + 1] > u, skipping zero-probability items.
         let i = self.cdf[1..].partition_point(|&c| c <= u).min(n - 1);
         let (lo, hi) = (self.cdf[i], self.cdf[i + 1]);
-        let u_remapped = if hi > lo { ((u - lo) / (hi - lo)).clamp(0.0, 0.999_999_94) } else { 0.0 };
+        let u_remapped = if hi > lo {
+            ((u - lo) / (hi - lo)).clamp(0.0, 0.999_999_94)
+        } else {
+            0.0
+        };
         (i, self.pmf[i], u_remapped)
     }
 }

@@ -29,7 +29,11 @@ impl Frame {
             return Self::from_normal(n);
         }
         let s = s / len;
-        Frame { s, t: n.cross(s), n }
+        Frame {
+            s,
+            t: n.cross(s),
+            n,
+        }
     }
 
     #[inline]
@@ -49,7 +53,12 @@ mod tests {
 
     #[test]
     fn frame_is_orthonormal_and_round_trips() {
-        for n in [Vec3::Z, -Vec3::Z, Vec3::X, Vec3::new(0.3, -0.5, 0.81).normalize()] {
+        for n in [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::X,
+            Vec3::new(0.3, -0.5, 0.81).normalize(),
+        ] {
             let f = Frame::from_normal(n);
             assert!((f.s.dot(f.t)).abs() < 1e-6 && (f.s.dot(f.n)).abs() < 1e-6);
             assert!((f.s.length() - 1.0).abs() < 1e-6 && (f.t.length() - 1.0).abs() < 1e-6);

@@ -23,7 +23,17 @@ impl Scene {
     /// Builds acceleration structures and light tables. Fails (as bad input) only for scenes
     /// that cannot produce an image: no camera, no light at all.
     pub fn build(desc: SceneDesc) -> Result<Scene> {
-        let SceneDesc { meshes, instances, materials, textures, lights, camera, world, render, mut warnings } = desc;
+        let SceneDesc {
+            meshes,
+            instances,
+            materials,
+            textures,
+            lights,
+            camera,
+            world,
+            render,
+            mut warnings,
+        } = desc;
         let camera = camera.ok_or_else(|| PrismError::input("the scene has no camera"))?;
 
         // Runtime materials: the described ones, then glTF's default material for primitives
@@ -31,7 +41,10 @@ impl Scene {
         let mut runtime_materials: Vec<Material> = materials.iter().map(Material::new).collect();
         let default_material = runtime_materials.len() as u32;
         runtime_materials.push(Material::new(&MaterialDesc {
-            gltf: super::desc::GltfMaterialDesc { name: "(glTF default)".into(), ..Default::default() },
+            gltf: super::desc::GltfMaterialDesc {
+                name: "(glTF default)".into(),
+                ..Default::default()
+            },
             sidecar: None,
         }));
         let subsurface: Vec<&str> = runtime_materials
@@ -59,9 +72,16 @@ impl Scene {
                     if a >= n || b >= n || c >= n {
                         return false;
                     }
-                    let (p0, p1, p2) = (m.positions[a as usize], m.positions[b as usize], m.positions[c as usize]);
+                    let (p0, p1, p2) = (
+                        m.positions[a as usize],
+                        m.positions[b as usize],
+                        m.positions[c as usize],
+                    );
                     let cross = (p1 - p0).cross(p2 - p0);
-                    p0.is_finite() && p1.is_finite() && p2.is_finite() && cross.length_squared() > 0.0
+                    p0.is_finite()
+                        && p1.is_finite()
+                        && p2.is_finite()
+                        && cross.length_squared() > 0.0
                 })
                 .collect();
             if tris.is_empty() {
@@ -90,8 +110,18 @@ impl Scene {
             .collect();
         let geometry = Geometry::new(runtime_meshes, runtime_instances);
 
-        let world_radiance = if world.strength > 0.0 { world.color.max(Vec3::ZERO) * world.strength } else { Vec3::ZERO };
-        let lights = Lights::build(&geometry, &runtime_materials, &textures, &lights, world_radiance);
+        let world_radiance = if world.strength > 0.0 {
+            world.color.max(Vec3::ZERO) * world.strength
+        } else {
+            Vec3::ZERO
+        };
+        let lights = Lights::build(
+            &geometry,
+            &runtime_materials,
+            &textures,
+            &lights,
+            world_radiance,
+        );
         if lights.is_empty() {
             return Err(PrismError::input(
                 "the scene has no light: no emissive material, no KHR_lights_punctual light and a black world",

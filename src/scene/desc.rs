@@ -111,7 +111,11 @@ impl Default for GltfMaterialDesc {
 pub enum IorDesc {
     Constant(f32),
     /// eta(lambda) = a + b / lambda^2 + c / lambda^4, lambda in micrometres.
-    Cauchy { a: f32, b: f32, c: f32 },
+    Cauchy {
+        a: f32,
+        b: f32,
+        c: f32,
+    },
 }
 
 /// Measured or explicit participating medium of a subsurface material (consumed by the BSSRDF).
@@ -199,7 +203,10 @@ pub struct WorldDesc {
 
 impl Default for WorldDesc {
     fn default() -> Self {
-        WorldDesc { color: Vec3::ZERO, strength: 0.0 }
+        WorldDesc {
+            color: Vec3::ZERO,
+            strength: 0.0,
+        }
     }
 }
 

@@ -13,7 +13,10 @@ use glam::{Vec2, Vec3, Vec4Swizzles};
 pub enum Light {
     /// One emissive triangle of a placed mesh.
     Triangle { instance: u32, prim: u32 },
-    Point { position: Vec3, intensity: RgbIlluminantSpectrum },
+    Point {
+        position: Vec3,
+        intensity: RgbIlluminantSpectrum,
+    },
     Spot {
         position: Vec3,
         frame: Frame,
@@ -23,7 +26,10 @@ pub enum Light {
         intensity: RgbIlluminantSpectrum,
     },
     /// Parallel light travelling along -`to_light`.
-    Directional { to_light: Vec3, irradiance: RgbIlluminantSpectrum },
+    Directional {
+        to_light: Vec3,
+        irradiance: RgbIlluminantSpectrum,
+    },
     /// Uniform radiance from every direction (the world colour).
     Environment { radiance: RgbIlluminantSpectrum },
 }
@@ -100,7 +106,10 @@ impl Lights {
             instance_base[ii] = lights.len() as u32;
             for prim in 0..mesh.triangle_count() as u32 {
                 let area = geometry.surface_point_at(ii as u32, prim, 0.0, 0.0).area;
-                lights.push(Light::Triangle { instance: ii as u32, prim });
+                lights.push(Light::Triangle {
+                    instance: ii as u32,
+                    prim,
+                });
                 power.push(luminance(rgb) * area * PI * sides);
             }
         }
@@ -109,10 +118,16 @@ impl Lights {
             let spectrum = RgbIlluminantSpectrum::new(rgb);
             match p.kind {
                 PunctualKind::Point => {
-                    lights.push(Light::Point { position: p.position, intensity: spectrum });
+                    lights.push(Light::Point {
+                        position: p.position,
+                        intensity: spectrum,
+                    });
                     power.push(4.0 * PI * luminance(rgb));
                 }
-                PunctualKind::Spot { inner_cone, outer_cone } => {
+                PunctualKind::Spot {
+                    inner_cone,
+                    outer_cone,
+                } => {
                     let outer = outer_cone.clamp(1e-4, PI / 2.0);
                     let cos_outer = outer.cos();
                     let blend = (1.0 - inner_cone.clamp(0.0, outer) / outer).clamp(0.0, 1.0);
@@ -135,7 +150,11 @@ impl Lights {
             }
         }
         let (lo, hi) = geometry.bounds();
-        let scene_radius = if geometry.is_empty() { 1.0 } else { (0.5 * (hi - lo).length()).max(1e-3) };
+        let scene_radius = if geometry.is_empty() {
+            1.0
+        } else {
+            (0.5 * (hi - lo).length()).max(1e-3)
+        };
         for (l, p) in lights.iter().zip(power.iter_mut()) {
             if let Light::Directional { irradiance, .. } = l {
                 *p = PI * scene_radius * scene_radius * luminance_of(irradiance);
@@ -144,11 +163,19 @@ impl Lights {
         let mut environment = None;
         if world_radiance.max_element() > 0.0 {
             environment = Some(lights.len());
-            lights.push(Light::Environment { radiance: RgbIlluminantSpectrum::new(world_radiance) });
+            lights.push(Light::Environment {
+                radiance: RgbIlluminantSpectrum::new(world_radiance),
+            });
             power.push(4.0 * PI * PI * scene_radius * scene_radius * luminance(world_radiance));
         }
         let distribution = DiscreteDistribution::new(&power);
-        Lights { lights, distribution, instance_base, environment, scene_radius }
+        Lights {
+            lights,
+            distribution,
+            instance_base,
+            environment,
+            scene_radius,
+        }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -173,13 +200,26 @@ impl Lights {
 
     /// Density with which `sample` produces an escaping direction (the world light).
     pub fn environment_pdf(&self) -> f32 {
-        self.environment.map_or(0.0, |i| self.distribution.pmf(i) * sampling::uniform_sphere_pdf())
+        self.environment.map_or(0.0, |i| {
+            self.distribution.pmf(i) * sampling::uniform_sphere_pdf()
+        })
     }
 
     /// Density with which `sample` produces the direction towards triangle `prim` of
     /// `instance`, hit at distance `dist` with cosine `cos_light` at the light.
-    pub fn triangle_pdf(&self, instance: u32, prim: u32, area: f32, dist: f32, cos_light: f32) -> f32 {
-        let base = self.instance_base.get(instance as usize).copied().unwrap_or(u32::MAX);
+    pub fn triangle_pdf(
+        &self,
+        instance: u32,
+        prim: u32,
+        area: f32,
+        dist: f32,
+        cos_light: f32,
+    ) -> f32 {
+        let base = self
+            .instance_base
+            .get(instance as usize)
+            .copied()
+            .unwrap_or(u32::MAX);
         if base == u32::MAX || cos_light.abs() < 1e-7 || area <= 0.0 {
             return 0.0;
         }
@@ -230,7 +270,10 @@ impl Lights {
                     delta: false,
                 })
             }
-            Light::Point { position, intensity } => {
+            Light::Point {
+                position,
+                intensity,
+            } => {
                 let d = *position - p;
                 let dist2 = d.length_squared();
                 (dist2 > 0.0).then(|| {
@@ -244,7 +287,13 @@ impl Lights {
                     }
                 })
             }
-            Light::Spot { position, frame, cos_outer, cos_smooth, intensity } => {
+            Light::Spot {
+                position,
+                frame,
+                cos_outer,
+                cos_smooth,
+                intensity,
+            } => {
                 let d = *position - p;
                 let dist2 = d.length_squared();
                 if dist2 <= 0.0 {
@@ -261,7 +310,10 @@ impl Lights {
                     delta: true,
                 })
             }
-            Light::Directional { to_light, irradiance } => Some(LightSample {
+            Light::Directional {
+                to_light,
+                irradiance,
+            } => Some(LightSample {
                 wi: *to_light,
                 distance: f32::INFINITY,
                 li: irradiance.sample(w),

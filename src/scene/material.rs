@@ -17,7 +17,10 @@ use glam::{Vec2, Vec3, Vec4, Vec4Swizzles};
 #[derive(Clone, Debug)]
 enum SurfaceModel {
     Gltf,
-    Dielectric { ior: IorDesc, alpha: f32 },
+    Dielectric {
+        ior: IorDesc,
+        alpha: f32,
+    },
     /// Parsed and validated; rendered with its glTF surface until the BSSRDF lands.
     #[allow(dead_code)] // the description is consumed by the BSSRDF (subsurface issue)
     Subsurface(SubsurfaceDesc),
@@ -66,11 +69,14 @@ impl Material {
             },
             Some(MaterialOverride::Subsurface(s)) => SurfaceModel::Subsurface(s.clone()),
         };
-        let emission = (g.emissive.max_element() > 0.0).then(|| RgbIlluminantSpectrum::new(g.emissive));
+        let emission =
+            (g.emissive.max_element() > 0.0).then(|| RgbIlluminantSpectrum::new(g.emissive));
         let absorption = (g.attenuation_distance.is_finite() && g.attenuation_distance > 0.0)
             .then(|| {
                 let c = g.attenuation_color.clamp(Vec3::splat(1e-6), Vec3::ONE);
-                RgbUnboundedSpectrum::new(-Vec3::new(c.x.ln(), c.y.ln(), c.z.ln()) / g.attenuation_distance)
+                RgbUnboundedSpectrum::new(
+                    -Vec3::new(c.x.ln(), c.y.ln(), c.z.ln()) / g.attenuation_distance,
+                )
             })
             .filter(|_| g.attenuation_color.min_element() < 1.0);
         Material {
@@ -149,11 +155,19 @@ impl Material {
                 alpha: if *alpha < MIN_ALPHA { 0.0 } else { *alpha },
                 transmission_tint: SampledSpectrum::ONE,
             }),
-            SurfaceModel::Gltf | SurfaceModel::Subsurface(_) => self.gltf_bsdf(textures, uv, w, u_select),
+            SurfaceModel::Gltf | SurfaceModel::Subsurface(_) => {
+                self.gltf_bsdf(textures, uv, w, u_select)
+            }
         }
     }
 
-    fn gltf_bsdf(&self, textures: &[TextureDesc], uv: Vec2, w: &SampledWavelengths, u_select: f32) -> Bsdf {
+    fn gltf_bsdf(
+        &self,
+        textures: &[TextureDesc],
+        uv: Vec2,
+        w: &SampledWavelengths,
+        u_select: f32,
+    ) -> Bsdf {
         let g = &self.gltf;
         let base = match g.base_color_texture {
             None => self.base_albedo.sample(w),
@@ -195,7 +209,9 @@ impl Material {
 
 /// Texture value at `uv` for a material's texture reference (white if the index is invalid).
 fn lookup(textures: &[TextureDesc], tref: &TextureRef, uv: Vec2) -> Vec4 {
-    textures.get(tref.texture).map_or(Vec4::ONE, |t| sample_texture(t, tref, uv))
+    textures
+        .get(tref.texture)
+        .map_or(Vec4::ONE, |t| sample_texture(t, tref, uv))
 }
 
 #[cfg(test)]
@@ -204,7 +220,11 @@ mod tests {
 
     #[test]
     fn cauchy_ior() {
-        let ior = IorDesc::Cauchy { a: 1.5, b: 0.01, c: 0.0 };
+        let ior = IorDesc::Cauchy {
+            a: 1.5,
+            b: 0.01,
+            c: 0.0,
+        };
         assert!((eval_ior(&ior, 500.0) - (1.5 + 0.01 / 0.25)).abs() < 1e-6);
         assert_eq!(eval_ior(&IorDesc::Constant(1.33), 400.0), 1.33);
     }

@@ -57,7 +57,13 @@ impl SampledSpectrum {
     /// Division that yields 0 where the denominator is 0 (used for throughput / pdf ratios).
     #[inline]
     pub fn safe_div(self, d: Self) -> Self {
-        Self::from_fn(|i| if d.0[i] != 0.0 { self.0[i] / d.0[i] } else { 0.0 })
+        Self::from_fn(|i| {
+            if d.0[i] != 0.0 {
+                self.0[i] / d.0[i]
+            } else {
+                0.0
+            }
+        })
     }
     #[inline]
     pub fn clamp_zero(self) -> Self {
@@ -159,7 +165,10 @@ impl SampledWavelengths {
             let shifted = hero - LAMBDA_MIN + range * k as f32 / N_WAVELENGTHS as f32;
             LAMBDA_MIN + shifted.rem_euclid(range)
         });
-        let mean_pdf = lambda.iter().map(|&l| visible_wavelength_pdf(l)).sum::<f32>()
+        let mean_pdf = lambda
+            .iter()
+            .map(|&l| visible_wavelength_pdf(l))
+            .sum::<f32>()
             / N_WAVELENGTHS as f32;
         SampledWavelengths {
             lambda,

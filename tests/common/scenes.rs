@@ -15,13 +15,22 @@ pub fn sphere_mesh(material: usize, segments: u32, rings: u32) -> MeshDesc {
         let theta = std::f32::consts::PI * r as f32 / rings as f32;
         for s in 0..=segments {
             let phi = 2.0 * std::f32::consts::PI * s as f32 / segments as f32;
-            positions.push(Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()));
+            positions.push(Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            ));
         }
     }
     let row = segments + 1;
     for r in 0..rings {
         for s in 0..segments {
-            let (a, b, c, d) = (r * row + s, r * row + s + 1, (r + 1) * row + s, (r + 1) * row + s + 1);
+            let (a, b, c, d) = (
+                r * row + s,
+                r * row + s + 1,
+                (r + 1) * row + s,
+                (r + 1) * row + s + 1,
+            );
             // Counter-clockwise seen from outside.
             indices.extend_from_slice(&[a, b, c, b, d, c]);
         }
@@ -68,10 +77,17 @@ pub fn camera(distance: f32, yfov: f32) -> CameraDesc {
 pub fn furnace_scene(material: MaterialDesc, world: Vec3) -> SceneDesc {
     SceneDesc {
         meshes: vec![sphere_mesh(0, 64, 32)],
-        instances: vec![InstanceDesc { mesh: 0, object_to_world: Mat4::IDENTITY, name: "sphere".into() }],
+        instances: vec![InstanceDesc {
+            mesh: 0,
+            object_to_world: Mat4::IDENTITY,
+            name: "sphere".into(),
+        }],
         materials: vec![material],
         camera: Some(camera(3.0, 0.8)),
-        world: WorldDesc { color: world, strength: 1.0 },
+        world: WorldDesc {
+            color: world,
+            strength: 1.0,
+        },
         ..Default::default()
     }
 }
