@@ -68,7 +68,7 @@ pub struct MetallicRoughnessBsdf {
 }
 
 /// Dielectric interface: smooth (alpha < 1e-3, or eta == 1: exact Fresnel, specular reflection
-/// + refraction) or rough (Walter et al. 2007 GGX microfacet BRDF + BTDF). See `dielectric.rs`
+/// and refraction) or rough (Walter et al. 2007 GGX microfacet BRDF + BTDF). See `dielectric.rs`
 /// for the dispersion rules (`eta[0]` decides directions).
 #[derive(Clone, Copy, Debug)]
 pub struct DielectricBsdf {
