@@ -80,6 +80,14 @@ enum Command {
         #[arg(long, default_value_t = 0.0)]
         exposure: f32,
     },
+    /// Compare an EXR with a reference: channel means and relative MSE (optionally after
+    /// averaging k x k blocks to remove residual noise).
+    Compare {
+        test: PathBuf,
+        reference: PathBuf,
+        #[arg(long, default_value_t = 1)]
+        block: usize,
+    },
     /// Measure samples/s and rays/s per thread on a scene (default: the Cornell box).
     Bench {
         #[arg(default_value = "scenes/cornell/cornell.gltf")]
@@ -111,6 +119,11 @@ fn main() {
             progress,
             preview,
         } => run_render(&scene, output, threads, progress, preview),
+        Command::Compare {
+            test,
+            reference,
+            block,
+        } => compare(&test, &reference, block),
         Command::ToPng {
             input,
             output,
@@ -380,4 +393,27 @@ fn to_png(input: &Path, output: &Path, exposure: f32) -> Result<()> {
         .collect();
     image::save_buffer(output, &bytes, w, h, image::ColorType::Rgb8)
         .map_err(|e| PrismError::internal(format!("{}: cannot write PNG: {e}", output.display())))
+}
+
+fn compare(test: &Path, reference: &Path, block: usize) -> Result<()> {
+    use prism::film::metrics::{box_downsample, channel_means, rel_mse};
+    let (w, h, a) = prism::film::read_exr_rgba(test)?;
+    let (rw, rh, b) = prism::film::read_exr_rgba(reference)?;
+    if (w, h) != (rw, rh) {
+        return Err(PrismError::input(format!(
+            "image sizes differ: {w}x{h} vs {rw}x{rh}"
+        )));
+    }
+    let k = block.max(1);
+    let (_, _, da) = box_downsample(&a, w as usize, h as usize, k);
+    let (_, _, db) = box_downsample(&b, w as usize, h as usize, k);
+    let (ma, mb) = (channel_means(&a), channel_means(&b));
+    let rel: Vec<String> = (0..3)
+        .map(|c| format!("{:.4}", (ma[c] - mb[c]) / mb[c]))
+        .collect();
+    println!(
+        "{{\"means\":[{:.6},{:.6},{:.6}],\"reference_means\":[{:.6},{:.6},{:.6}],\"relative_mean_difference\":[{}],\"block\":{k},\"rel_mse\":{:.6}}}",
+        ma[0], ma[1], ma[2], mb[0], mb[1], mb[2], rel.join(","), rel_mse(&da, &db)
+    );
+    Ok(())
 }

@@ -2,6 +2,7 @@
 //! linear Rec.709 (Blender's scene-linear default) and writes OpenEXR.
 
 mod exr_io;
+pub mod metrics;
 
 pub use exr_io::{read_exr_rgba, write_exr_rgba};
 
