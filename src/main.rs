@@ -87,6 +87,9 @@ enum Command {
         reference: PathBuf,
         #[arg(long, default_value_t = 1)]
         block: usize,
+        /// Clamp pixel values to [0, CLAMP] in both images first (tames fireflies)
+        #[arg(long)]
+        clamp: Option<f32>,
     },
     /// Measure samples/s and rays/s per thread on a scene (default: the Cornell box).
     Bench {
@@ -123,7 +126,8 @@ fn main() {
             test,
             reference,
             block,
-        } => compare(&test, &reference, block),
+            clamp,
+        } => compare(&test, &reference, block, clamp),
         Command::ToPng {
             input,
             output,
@@ -395,10 +399,14 @@ fn to_png(input: &Path, output: &Path, exposure: f32) -> Result<()> {
         .map_err(|e| PrismError::internal(format!("{}: cannot write PNG: {e}", output.display())))
 }
 
-fn compare(test: &Path, reference: &Path, block: usize) -> Result<()> {
-    use prism::film::metrics::{box_downsample, channel_means, rel_mse};
-    let (w, h, a) = prism::film::read_exr_rgba(test)?;
-    let (rw, rh, b) = prism::film::read_exr_rgba(reference)?;
+fn compare(test: &Path, reference: &Path, block: usize, clamp: Option<f32>) -> Result<()> {
+    use prism::film::metrics::{box_downsample, channel_means, clamp_pixels, rel_mse};
+    let (w, h, mut a) = prism::film::read_exr_rgba(test)?;
+    let (rw, rh, mut b) = prism::film::read_exr_rgba(reference)?;
+    if let Some(m) = clamp {
+        a = clamp_pixels(&a, m);
+        b = clamp_pixels(&b, m);
+    }
     if (w, h) != (rw, rh) {
         return Err(PrismError::input(format!(
             "image sizes differ: {w}x{h} vs {rw}x{rh}"

@@ -33,6 +33,21 @@ pub fn box_downsample(
     (w, h, out)
 }
 
+/// Clamps RGB to [0, max]: a firefly (a rare, very bright sample) then moves a block average
+/// by a bounded amount, which keeps metrics on noisy renders stable. Clamp both images alike.
+pub fn clamp_pixels(px: &[[f32; 4]], max: f32) -> Vec<[f32; 4]> {
+    px.iter()
+        .map(|p| {
+            [
+                p[0].clamp(0.0, max),
+                p[1].clamp(0.0, max),
+                p[2].clamp(0.0, max),
+                p[3],
+            ]
+        })
+        .collect()
+}
+
 /// Relative MSE over RGB: mean of (a - b)^2 / (b^2 + epsilon), b the reference. The epsilon
 /// (0.01) keeps near-black pixels from dominating.
 pub fn rel_mse(test: &[[f32; 4]], reference: &[[f32; 4]]) -> f64 {
