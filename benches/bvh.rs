@@ -18,7 +18,12 @@ fn sphere(segments: u32, rings: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     let row = segments + 1;
     for r in 0..rings {
         for s in 0..segments {
-            let (a, b, c, d) = (r * row + s, r * row + s + 1, (r + 1) * row + s, (r + 1) * row + s + 1);
+            let (a, b, c, d) = (
+                r * row + s,
+                r * row + s + 1,
+                (r + 1) * row + s,
+                (r + 1) * row + s + 1,
+            );
             if r > 0 {
                 idx.push([a, b, c]);
             }
@@ -34,7 +39,12 @@ fn geometry(instances: usize) -> Geometry {
     let (p, idx) = sphere(400, 200); // ~160k triangles
     let mesh = Mesh::new(p, None, None, idx, 0);
     let insts = (0..instances)
-        .map(|i| Instance::new(0, Affine3A::from_translation(Vec3::new(2.5 * i as f32, 0.0, 0.0))))
+        .map(|i| {
+            Instance::new(
+                0,
+                Affine3A::from_translation(Vec3::new(2.5 * i as f32, 0.0, 0.0)),
+            )
+        })
         .collect();
     Geometry::new(vec![mesh], insts)
 }
@@ -54,19 +64,31 @@ fn bench_bvh(c: &mut Criterion) {
     let mut group = c.benchmark_group("bvh");
     let (p, idx) = sphere(400, 200);
     group.sample_size(10);
-    group.bench_function("build_160k_tris", |b| b.iter(|| Mesh::new(p.clone(), None, None, idx.clone(), 0)));
+    group.bench_function("build_160k_tris", |b| {
+        b.iter(|| Mesh::new(p.clone(), None, None, idx.clone(), 0))
+    });
     let g = geometry(1);
     let rs = rays(10_000, 3.0);
     group.throughput(Throughput::Elements(rs.len() as u64));
     group.sample_size(20);
     group.bench_function("closest_hit_10k_rays", |b| {
-        b.iter(|| rs.iter().filter(|r| g.intersect(r, f32::INFINITY).is_some()).count())
+        b.iter(|| {
+            rs.iter()
+                .filter(|r| g.intersect(r, f32::INFINITY).is_some())
+                .count()
+        })
     });
-    group.bench_function("shadow_10k_rays", |b| b.iter(|| rs.iter().filter(|r| g.occluded(r, 100.0)).count()));
+    group.bench_function("shadow_10k_rays", |b| {
+        b.iter(|| rs.iter().filter(|r| g.occluded(r, 100.0)).count())
+    });
     let g4 = geometry(4);
     let rs4 = rays(10_000, 12.0);
     group.bench_function("closest_hit_10k_rays_4_instances", |b| {
-        b.iter(|| rs4.iter().filter(|r| g4.intersect(r, f32::INFINITY).is_some()).count())
+        b.iter(|| {
+            rs4.iter()
+                .filter(|r| g4.intersect(r, f32::INFINITY).is_some())
+                .count()
+        })
     });
     group.finish();
 }
