@@ -23,7 +23,7 @@ cargo build --release --quiet
 if [ $run_criterion = 1 ]; then
   echo "== criterion"
   cargo bench --quiet --bench bvh --bench bsdf -- --warm-up-time 1 --measurement-time 3 2>/dev/null \
-    | grep -E '^[a-z_/0-9]+ |time:|thrpt:' || true
+    | grep -E '^[a-z_/0-9]+( |$)|time:|thrpt:' | grep -v '%' || true
 fi
 
 echo "== prism bench: $SCENE ${SIZE}x${SIZE}, $SPP spp, threads 1,$THREADS, median of $REPEAT"

@@ -1,0 +1,179 @@
+//! Renders with closed-form answers: a Lambertian plane under each punctual light type, and
+//! Beer–Lambert absorption through an index-matched (eta = 1) absorbing sphere.
+
+mod common;
+
+use common::scenes::{camera, diffuse_material, furnace_scene, material_with};
+use glam::{Mat4, Vec3};
+use prism::render::{render, RenderSettings};
+use prism::scene::{
+    DielectricDesc, GltfMaterialDesc, InstanceDesc, IorDesc, MaterialOverride, MeshDesc,
+    PunctualKind, PunctualLightDesc, Scene, SceneDesc,
+};
+use std::sync::atomic::AtomicBool;
+
+const ALBEDO: f32 = 0.5;
+
+/// A 20 x 20 horizontal quad at y = 0 facing +y, seen from (0, 3, 0) looking straight down.
+fn plane_scene(light: PunctualLightDesc) -> SceneDesc {
+    let p = [
+        Vec3::new(-10.0, 0.0, -10.0),
+        Vec3::new(10.0, 0.0, -10.0),
+        Vec3::new(10.0, 0.0, 10.0),
+        Vec3::new(-10.0, 0.0, 10.0),
+    ];
+    let mut cam = camera(0.0, 0.05);
+    cam.camera_to_world = Mat4::from_translation(Vec3::new(0.0, 3.0, 0.0))
+        * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+    SceneDesc {
+        meshes: vec![MeshDesc {
+            name: "plane".into(),
+            positions: p.to_vec(),
+            normals: Some(vec![Vec3::Y; 4]),
+            uvs: None,
+            indices: vec![0, 2, 1, 0, 3, 2],
+            material: Some(0),
+        }],
+        instances: vec![InstanceDesc {
+            mesh: 0,
+            object_to_world: Mat4::IDENTITY,
+            name: "plane".into(),
+        }],
+        materials: vec![diffuse_material("grey", Vec3::splat(ALBEDO))],
+        lights: vec![light],
+        camera: Some(cam),
+        ..Default::default()
+    }
+}
+
+fn mean_rgb(desc: SceneDesc, spp: u32) -> Vec3 {
+    let scene = Scene::build(desc).expect("scene builds");
+    let settings = RenderSettings {
+        width: 8,
+        height: 8,
+        spp,
+        max_depth: 4,
+        seed: 3,
+    };
+    let (film, _) = render(
+        &scene,
+        &settings,
+        &AtomicBool::new(false),
+        &|_| {},
+        &mut |_, _| {},
+    );
+    let px = film.to_rgba();
+    px.iter().map(|p| Vec3::new(p[0], p[1], p[2])).sum::<Vec3>() / px.len() as f32
+}
+
+fn assert_close(got: Vec3, want: f32, tol: f32, what: &str) {
+    for c in got.to_array() {
+        assert!(
+            (c - want).abs() <= tol * want,
+            "{what}: got {got}, want {want} (+-{:.1}%)",
+            tol * 100.0
+        );
+    }
+}
+
+fn light(kind: PunctualKind, intensity: f32, position: Vec3, direction: Vec3) -> PunctualLightDesc {
+    PunctualLightDesc {
+        name: "l".into(),
+        kind,
+        color: Vec3::ONE,
+        intensity,
+        position,
+        direction,
+    }
+}
+
+#[test]
+fn point_light_inverse_square_law() {
+    // Radiance of a Lambertian point at distance h straight below: rho/pi * I / h^2.
+    let (i, h) = (8.0, 2.0);
+    let got = mean_rgb(
+        plane_scene(light(
+            PunctualKind::Point,
+            i,
+            Vec3::new(0.0, h, 0.0),
+            -Vec3::Y,
+        )),
+        256,
+    );
+    assert_close(
+        got,
+        ALBEDO / std::f32::consts::PI * i / (h * h),
+        0.02,
+        "point light",
+    );
+}
+
+#[test]
+fn spot_light_inside_and_outside_cone() {
+    let (i, h) = (8.0, 2.0);
+    let inside = light(
+        PunctualKind::Spot {
+            inner_cone: 0.3,
+            outer_cone: 0.4,
+        },
+        i,
+        Vec3::new(0.0, h, 0.0),
+        -Vec3::Y,
+    );
+    assert_close(
+        mean_rgb(plane_scene(inside), 256),
+        ALBEDO / std::f32::consts::PI * i / (h * h),
+        0.02,
+        "spot centre",
+    );
+    // Aimed away (horizontal): the spot below the light gets nothing.
+    let away = light(
+        PunctualKind::Spot {
+            inner_cone: 0.3,
+            outer_cone: 0.4,
+        },
+        i,
+        Vec3::new(0.0, h, 0.0),
+        Vec3::X,
+    );
+    assert_eq!(mean_rgb(plane_scene(away), 16), Vec3::ZERO);
+}
+
+#[test]
+fn directional_light_cosine_law() {
+    // Irradiance E at 60 degrees from the normal: radiance rho/pi * E cos(60).
+    let e = 3.0;
+    let dir = Vec3::new(60f32.to_radians().sin(), -60f32.to_radians().cos(), 0.0);
+    let got = mean_rgb(
+        plane_scene(light(PunctualKind::Directional, e, Vec3::ZERO, dir)),
+        256,
+    );
+    assert_close(
+        got,
+        ALBEDO / std::f32::consts::PI * e * 0.5,
+        0.02,
+        "directional light",
+    );
+}
+
+#[test]
+fn beer_lambert_through_index_matched_sphere() {
+    // eta = 1: rays pass straight through, so the centre pixel sees the white world through
+    // a chord of length 2 (the diameter): exp(-2 sigma) with sigma = -ln(0.5) / 1.
+    let glass = material_with(
+        GltfMaterialDesc {
+            name: "absorber".into(),
+            attenuation_color: Vec3::splat(0.5),
+            attenuation_distance: 1.0,
+            ..Default::default()
+        },
+        Some(MaterialOverride::Dielectric(DielectricDesc {
+            ior: IorDesc::Constant(1.0),
+            roughness: 0.0,
+        })),
+    );
+    let mut desc = furnace_scene(glass, Vec3::ONE);
+    desc.camera = Some(camera(5.0, 0.02)); // a narrow view of the sphere's centre
+    let got = mean_rgb(desc, 64);
+    assert_close(got, 0.25, 0.02, "absorption");
+}
