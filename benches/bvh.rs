@@ -6,33 +6,8 @@ use prism::geometry::{Geometry, Instance, Mesh, Ray};
 use prism::sampler::Sampler;
 
 fn sphere(segments: u32, rings: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let mut p = Vec::new();
-    let mut idx = Vec::new();
-    for r in 0..=rings {
-        let t = std::f32::consts::PI * r as f32 / rings as f32;
-        for s in 0..=segments {
-            let f = 2.0 * std::f32::consts::PI * s as f32 / segments as f32;
-            p.push(Vec3::new(t.sin() * f.cos(), t.cos(), t.sin() * f.sin()));
-        }
-    }
-    let row = segments + 1;
-    for r in 0..rings {
-        for s in 0..segments {
-            let (a, b, c, d) = (
-                r * row + s,
-                r * row + s + 1,
-                (r + 1) * row + s,
-                (r + 1) * row + s + 1,
-            );
-            if r > 0 {
-                idx.push([a, b, c]);
-            }
-            if r + 1 < rings {
-                idx.push([b, d, c]);
-            }
-        }
-    }
-    (p, idx)
+    let (p, _, t) = prism::geometry::shapes::uv_sphere(segments, rings);
+    (p, t)
 }
 
 fn geometry(instances: usize) -> Geometry {

@@ -2,6 +2,7 @@
 //! (bottom level) and one over the instances (top level), so a mesh placed by several glTF
 //! nodes is stored once.
 
+pub mod shapes;
 mod triangle;
 
 pub use triangle::intersect_triangle;

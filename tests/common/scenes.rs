@@ -9,38 +9,13 @@ use prism::scene::{
 
 /// UV sphere with smooth normals, radius 1 at the origin.
 pub fn sphere_mesh(material: usize, segments: u32, rings: u32) -> MeshDesc {
-    let mut positions = Vec::new();
-    let mut indices = Vec::new();
-    for r in 0..=rings {
-        let theta = std::f32::consts::PI * r as f32 / rings as f32;
-        for s in 0..=segments {
-            let phi = 2.0 * std::f32::consts::PI * s as f32 / segments as f32;
-            positions.push(Vec3::new(
-                theta.sin() * phi.cos(),
-                theta.cos(),
-                theta.sin() * phi.sin(),
-            ));
-        }
-    }
-    let row = segments + 1;
-    for r in 0..rings {
-        for s in 0..segments {
-            let (a, b, c, d) = (
-                r * row + s,
-                r * row + s + 1,
-                (r + 1) * row + s,
-                (r + 1) * row + s + 1,
-            );
-            // Counter-clockwise seen from outside.
-            indices.extend_from_slice(&[a, b, c, b, d, c]);
-        }
-    }
+    let (positions, normals, triangles) = prism::geometry::shapes::uv_sphere(segments, rings);
     MeshDesc {
         name: "sphere".into(),
-        normals: Some(positions.clone()),
         positions,
+        normals: Some(normals),
         uvs: None,
-        indices,
+        indices: triangles.into_iter().flatten().collect(),
         material: Some(material),
     }
 }
