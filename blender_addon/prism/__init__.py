@@ -1,0 +1,62 @@
+# SPDX-License-Identifier: MIT
+"""Prism: a spectral path tracer as a Blender render engine.
+
+Layout follows Cycles' add-on: engine (RenderEngine), properties (PropertyGroups), ui (panels),
+export (glTF + material JSON from the depsgraph), runner (the prism process).
+"""
+
+bl_info = {
+    "name": "Prism",
+    "author": "Prism developers",
+    "version": (0, 1, 0),
+    "blender": (3, 4, 0),
+    "location": "Render Properties > Render Engine > Prism",
+    "description": "Spectral path tracer (subsurface scattering, dispersion) driven as an external binary",
+    "category": "Render",
+}
+
+import os
+
+import bpy
+from bpy.props import StringProperty
+
+from . import engine, properties, runner, ui
+
+
+class PrismPreferences(bpy.types.AddonPreferences):
+    bl_idname = __package__
+
+    binary_path: StringProperty(
+        name="Prism Binary",
+        description="Path to the prism executable (empty: bundled binary, then PATH, then the repository's target/release)",
+        subtype="FILE_PATH",
+        default="",
+    )
+
+    def draw(self, context):
+        layout = self.layout
+        layout.prop(self, "binary_path")
+        try:
+            found = runner.find_binary(self.binary_path)
+            layout.label(text="Using: " + found, icon="CHECKMARK")
+        except runner.RunnerError as e:
+            layout.label(text=str(e), icon="ERROR")
+        if not self.binary_path:
+            box = layout.box()
+            for where, path in runner.candidate_binaries():
+                ok = os.path.isfile(path)
+                box.label(text="%s: %s" % (where, path), icon="CHECKMARK" if ok else "X")
+
+
+def register():
+    bpy.utils.register_class(PrismPreferences)
+    properties.register()
+    engine.register()
+    ui.register()
+
+
+def unregister():
+    ui.unregister()
+    engine.unregister()
+    properties.unregister()
+    bpy.utils.unregister_class(PrismPreferences)

@@ -1,0 +1,177 @@
+# SPDX-License-Identifier: MIT
+"""The Prism RenderEngine: export -> run the binary -> previews -> EXR into the render result."""
+
+import os
+import shutil
+import sys
+import tempfile
+import time
+import traceback
+
+import bpy
+import numpy as np
+
+from . import export, runner
+
+# What the last render did (read by the add-on tests and the benchmark).
+LAST = {}
+
+
+def addon_preferences():
+    pkg = __package__
+    addon = bpy.context.preferences.addons.get(pkg) if bpy.context and bpy.context.preferences else None
+    return addon.preferences if addon is not None else None
+
+
+def read_exr(path, width, height):
+    """RGBA float pixels of an EXR (bottom row first), read through a temporary image datablock."""
+    img = bpy.data.images.load(path, check_existing=False)
+    try:
+        if tuple(img.size) != (width, height):
+            raise runner.RunnerError("%s is %dx%d, expected %dx%d" % (os.path.basename(path), img.size[0], img.size[1], width, height))
+        px = np.empty(width * height * 4, np.float32)
+        img.pixels.foreach_get(px)
+    finally:
+        bpy.data.images.remove(img)
+    return px.reshape(-1, 4)
+
+
+def _log(msg):
+    print("Prism: " + msg, file=sys.stderr, flush=True)
+
+
+class PrismRenderEngine(bpy.types.RenderEngine):
+    bl_idname = "PRISM"
+    bl_label = "Prism"
+    bl_use_preview = False
+    bl_use_postprocess = True
+
+    def render(self, depsgraph):
+        scene = depsgraph.scene
+        width, height = export.render_size(scene)
+        LAST.clear()
+        LAST.update(error=None, warnings=[], cancelled=False, width=width, height=height, timings={})
+        result = self.begin_result(0, 0, width, height)
+        tmp = tempfile.mkdtemp(prefix="prism_")
+        LAST["tmpdir"] = tmp
+        try:
+            self._render(depsgraph, scene, result, tmp, width, height)
+        except (runner.RunnerError, export.ExportError) as e:
+            self._error(str(e))
+        except Exception as e:  # never let an exception escape into Blender's render job
+            traceback.print_exc()
+            self._error("internal error: %s" % e)
+        finally:
+            self.end_result(result)
+            shutil.rmtree(tmp, ignore_errors=True)
+
+    def _error(self, msg):
+        LAST["error"] = msg
+        _log("error: " + msg)
+        self.report({"ERROR"}, "Prism: " + msg)
+
+    def _warn(self, msg):
+        LAST["warnings"].append(msg)
+        _log("warning: " + msg)
+        self.report({"WARNING"}, "Prism: " + msg)
+
+    def _set_pixels(self, result, px):
+        result.layers[0].passes["Combined"].rect = px
+
+    def _render(self, depsgraph, scene, result, tmp, width, height):
+        prefs = addon_preferences()
+        binary = runner.find_binary(prefs.binary_path if prefs is not None else "")
+        timings = LAST["timings"]
+        settings = scene.prism
+
+        self.update_stats("", "Prism: exporting")
+        t0 = time.perf_counter()
+        gltf, mjson, warnings, tris = export.export_scene(depsgraph, tmp)
+        timings["export"] = time.perf_counter() - t0
+        LAST["triangles"] = tris
+        for w in warnings:
+            self._warn(w)
+
+        output = os.path.join(tmp, "render.exr")
+        preview = os.path.join(tmp, "preview.exr")
+        args = runner.render_args(
+            binary, gltf, mjson, output, preview, settings.samples, width, height,
+            settings.max_depth, settings.seed, settings.threads,
+        )
+        t_start = time.perf_counter()
+        proc = runner.PrismProcess(args, cwd=tmp)
+        LAST["pid"] = proc.proc.pid
+        _log("started %s (pid %d) in %s" % (os.path.basename(binary), proc.proc.pid, tmp))
+        seen_warnings = set()
+        try:
+            while True:
+                if self.test_break():
+                    t_cancel = time.perf_counter()
+                    proc.stop()
+                    LAST["cancelled"] = True
+                    timings["cancel"] = time.perf_counter() - t_cancel
+                    _log("cancelled; process %d stopped in %.2f s" % (proc.proc.pid, timings["cancel"]))
+                    return
+                for ev in proc.poll(0.05):
+                    kind = ev.get("event")
+                    if kind == "progress":
+                        frac = float(ev.get("fraction", 0.0))
+                        self.update_progress(min(max(frac, 0.0), 1.0))
+                        self.update_stats("", "Prism: %.0f%% | %.1f s" % (100.0 * frac, float(ev.get("elapsed_s", 0.0))))
+                    elif kind == "start":
+                        timings["to_start_event"] = time.perf_counter() - t_start
+                    elif kind == "preview":
+                        try:
+                            self._set_pixels(result, read_exr(ev["path"], width, height))
+                            self.update_result(result)
+                            self.update_stats("", "Prism: preview at %s spp" % ev.get("spp"))
+                        except Exception as e:  # a preview is best effort
+                            _log("preview skipped: %s" % e)
+                    elif kind == "warning":
+                        msg = str(ev.get("message", ""))
+                        if msg not in seen_warnings and len(seen_warnings) < 5:
+                            seen_warnings.add(msg)
+                            self._warn(msg)
+                    elif kind == "done":
+                        LAST["done"] = ev
+                if not proc.running() and proc.events.empty():
+                    break
+            rc = proc.wait()
+            for ev in proc.poll(0.0):
+                if ev.get("event") == "done":
+                    LAST["done"] = ev
+        finally:
+            proc.stop()
+        timings["process"] = time.perf_counter() - t_start
+        if rc != 0:
+            raise runner.RunnerError(proc.error_message(rc))
+        t0 = time.perf_counter()
+        self._set_pixels(result, read_exr(output, width, height))
+        timings["load"] = time.perf_counter() - t0
+        self.update_progress(1.0)
+        done = LAST.get("done") or {}
+        self.update_stats("", "Prism: done in %.2f s" % float(done.get("seconds", timings["process"])))
+
+
+def get_panels():
+    """Cycles-agnostic built-in panels that make sense for Prism."""
+    exclude = {"VIEWLAYER_PT_filter", "VIEWLAYER_PT_layer_passes"}
+    panels = []
+    for panel in bpy.types.Panel.__subclasses__():
+        if hasattr(panel, "COMPAT_ENGINES") and "BLENDER_RENDER" in panel.COMPAT_ENGINES:
+            if panel.__name__ not in exclude:
+                panels.append(panel)
+    return panels
+
+
+def register():
+    bpy.utils.register_class(PrismRenderEngine)
+    for p in get_panels():
+        p.COMPAT_ENGINES.add("PRISM")
+
+
+def unregister():
+    for p in get_panels():
+        if "PRISM" in p.COMPAT_ENGINES:
+            p.COMPAT_ENGINES.remove("PRISM")
+    bpy.utils.unregister_class(PrismRenderEngine)

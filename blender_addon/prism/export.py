@@ -1,0 +1,675 @@
+# SPDX-License-Identifier: MIT
+"""Writes the evaluated depsgraph as glTF 2.0 (.gltf + .bin) plus Prism's material JSON.
+
+Blender's bundled glTF exporter cannot run inside RenderEngine.render() (it reads
+bpy.context.active_object) and drops area lights and the world, so this module writes the
+file itself from the depsgraph with numpy foreach_get.
+
+Units (so that Prism renders what Cycles renders; Prism's README "Units"):
+- point/spot light of P W: KHR_lights_punctual intensity = P / (4 pi) * 683 cd (Prism divides
+  by 683), spot cone: outer = spot_size / 2, inner = outer - outer * spot_blend;
+- sun of strength S: intensity = S * 683 lux;
+- area light of P W and world-space area A: a one-sided emissive mesh facing the light's -Z
+  with radiance P / (pi A) (Cycles' Lambertian area light; checked by the parity test);
+- emission colour x strength is radiance (emissiveFactor x KHR_materials_emissive_strength);
+- world colour x strength -> material JSON "world".
+Blender is Z-up and glTF Y-up: every node hangs below one root node that rotates Z-up to Y-up,
+so object matrices are written unchanged.
+"""
+
+import json
+import math
+import os
+import shutil
+
+import numpy as np
+
+WATTS_TO_LUMENS = 683.0
+GREY = (0.8, 0.8, 0.8)
+
+# Abbe-number form of Cauchy's law: n(lambda) = A + B / lambda^2, lambda in micrometres.
+LAMBDA_D, LAMBDA_F, LAMBDA_C = 0.5876, 0.4861, 0.6563
+GLASS_PRESETS = {
+    # name: (n_d, Abbe number V_d)
+    "BK7": (1.5168, 64.17),
+    "FUSED_SILICA": (1.4585, 67.82),
+    "F2": (1.62004, 36.37),
+    "SF11": (1.78472, 25.68),
+    "DIAMOND": (2.4175, 55.3),
+}
+
+
+def cauchy_from_abbe(n_d, abbe):
+    """Cauchy A, B (lambda in um) with n(587.6 nm) = n_d and Abbe number V_d = abbe."""
+    b = (n_d - 1.0) / abbe / (1.0 / LAMBDA_F**2 - 1.0 / LAMBDA_C**2)
+    return n_d - b / LAMBDA_D**2, b
+
+
+class ExportError(Exception):
+    pass
+
+
+# ----------------------------------------------------------------------------- buffers
+
+
+class _Buffer:
+    def __init__(self):
+        self.chunks = []
+        self.size = 0
+        self.views = []
+        self.accessors = []
+
+    def add(self, array, target=None):
+        data = np.ascontiguousarray(array).tobytes()
+        pad = (-self.size) % 4
+        if pad:
+            self.chunks.append(b"\0" * pad)
+            self.size += pad
+        view = {"buffer": 0, "byteOffset": self.size, "byteLength": len(data)}
+        if target:
+            view["target"] = target
+        self.chunks.append(data)
+        self.size += len(data)
+        self.views.append(view)
+        return len(self.views) - 1
+
+    def accessor(self, array, kind, minmax=False, target=34962):
+        comp = {np.dtype(np.float32): 5126, np.dtype(np.uint32): 5125}[array.dtype]
+        view = self.add(array, target)
+        acc = {"bufferView": view, "componentType": comp, "count": int(array.shape[0]), "type": kind}
+        if minmax:
+            acc["min"] = [float(x) for x in array.min(axis=0)]
+            acc["max"] = [float(x) for x in array.max(axis=0)]
+        self.accessors.append(acc)
+        return len(self.accessors) - 1
+
+
+def _matrix(m):
+    """Blender Matrix -> glTF column-major list."""
+    return [float(m[r][c]) for c in range(4) for r in range(4)]
+
+
+def _unscaled(m):
+    loc, rot, _scale = m.decompose()
+    out = rot.to_matrix().to_4x4()
+    out.translation = loc
+    return out
+
+
+# ----------------------------------------------------------------------------- materials
+
+
+def _socket(node, *names, default=None):
+    """First input among `names` (Blender 3.x and 4.x+ spellings)."""
+    for n in names:
+        s = node.inputs.get(n)
+        if s is not None:
+            return s
+    return default
+
+
+def _val(node, *names, default=0.0):
+    s = _socket(node, *names)
+    if s is None:
+        return default
+    v = s.default_value
+    try:
+        return tuple(v)
+    except TypeError:
+        return float(v)
+
+
+def _rgb(v):
+    return [float(v[0]), float(v[1]), float(v[2])]
+
+
+def _linked_image(sock):
+    """Image of an Image Texture node connected directly to `sock`, else None."""
+    if sock is None or not sock.is_linked:
+        return None
+    node = sock.links[0].from_node
+    if node.type == "TEX_IMAGE" and node.image is not None:
+        return node.image
+    return None
+
+
+def _surface_node(mat):
+    nt = mat.node_tree if getattr(mat, "node_tree", None) is not None else None
+    if nt is None:
+        return None
+    out = None
+    for n in nt.nodes:
+        if n.type == "OUTPUT_MATERIAL" and n.target in {"ALL", "CYCLES"}:
+            if out is None or n.is_active_output:
+                out = n
+    if out is None:
+        return None
+    s = out.inputs.get("Surface")
+    if s is None or not s.is_linked:
+        return None
+    return s.links[0].from_node
+
+
+def convert_material(mat):
+    """Blender material -> (glTF-ish dict, subsurface dict or None, supported flag).
+
+    The dict has keys: base, image, metallic, roughness, ior, transmission, emission,
+    emission_strength, specular (KHR_materials_specular factor or None).
+    """
+    m = {
+        "base": list(GREY),
+        "image": None,
+        "metallic": 0.0,
+        "roughness": 0.5,
+        "ior": 1.5,
+        "transmission": 0.0,
+        "emission": [0.0, 0.0, 0.0],
+        "emission_strength": 1.0,
+        "specular": None,
+    }
+    if mat is None:
+        m["specular"] = 0.0
+        m["roughness"] = 1.0
+        return m, None, True
+    node = _surface_node(mat)
+    if node is None:
+        if getattr(mat, "node_tree", None) is None or not getattr(mat, "use_nodes", True):
+            m["base"] = _rgb(mat.diffuse_color)
+            m["metallic"] = float(mat.metallic)
+            m["roughness"] = float(mat.roughness)
+            return m, None, True
+        m["specular"] = 0.0
+        return m, None, False
+    t = node.type
+    sss = None
+    if t == "BSDF_PRINCIPLED":
+        base_sock = _socket(node, "Base Color")
+        m["image"] = _linked_image(base_sock)
+        m["base"] = _rgb(base_sock.default_value)
+        m["metallic"] = _val(node, "Metallic")
+        m["roughness"] = _val(node, "Roughness")
+        m["ior"] = _val(node, "IOR", default=1.5)
+        m["transmission"] = _val(node, "Transmission Weight", "Transmission")
+        em = _val(node, "Emission Color", "Emission", default=(0, 0, 0, 1))
+        m["emission"] = _rgb(em)
+        m["emission_strength"] = _val(node, "Emission Strength", default=1.0)
+        if node.inputs.get("Specular IOR Level") is not None:
+            m["specular"] = 2.0 * _val(node, "Specular IOR Level")  # 4.x: 0.5 is neutral
+        elif node.inputs.get("Specular") is not None:
+            m["specular"] = 2.0 * _val(node, "Specular")  # 3.x: 0.5 = F0 0.04
+        sss = _principled_subsurface(node, m)
+    elif t == "BSDF_DIFFUSE":
+        sock = _socket(node, "Color")
+        m["image"] = _linked_image(sock)
+        m["base"] = _rgb(sock.default_value)
+        m["roughness"] = 1.0
+        m["specular"] = 0.0  # pure Lambertian
+    elif t in {"BSDF_GLOSSY", "BSDF_ANISOTROPIC"}:
+        sock = _socket(node, "Color")
+        m["image"] = _linked_image(sock)
+        m["base"] = _rgb(sock.default_value)
+        m["metallic"] = 1.0
+        m["roughness"] = _val(node, "Roughness")
+    elif t == "BSDF_GLASS":
+        m["base"] = _rgb(_val(node, "Color", default=(1, 1, 1, 1)))
+        m["roughness"] = _val(node, "Roughness")
+        m["ior"] = _val(node, "IOR", default=1.5)
+        m["transmission"] = 1.0
+    elif t == "EMISSION":
+        m["base"] = [0.0, 0.0, 0.0]
+        m["emission"] = _rgb(_val(node, "Color", default=(1, 1, 1, 1)))
+        m["emission_strength"] = _val(node, "Strength", default=1.0)
+        m["specular"] = 0.0
+    else:
+        m["specular"] = 0.0
+        m["roughness"] = 1.0
+        return m, None, False
+    return m, sss, True
+
+
+def _principled_subsurface(node, m):
+    if node.inputs.get("Subsurface Weight") is not None:  # 4.x+: colour from Base Color
+        weight = _val(node, "Subsurface Weight")
+        radius = _val(node, "Subsurface Radius", default=(1.0, 0.2, 0.1))
+        scale = _val(node, "Subsurface Scale", default=0.05)
+        colour = m["base"]
+        mfp = [r * scale for r in radius]
+        eta = _val(node, "IOR", default=1.4)
+    else:  # 3.x: "Subsurface" scales the radius, colour from "Subsurface Color"
+        weight = _val(node, "Subsurface")
+        radius = _val(node, "Subsurface Radius", default=(1.0, 0.2, 0.1))
+        colour = _rgb(_val(node, "Subsurface Color", default=(0.8, 0.8, 0.8, 1)))
+        mfp = [r * weight for r in radius]
+        eta = _val(node, "Subsurface IOR", default=1.4)
+    if weight <= 0.0:
+        return None
+    g = _val(node, "Subsurface Anisotropy", default=0.0)
+    return {
+        "reflectance": [min(max(float(c), 0.0), 1.0) for c in colour],
+        "mfp": [max(float(r), 1e-6) for r in mfp],
+        "eta": max(float(eta), 1.0),
+        "g": min(max(float(g), -0.99), 0.99),
+    }
+
+
+def prism_override(mat):
+    """Material JSON entry from the material's Prism panel, or None."""
+    if mat is None or not hasattr(mat, "prism"):
+        return None
+    p = mat.prism
+    if p.sss_mode == "PRESET":
+        return {"subsurface": {"preset": p.sss_preset, "scale": p.sss_scale, "eta": p.sss_eta, "g": p.sss_g}}
+    if p.sss_mode == "EXPLICIT":
+        return {
+            "subsurface": {
+                "sigma_a": list(p.sigma_a),
+                "sigma_s": list(p.sigma_s),
+                "scale": p.sss_scale,
+                "eta": p.sss_eta,
+                "g": p.sss_g,
+            }
+        }
+    if p.dispersion_mode != "NONE":
+        if p.dispersion_mode == "CAUCHY":
+            a, b = p.cauchy_a, p.cauchy_b
+        elif p.dispersion_mode == "ABBE":
+            a, b = cauchy_from_abbe(p.abbe_nd, p.abbe_number)
+        else:
+            a, b = cauchy_from_abbe(*GLASS_PRESETS[p.glass_preset])
+        return {"dielectric": {"cauchy": {"a": float(a), "b": float(b)}, "roughness": float(p.dispersion_roughness)}}
+    return None
+
+
+# ----------------------------------------------------------------------------- mesh data
+
+
+def _mesh_arrays(me):
+    """Per-corner positions, split normals, UVs and per-material triangle index lists."""
+    me.calc_loop_triangles()
+    nt = len(me.loop_triangles)
+    nl = len(me.loops)
+    if nt == 0:
+        return None
+    tri_loops = np.empty(nt * 3, np.uint32)
+    me.loop_triangles.foreach_get("loops", tri_loops)
+    tri_mat = np.empty(nt, np.int32)
+    me.loop_triangles.foreach_get("material_index", tri_mat)
+    co = np.empty(len(me.vertices) * 3, np.float32)
+    me.vertices.foreach_get("co", co)
+    loop_vert = np.empty(nl, np.int32)
+    me.loops.foreach_get("vertex_index", loop_vert)
+    pos = co.reshape(-1, 3)[loop_vert]
+    nrm = np.empty(nl * 3, np.float32)
+    if hasattr(me, "corner_normals"):  # 4.1+
+        me.corner_normals.foreach_get("vector", nrm)
+    else:  # 3.x / 4.0
+        me.calc_normals_split()
+        me.loops.foreach_get("normal", nrm)
+    nrm = nrm.reshape(-1, 3)
+    uv = None
+    layer = me.uv_layers.active
+    if layer is not None:
+        uv = np.empty(nl * 2, np.float32)
+        layer.data.foreach_get("uv", uv)
+        uv = uv.reshape(-1, 2)
+        uv[:, 1] = 1.0 - uv[:, 1]
+    groups = {}
+    tl = tri_loops.reshape(-1, 3)
+    for mi in np.unique(tri_mat):
+        groups[int(mi)] = tl[tri_mat == mi].reshape(-1)
+    return pos, nrm, uv, groups
+
+
+# ----------------------------------------------------------------------------- exporter
+
+
+class Exporter:
+    def __init__(self, depsgraph, out_dir, name="scene", width=None, height=None):
+        self.dg = depsgraph
+        self.scene = depsgraph.scene_eval
+        self.out_dir = out_dir
+        self.name = name
+        self.width = width
+        self.height = height
+        self.buf = _Buffer()
+        self.nodes = [{"name": "ZupToYup", "matrix": [1, 0, 0, 0, 0, 0, -1, 0, 0, 1, 0, 0, 0, 0, 0, 1], "children": []}]
+        self.meshes = []
+        self.mesh_cache = {}
+        self.materials = []
+        self.material_index = {}
+        self.material_json = {}
+        self.unsupported = []
+        self.images = []
+        self.image_index = {}
+        self.lights = []
+        self.cameras = []
+        self.warnings = []
+        self.n_triangles = 0
+
+    # -- helpers
+    def _child(self, node):
+        self.nodes.append(node)
+        self.nodes[0]["children"].append(len(self.nodes) - 1)
+        return len(self.nodes) - 1
+
+    def _image(self, img):
+        key = img.name
+        if key in self.image_index:
+            return self.image_index[key]
+        fname = "tex%d.png" % len(self.images)
+        dst = os.path.join(self.out_dir, fname)
+        src = img.filepath_from_user() if img.filepath else ""
+        ext = os.path.splitext(src)[1].lower()
+        if src and os.path.isfile(src) and not img.packed_file and ext in {".png", ".jpg", ".jpeg"}:
+            fname = "tex%d%s" % (len(self.images), ext)
+            shutil.copyfile(src, os.path.join(self.out_dir, fname))
+        else:
+            copy = img.copy()
+            try:
+                copy.filepath_raw = dst
+                copy.file_format = "PNG"
+                copy.save()
+            finally:
+                import bpy
+
+                bpy.data.images.remove(copy)
+        self.images.append({"uri": fname})
+        self.image_index[key] = len(self.images) - 1
+        return self.image_index[key]
+
+    def _material(self, mat):
+        key = mat.name if mat is not None else None
+        if key in self.material_index:
+            return self.material_index[key]
+        name = mat.name if mat is not None else "PrismDefault"
+        m, sss, ok = convert_material(mat)
+        if not ok:
+            self.unsupported.append(name)
+        g = {
+            "name": name,
+            "pbrMetallicRoughness": {
+                "baseColorFactor": [min(max(c, 0.0), 1.0) for c in m["base"]] + [1.0],
+                "metallicFactor": min(max(m["metallic"], 0.0), 1.0),
+                "roughnessFactor": min(max(m["roughness"], 0.0), 1.0),
+            },
+            "doubleSided": not (mat is not None and getattr(mat, "use_backface_culling", False)),
+        }
+        ext = {}
+        if m["image"] is not None:
+            tex = len(self._textures)
+            self._textures.append({"source": self._image(m["image"]), "sampler": 0})
+            g["pbrMetallicRoughness"]["baseColorTexture"] = {"index": tex}
+            g["pbrMetallicRoughness"]["baseColorFactor"] = [1.0, 1.0, 1.0, 1.0]
+        e = [max(c, 0.0) for c in m["emission"]]
+        s = max(m["emission_strength"], 0.0)
+        if max(e) > 0.0 and s > 0.0:
+            peak = max(e)
+            g["emissiveFactor"] = [c / peak for c in e]
+            ext["KHR_materials_emissive_strength"] = {"emissiveStrength": peak * s}
+        if m["transmission"] > 0.0:
+            ext["KHR_materials_transmission"] = {"transmissionFactor": min(m["transmission"], 1.0)}
+        if abs(m["ior"] - 1.5) > 1e-6:
+            ext["KHR_materials_ior"] = {"ior": max(m["ior"], 1.0)}
+        if m["specular"] is not None and abs(m["specular"] - 1.0) > 1e-6:
+            ext["KHR_materials_specular"] = {"specularFactor": max(m["specular"], 0.0)}
+        if ext:
+            g["extensions"] = ext
+        self.materials.append(g)
+        self.material_index[key] = len(self.materials) - 1
+        override = prism_override(mat)
+        if override is not None:
+            self.material_json[name] = override
+        elif sss is not None:
+            self.material_json[name] = {"subsurface": sss}
+        return self.material_index[key]
+
+    def _mesh(self, key, me, slots):
+        if key in self.mesh_cache:
+            return self.mesh_cache[key]
+        arrays = _mesh_arrays(me)
+        if arrays is None:
+            self.mesh_cache[key] = None
+            return None
+        pos, nrm, uv, groups = arrays
+        attrs = {
+            "POSITION": self.buf.accessor(pos, "VEC3", minmax=True),
+            "NORMAL": self.buf.accessor(nrm, "VEC3"),
+        }
+        if uv is not None:
+            attrs["TEXCOORD_0"] = self.buf.accessor(uv, "VEC2")
+        prims = []
+        for mi, idx in groups.items():
+            mat = slots[mi] if 0 <= mi < len(slots) else None
+            prims.append(
+                {
+                    "attributes": attrs,
+                    "indices": self.buf.accessor(idx, "SCALAR", target=34963),
+                    "material": self._material(mat),
+                }
+            )
+            self.n_triangles += len(idx) // 3
+        self.meshes.append({"name": me.name, "primitives": prims})
+        self.mesh_cache[key] = len(self.meshes) - 1
+        return self.mesh_cache[key]
+
+    # -- objects
+    def _add_mesh_object(self, ob, matrix, is_instance):
+        if ob.type == "MESH":
+            me = ob.data
+            key = ("mesh", me.as_pointer())
+            slots = [s.material for s in ob.material_slots] or list(me.materials)
+            mi = self._mesh(key, me, slots)
+        else:
+            try:
+                me = ob.to_mesh()
+            except RuntimeError:
+                return
+            if me is None:
+                return
+            try:
+                slots = [s.material for s in ob.material_slots]
+                mi = self._mesh(("obj", ob.name, len(self.nodes)), me, slots)
+            finally:
+                ob.to_mesh_clear()
+        if mi is not None:
+            self._child({"name": ob.name, "mesh": mi, "matrix": _matrix(matrix)})
+
+    def _add_light(self, ob, matrix):
+        L = ob.data
+        col = _rgb(L.color)
+        if L.type in {"POINT", "SPOT"}:
+            light = {
+                "type": "point" if L.type == "POINT" else "spot",
+                "color": col,
+                "intensity": L.energy / (4.0 * math.pi) * WATTS_TO_LUMENS,
+            }
+            if L.type == "SPOT":
+                outer = L.spot_size / 2.0
+                light["spot"] = {"outerConeAngle": outer, "innerConeAngle": outer - outer * L.spot_blend}
+        elif L.type == "SUN":
+            light = {"type": "directional", "color": col, "intensity": L.energy * WATTS_TO_LUMENS}
+        elif L.type == "AREA":
+            self._add_area_light(ob, matrix)
+            return
+        else:
+            return
+        light["name"] = ob.name
+        self.lights.append(light)
+        self._child(
+            {
+                "name": ob.name,
+                "matrix": _matrix(_unscaled(matrix)),
+                "extensions": {"KHR_lights_punctual": {"light": len(self.lights) - 1}},
+            }
+        )
+
+    def _add_area_light(self, ob, matrix):
+        L = ob.data
+        sx = L.size
+        sy = L.size_y if L.shape in {"RECTANGLE", "ELLIPSE"} else L.size
+        if L.shape in {"DISK", "ELLIPSE"}:
+            n = 48
+            ang = np.linspace(0.0, 2.0 * math.pi, n, endpoint=False)
+            ring = np.stack([0.5 * sx * np.cos(ang), 0.5 * sy * np.sin(ang), np.zeros(n)], axis=1)
+            pos = np.vstack([[0.0, 0.0, 0.0], ring]).astype(np.float32)
+            # clockwise seen from +Z -> geometric normal -Z (the light's emitting side)
+            idx = np.array([[0, 1 + (i + 1) % n, 1 + i] for i in range(n)], np.uint32).reshape(-1)
+            area_local = 0.5 * n * (0.25 * sx * sy) * math.sin(2.0 * math.pi / n)
+        else:
+            hx, hy = 0.5 * sx, 0.5 * sy
+            pos = np.array([[-hx, -hy, 0], [hx, -hy, 0], [hx, hy, 0], [-hx, hy, 0]], np.float32)
+            idx = np.array([0, 2, 1, 0, 3, 2], np.uint32)
+            area_local = sx * sy
+        m3 = matrix.to_3x3()
+        ax, ay = m3.col[0].length, m3.col[1].length
+        area = area_local * ax * ay
+        if area <= 0.0:
+            return
+        radiance = L.energy / (math.pi * area)
+        col = _rgb(L.color)
+        peak = max(col) if max(col) > 0 else 1.0
+        nrm = np.tile(np.array([0.0, 0.0, -1.0], np.float32), (len(pos), 1))
+        mat = {
+            "name": "PrismAreaLight_%s" % ob.name,
+            "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+            "emissiveFactor": [c / peak for c in col],
+            "extensions": {
+                "KHR_materials_emissive_strength": {"emissiveStrength": radiance * peak},
+                "KHR_materials_specular": {"specularFactor": 0.0},
+            },
+            "doubleSided": False,
+        }
+        self.materials.append(mat)
+        prim = {
+            "attributes": {
+                "POSITION": self.buf.accessor(pos, "VEC3", minmax=True),
+                "NORMAL": self.buf.accessor(nrm, "VEC3"),
+            },
+            "indices": self.buf.accessor(idx, "SCALAR", target=34963),
+            "material": len(self.materials) - 1,
+        }
+        self.meshes.append({"name": "AreaLight_%s" % ob.name, "primitives": [prim]})
+        self._child({"name": ob.name, "mesh": len(self.meshes) - 1, "matrix": _matrix(matrix)})
+
+    def _add_camera(self):
+        cam_ob = self.scene.camera
+        if cam_ob is None:
+            raise ExportError("the scene has no active camera")
+        cam_ob = cam_ob.evaluated_get(self.dg)
+        c = cam_ob.data
+        if c.type != "PERSP":
+            self.warnings.append("camera '%s': only perspective cameras are supported; rendering as perspective" % cam_ob.name)
+        r = self.scene.render
+        w = self.width * r.pixel_aspect_x
+        h = self.height * r.pixel_aspect_y
+        fit = c.sensor_fit
+        if fit == "AUTO":
+            fit = "HORIZONTAL" if w >= h else "VERTICAL"
+            sensor = c.sensor_width
+        else:
+            sensor = c.sensor_width if fit == "HORIZONTAL" else c.sensor_height
+        half = 0.5 * sensor / c.lens
+        tan_y = half * h / w if fit == "HORIZONTAL" else half
+        yfov = 2.0 * math.atan(tan_y)
+        self.cameras.append({"name": cam_ob.name, "type": "perspective", "perspective": {"yfov": yfov, "znear": max(c.clip_start, 1e-4)}})
+        self._child({"name": cam_ob.name, "camera": 0, "matrix": _matrix(_unscaled(cam_ob.matrix_world))})
+
+    def world(self):
+        w = self.scene.world
+        if w is None:
+            return {"color": [0.0, 0.0, 0.0], "strength": 0.0}
+        nt = w.node_tree if getattr(w, "use_nodes", True) else None
+        if nt is not None:
+            out = next((n for n in nt.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output), None)
+            out = out or next((n for n in nt.nodes if n.type == "OUTPUT_WORLD"), None)
+            s = out.inputs.get("Surface") if out else None
+            if s is not None and s.is_linked:
+                bg = s.links[0].from_node
+                if bg.type == "BACKGROUND":
+                    cs = bg.inputs["Color"]
+                    if cs.is_linked:
+                        self.warnings.append("world: only a uniform colour is supported; the linked colour is ignored")
+                    return {"color": _rgb(cs.default_value), "strength": float(bg.inputs["Strength"].default_value)}
+                self.warnings.append("world: unsupported node '%s'; world is black" % bg.name)
+            return {"color": [0.0, 0.0, 0.0], "strength": 0.0}
+        return {"color": _rgb(w.color), "strength": 1.0}
+
+    def run(self, render_settings=None):
+        self._textures = []
+        for inst in self.dg.object_instances:
+            ob = inst.object
+            if ob.original is not None and ob.original.hide_render and not inst.is_instance:
+                continue
+            if not inst.show_self:
+                continue
+            matrix = inst.matrix_world.copy()
+            if ob.type in {"MESH", "CURVE", "SURFACE", "FONT", "META"}:
+                self._add_mesh_object(ob, matrix, inst.is_instance)
+            elif ob.type == "LIGHT":
+                self._add_light(ob, matrix)
+        self._add_camera()
+        if self.unsupported:
+            self.warnings.insert(0, "unsupported materials rendered as grey diffuse: " + ", ".join(sorted(set(self.unsupported))))
+        gltf = {
+            "asset": {"version": "2.0", "generator": "Prism Blender addon"},
+            "scene": 0,
+            "scenes": [{"nodes": [0]}],
+            "nodes": self.nodes,
+            "cameras": self.cameras,
+        }
+        used = set()
+        for m in self.materials:
+            used.update(m.get("extensions", {}).keys())
+        if self.lights:
+            gltf["extensions"] = {"KHR_lights_punctual": {"lights": self.lights}}
+            used.add("KHR_lights_punctual")
+        if used:
+            gltf["extensionsUsed"] = sorted(used)
+        for key, val in (("meshes", self.meshes), ("materials", self.materials), ("images", self.images), ("textures", self._textures)):
+            if val:
+                gltf[key] = val
+        if self._textures:
+            gltf["samplers"] = [{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}]
+        bin_name = self.name + ".bin"
+        if self.buf.size:
+            gltf["buffers"] = [{"uri": bin_name, "byteLength": self.buf.size}]
+            gltf["bufferViews"] = self.buf.views
+            gltf["accessors"] = self.buf.accessors
+            with open(os.path.join(self.out_dir, bin_name), "wb") as f:
+                for c in self.buf.chunks:
+                    f.write(c)
+        gltf_path = os.path.join(self.out_dir, self.name + ".gltf")
+        with open(gltf_path, "w") as f:
+            json.dump(gltf, f, separators=(",", ":"))
+        mj = {"version": 1, "materials": self.material_json, "world": self.world()}
+        if render_settings:
+            mj["render"] = render_settings
+        json_path = os.path.join(self.out_dir, self.name + ".materials.json")
+        with open(json_path, "w") as f:
+            json.dump(mj, f, indent=1)
+        return gltf_path, json_path
+
+
+def render_size(scene):
+    r = scene.render
+    return max(1, int(r.resolution_x * r.resolution_percentage / 100)), max(1, int(r.resolution_y * r.resolution_percentage / 100))
+
+
+def render_settings(scene):
+    """The material JSON "render" block from the scene's Prism settings."""
+    w, h = render_size(scene)
+    out = {"width": w, "height": h}
+    p = getattr(scene, "prism", None)
+    if p is not None:
+        out.update(spp=int(p.samples), max_depth=int(p.max_depth), wavelengths=p.wavelengths.lower())
+    return out
+
+
+def export_scene(depsgraph, out_dir, name="scene"):
+    """Writes <out_dir>/<name>.gltf/.bin/.materials.json; returns (gltf, json, warnings, triangles)."""
+    scene = depsgraph.scene_eval
+    w, h = render_size(scene)
+    ex = Exporter(depsgraph, out_dir, name, w, h)
+    gltf_path, json_path = ex.run(render_settings(scene))
+    return gltf_path, json_path, ex.warnings, ex.n_triangles
+

@@ -1,0 +1,92 @@
+# SPDX-License-Identifier: MIT
+"""Prism settings stored in .blend files: Scene.prism (render) and Material.prism (overrides)."""
+
+import bpy
+from bpy.props import EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, PointerProperty
+
+SSS_PRESETS = [
+    (n, n, "Measured medium (Jensen et al. 2001)")
+    for n in (
+        "Apple", "Chicken1", "Chicken2", "Cream", "Ketchup", "Marble",
+        "Potato", "Skimmilk", "Skin1", "Skin2", "Spectralon", "Wholemilk",
+    )
+]
+
+GLASS_PRESET_ITEMS = [
+    ("BK7", "BK7", "Borosilicate crown glass, n_d 1.5168, V_d 64.17"),
+    ("FUSED_SILICA", "Fused silica", "n_d 1.4585, V_d 67.82"),
+    ("F2", "F2 flint", "n_d 1.6200, V_d 36.37"),
+    ("SF11", "SF11 dense flint", "n_d 1.7847, V_d 25.68"),
+    ("DIAMOND", "Diamond", "n_d 2.4175, V_d 55.3"),
+]
+
+
+class PrismRenderSettings(bpy.types.PropertyGroup):
+    samples: IntProperty(name="Samples", description="Samples per pixel", default=64, min=1, max=1 << 20)
+    max_depth: IntProperty(name="Max Depth", description="Maximum number of bounces", default=16, min=1, max=1024)
+    wavelengths: EnumProperty(
+        name="Wavelengths",
+        description="How each path's wavelengths are chosen",
+        items=[
+            ("HERO", "Hero", "Four wavelengths per path, hero-wavelength rotation (default)"),
+            ("SINGLE", "Single", "One wavelength per path"),
+            ("STRATIFIED", "Stratified", "Hero wavelength stratified over a pixel's samples"),
+        ],
+        default="HERO",
+    )
+    threads: IntProperty(name="Threads", description="Worker threads (0 = all cores)", default=0, min=0, max=1024)
+    seed: IntProperty(name="Seed", description="Random seed", default=0, min=0)
+
+
+class PrismMaterialSettings(bpy.types.PropertyGroup):
+    sss_mode: EnumProperty(
+        name="Subsurface",
+        description="Override the surface with a subsurface-scattering medium",
+        items=[
+            ("NONE", "None", "Use the node tree (Principled subsurface is converted)"),
+            ("PRESET", "Measured Preset", "A measured medium"),
+            ("EXPLICIT", "Explicit", "Explicit absorption and scattering coefficients"),
+        ],
+        default="NONE",
+    )
+    sss_preset: EnumProperty(name="Preset", items=SSS_PRESETS, default="Marble")
+    sigma_a: FloatVectorProperty(name="Absorption", description="sigma_a per RGB channel (per unit, before scale)", size=3, min=0.0, default=(0.0021, 0.0041, 0.0071))
+    sigma_s: FloatVectorProperty(name="Scattering", description="sigma_s per RGB channel (per unit, before scale)", size=3, min=0.0, default=(2.19, 2.62, 3.00))
+    sss_scale: FloatProperty(name="Scale", description="Multiplies the coefficients (1000: mm^-1 to m^-1)", default=1000.0, min=0.0)
+    sss_eta: FloatProperty(name="IOR", description="Boundary index of refraction", default=1.33, min=1.0, max=4.0)
+    sss_g: FloatProperty(name="Anisotropy", description="Henyey-Greenstein g", default=0.0, min=-0.99, max=0.99)
+
+    dispersion_mode: EnumProperty(
+        name="Dispersion",
+        description="Make the material a dispersive dielectric",
+        items=[
+            ("NONE", "None", "No dispersion"),
+            ("CAUCHY", "Cauchy", "n(lambda) = A + B / lambda^2, lambda in micrometres"),
+            ("ABBE", "Abbe Number", "From n_d and the Abbe number V_d"),
+            ("GLASS", "Glass Preset", "A catalogue glass"),
+        ],
+        default="NONE",
+    )
+    cauchy_a: FloatProperty(name="A", default=1.5046, min=1.0, max=4.0, precision=4)
+    cauchy_b: FloatProperty(name="B", description="um^2", default=0.0042, min=0.0, max=1.0, precision=5)
+    abbe_nd: FloatProperty(name="n_d", default=1.5168, min=1.0, max=4.0, precision=4)
+    abbe_number: FloatProperty(name="Abbe V_d", default=64.17, min=1.0, max=200.0)
+    glass_preset: EnumProperty(name="Glass", items=GLASS_PRESET_ITEMS, default="BK7")
+    dispersion_roughness: FloatProperty(name="Roughness", default=0.0, min=0.0, max=1.0)
+
+
+classes = (PrismRenderSettings, PrismMaterialSettings)
+
+
+def register():
+    for c in classes:
+        bpy.utils.register_class(c)
+    bpy.types.Scene.prism = PointerProperty(type=PrismRenderSettings)
+    bpy.types.Material.prism = PointerProperty(type=PrismMaterialSettings)
+
+
+def unregister():
+    del bpy.types.Material.prism
+    del bpy.types.Scene.prism
+    for c in reversed(classes):
+        bpy.utils.unregister_class(c)

@@ -1,0 +1,148 @@
+# SPDX-License-Identifier: MIT
+"""Runs the prism binary: finds it, reads its JSON progress lines, stops it on cancel.
+
+No bpy here except in find_binary (preferences), so the process logic stays testable.
+"""
+
+import json
+import os
+import queue
+import shutil
+import subprocess
+import sys
+import threading
+import time
+
+EXE = "prism.exe" if sys.platform == "win32" else "prism"
+ADDON_DIR = os.path.dirname(os.path.realpath(__file__))
+
+
+class RunnerError(Exception):
+    pass
+
+
+def candidate_binaries():
+    """Where a binary is looked for when no path is set: bundled, PATH, the repository's build."""
+    out = [("bundled", os.path.join(ADDON_DIR, "bin", EXE))]
+    on_path = shutil.which("prism")
+    if on_path:
+        out.append(("PATH", on_path))
+    repo = os.path.normpath(os.path.join(ADDON_DIR, "..", ".."))
+    out.append(("repository", os.path.join(repo, "target", "release", EXE)))
+    return out
+
+
+def find_binary(configured=""):
+    """The binary to run. An explicitly configured path must exist (no silent fallback)."""
+    if configured:
+        path = os.path.abspath(os.path.expanduser(configured))
+        if os.path.isfile(path) and os.access(path, os.X_OK):
+            return path
+        raise RunnerError("binary not found at '%s' (set it in Preferences > Add-ons > Prism)" % configured)
+    for _where, path in candidate_binaries():
+        if os.path.isfile(path) and os.access(path, os.X_OK):
+            return path
+    raise RunnerError(
+        "binary not found (looked in %s); set its path in Preferences > Add-ons > Prism"
+        % ", ".join(p for _w, p in candidate_binaries())
+    )
+
+
+class PrismProcess:
+    """One `prism render` run. Iterate events with poll(); stop() ends it within a second."""
+
+    def __init__(self, args, cwd=None):
+        self.args = args
+        try:
+            self.proc = subprocess.Popen(
+                args,
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.PIPE,
+                cwd=cwd,
+                start_new_session=(sys.platform != "win32"),
+            )
+        except OSError as e:
+            raise RunnerError("cannot start %s: %s" % (args[0], e)) from e
+        self.events = queue.Queue()
+        self.error_lines = []
+        self.other_lines = []
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self):
+        for raw in iter(self.proc.stderr.readline, b""):
+            line = raw.decode("utf-8", "replace").strip()
+            if not line:
+                continue
+            if line.startswith("{"):
+                try:
+                    self.events.put(json.loads(line))
+                    continue
+                except ValueError:
+                    pass
+            if line.startswith("prism: error:"):
+                self.error_lines.append(line)
+            else:
+                self.other_lines.append(line)
+        self.proc.stderr.close()
+
+    def poll(self, timeout=0.05):
+        """Events received so far (waits up to `timeout` for the first)."""
+        out = []
+        try:
+            out.append(self.events.get(timeout=timeout))
+            while True:
+                out.append(self.events.get_nowait())
+        except queue.Empty:
+            pass
+        return out
+
+    def running(self):
+        return self.proc.poll() is None
+
+    def wait(self, timeout=None):
+        rc = self.proc.wait(timeout)
+        self._reader.join(1.0)
+        return rc
+
+    def stop(self, grace=0.8):
+        """SIGTERM (prism stops within a second), then SIGKILL; returns when the process is gone."""
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(grace)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self._reader.join(1.0)
+
+    def error_message(self, rc):
+        if self.error_lines:
+            return self.error_lines[-1]
+        tail = self.other_lines[-1] if self.other_lines else "no message"
+        return "prism exited with code %d: %s" % (rc, tail)
+
+
+def render_args(binary, gltf, materials, output, preview, spp, width, height, max_depth, seed, threads):
+    args = [
+        binary, "render", gltf,
+        "--materials", materials,
+        "-o", output,
+        "--progress", "json",
+        "--preview", preview,
+        "--spp", str(spp),
+        "--width", str(width),
+        "--height", str(height),
+        "--max-depth", str(max_depth),
+        "--seed", str(seed),
+    ]
+    if threads > 0:
+        args += ["--threads", str(threads)]
+    return args
+
+
+def timed(fn):
+    t0 = time.perf_counter()
+    out = fn()
+    return out, time.perf_counter() - t0

@@ -1,0 +1,102 @@
+# SPDX-License-Identifier: MIT
+"""Panels, shown only when Prism is the render engine."""
+
+import bpy
+
+
+class PrismPanel:
+    COMPAT_ENGINES = {"PRISM"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+
+class RENDER_PT_prism_sampling(PrismPanel, bpy.types.Panel):
+    bl_label = "Prism"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        p = context.scene.prism
+        col = layout.column()
+        col.prop(p, "samples")
+        col.prop(p, "max_depth")
+        col.prop(p, "wavelengths")
+        col.prop(p, "threads")
+        col.prop(p, "seed")
+
+
+class MATERIAL_PT_prism(PrismPanel, bpy.types.Panel):
+    bl_label = "Prism"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "material"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.material is not None
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        p = context.material.prism
+        layout.prop(p, "sss_mode")
+        if p.sss_mode == "PRESET":
+            layout.prop(p, "sss_preset")
+        elif p.sss_mode == "EXPLICIT":
+            layout.prop(p, "sigma_a")
+            layout.prop(p, "sigma_s")
+        if p.sss_mode != "NONE":
+            layout.prop(p, "sss_scale")
+            layout.prop(p, "sss_eta")
+            layout.prop(p, "sss_g")
+            return
+        layout.prop(p, "dispersion_mode")
+        if p.dispersion_mode == "CAUCHY":
+            layout.prop(p, "cauchy_a")
+            layout.prop(p, "cauchy_b")
+        elif p.dispersion_mode == "ABBE":
+            layout.prop(p, "abbe_nd")
+            layout.prop(p, "abbe_number")
+        elif p.dispersion_mode == "GLASS":
+            layout.prop(p, "glass_preset")
+        if p.dispersion_mode != "NONE":
+            layout.prop(p, "dispersion_roughness")
+
+
+class MATERIAL_PT_prism_surface(PrismPanel, bpy.types.Panel):
+    """The material's node tree output, so a surface can be edited without the node editor."""
+
+    bl_label = "Surface"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "material"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.material is not None and context.material.node_tree is not None
+
+    def draw(self, context):
+        mat = context.material
+        out = next((n for n in mat.node_tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output), None)
+        if out is None:
+            self.layout.label(text="No material output node")
+            return
+        self.layout.template_node_view(mat.node_tree, out, out.inputs["Surface"])
+
+
+classes = (RENDER_PT_prism_sampling, MATERIAL_PT_prism, MATERIAL_PT_prism_surface)
+
+
+def register():
+    for c in classes:
+        bpy.utils.register_class(c)
+
+
+def unregister():
+    for c in reversed(classes):
+        bpy.utils.unregister_class(c)
