@@ -1,0 +1,148 @@
+"""Add-on tests through Debian's `blender -b` (3.4), driven from the bpy venv's Python.
+
+    .venv-bpy/bin/python tests/addon/test_background.py
+Needs BLENDER_USER_SCRIPTS pointing at a folder with addons/prism (run_addon_tests.sh does it).
+"""
+
+import glob
+import os
+import re
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import traceback
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+BLENDER = os.environ.get("BLENDER", "blender")
+OUT = tempfile.mkdtemp(prefix="prism_bg_test_")
+
+
+def check(cond, msg):
+    if not cond:
+        raise AssertionError(msg)
+    print("  ok: " + msg, flush=True)
+
+
+def make_blend(kind, spp):
+    path = os.path.join(OUT, "%s_%d.blend" % (kind, spp))
+    if not os.path.exists(path):
+        subprocess.run(
+            [BLENDER, "-b", "--factory-startup", "-P", os.path.join(HERE, "make_blend.py"), "--", kind, path, str(spp)],
+            check=True, stdout=subprocess.DEVNULL, timeout=120,
+        )
+    return path
+
+
+def blender_render_cmd(blend, out_pattern):
+    return [BLENDER, "-b", "--factory-startup", "--addons", "prism", blend, "-E", "PRISM",
+            "-o", out_pattern, "-F", "OPEN_EXR", "-f", "1"]
+
+
+def read_exr(path):
+    import common  # imports bpy (5.0 wheel) only here
+
+    return common.read_exr(path)
+
+
+def test_blender_b_render():
+    """blender -b --factory-startup --addons prism file.blend -E PRISM -o ... -F OPEN_EXR -f 1 (3.4)."""
+    blend = make_blend("simple", 16)
+    pattern = os.path.join(OUT, "bg_####")
+    p = subprocess.run(blender_render_cmd(blend, pattern), capture_output=True, text=True, timeout=120)
+    log = p.stdout + p.stderr
+    check(p.returncode == 0, "blender -b exited 0 (got %d)" % p.returncode)
+    check("Prism: error" not in log, "no Prism error in the log")
+    exr = os.path.join(OUT, "bg_0001.exr")
+    check(os.path.exists(exr), "wrote %s" % exr)
+    px = read_exr(exr)
+    check(px.shape == (90, 120, 4), "120x90 (200x150 at 60%%), got %s" % (px.shape,))
+    import numpy as np
+
+    rgb = px[..., :3]
+    check(np.isfinite(px).all(), "all pixels finite")
+    h, w = rgb.shape[:2]
+    # pixel by pixel: every pixel is lit (floor, sphere or the dim world), none is black
+    dark = int((rgb.max(axis=2) <= 0.0).sum())
+    check(dark == 0, "no black pixel (%d)" % dark)
+    c = rgb[h // 2 - 4:h // 2 + 4, w // 2 - 4:w // 2 + 4].mean(axis=(0, 1))
+    check(c[0] > 2.0 * c[1] and c[0] > 0.1, "centre is the lit red sphere: %s" % c)
+    m = rgb.mean()
+    check(0.15 < m < 1.5, "mean brightness %.3f in (0.15, 1.5)" % m)
+
+
+def test_same_blend_in_bpy_5():
+    """The .blend rendered by 3.4 and by the bpy 5.0 wheel through the add-on agree (same exporter output)."""
+    import numpy as np
+    import bpy
+    import common as C
+
+    exr34 = os.path.join(OUT, "bg_0001.exr")
+    if not os.path.exists(exr34):
+        test_blender_b_render()
+    rgb34 = read_exr(exr34)[..., :3]
+    C.enable_addon()
+    C.prefs().binary_path = C.BINARY
+    bpy.ops.wm.open_mainfile(filepath=make_blend("simple", 16))
+    sc = bpy.context.scene
+    check(sc.render.engine == "PRISM" and sc.prism.samples == 16, "Prism settings saved in the .blend")
+    rgb50 = C.render_pixels(sc, os.path.join(OUT, "bpy50.exr"))[..., :3]
+    check(rgb50.shape == rgb34.shape, "same size")
+    ratio = rgb50.mean(axis=(0, 1)) / rgb34.mean(axis=(0, 1))
+    check(np.all(np.abs(ratio - 1) < 0.01), "3.4 and 5.0 renders agree: mean ratio %s" % ratio)
+
+
+def test_cancel():
+    """SIGINT to blender -b = Blender's break (test_break): prism ends within a second, temp folder gone."""
+    blend = make_blend("simple", 200000)
+    tmp = tempfile.mkdtemp(prefix="cancel_", dir=OUT)
+    env = dict(os.environ, TMPDIR=tmp)
+    proc = subprocess.Popen(blender_render_cmd(blend, os.path.join(OUT, "cancel_####")), env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    pid = tdir = None
+    lines = []
+    t_end = time.time() + 60
+    for line in proc.stdout:
+        lines.append(line)
+        m = re.search(r"Prism: started \S+ \(pid (\d+)\) in (\S+)", line)
+        if m:
+            pid, tdir = int(m.group(1)), m.group(2)
+        if pid and "preview at 8 spp" in line:
+            break
+        if time.time() > t_end:
+            break
+    check(pid is not None and os.path.isdir(tdir), "render started (prism pid %s, %s)" % (pid, tdir))
+    check(os.path.exists("/proc/%d" % pid), "prism is running")
+    t0 = time.time()
+    proc.send_signal(signal.SIGINT)
+    rest = proc.communicate(timeout=30)[0]
+    elapsed = time.time() - t0
+    lines.append(rest)
+    log = "".join(lines)
+    m = re.search(r"cancelled; process \d+ stopped in ([0-9.]+) s", log)
+    check(m is not None, "engine saw the break")
+    check(float(m.group(1)) < 1.0, "prism stopped %.2f s after the break" % float(m.group(1)))
+    check(not os.path.exists("/proc/%d" % pid), "prism process gone")
+    check(not os.path.exists(tdir), "temporary folder removed")
+    check(not glob.glob(os.path.join(tmp, "prism_*")), "nothing left in TMPDIR")
+    check(elapsed < 10, "blender exited %.1f s after SIGINT" % elapsed)
+
+
+def main():
+    names = sys.argv[1:] or [n for n in globals() if n.startswith("test_")]
+    failed = []
+    for n in names:
+        print("== %s" % n, flush=True)
+        try:
+            globals()[n]()
+        except Exception:
+            traceback.print_exc()
+            failed.append(n)
+    print("blender -b add-on tests: %d passed, %d failed %s" % (len(names) - len(failed), len(failed), failed or ""), flush=True)
+    sys.exit(1 if failed else 0)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,202 @@
+"""Add-on tests in the bpy wheel (Blender 5.0.1 as a Python module). Run by run_addon_tests.sh.
+
+    .venv-bpy/bin/python tests/addon/test_bpy.py [TEST_NAME ...]
+"""
+
+import glob
+import os
+import stat
+import sys
+import tempfile
+import time
+import traceback
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+
+import common as C  # noqa: E402
+
+OUT = tempfile.mkdtemp(prefix="prism_addon_test_")
+prism = C.enable_addon()
+C.prefs().binary_path = C.BINARY
+
+
+def prism_tmpdirs():
+    return set(glob.glob(os.path.join(tempfile.gettempdir(), "prism_*")))
+
+
+def test_render_bpy():
+    """Enable, build, render with Prism at 60% of 250x180, read the result's pixels back."""
+    sc = C.simple_scene()
+    sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 250, 180, 60
+    C.use_prism(sc, spp=16)
+    before = prism_tmpdirs()
+    px = C.render_pixels(sc, os.path.join(OUT, "bpy.exr"))
+    C.check(px.shape == (108, 150, 4), "result is 150x108 (250x180 at 60%%), got %s" % (px.shape,))
+    C.check(np.isfinite(px).all(), "all pixels finite")
+    rgb = px[..., :3]
+    mean = rgb.mean(axis=(0, 1))
+    C.check(0.15 < mean.mean() < 1.5, "mean brightness %.3f in (0.15, 1.5)" % mean.mean())
+    C.check(mean[0] > 1.15 * mean[1], "red sphere makes the image red: %s" % mean)
+    # the sphere (centre of the image) is lit: red >> green there
+    h, w = rgb.shape[:2]
+    c = rgb[h // 2 - 5:h // 2 + 5, w // 2 - 5:w // 2 + 5].mean(axis=(0, 1))
+    C.check(c[0] > 2.0 * c[1] and c[0] > 0.1, "centre pixels are the lit red sphere: %s" % c)
+    C.check((px[..., 3] > 0.99).all(), "alpha is 1")
+    C.check(prism.engine.LAST.get("error") is None, "no error reported")
+    C.check(prism_tmpdirs() <= before, "temporary folder removed")
+
+
+def test_parity_cycles():
+    """Cycles vs Prism on diffuse + metal + glass lit by an area light, a point light and the world.
+
+    Bounds: per-channel means within 3%; relMSE (mean of (p - c)^2 / (c^2 + 0.01)) after a 3x3 box
+    blur below 0.02. Measured at 256 spp, 96x72: means within 0.4%, blurred relMSE 0.0032
+    (raw 0.019); a 10% change of the area light's power raises the blurred relMSE to > 0.005 and
+    moves the means by ~5%, so the mean bound is the sensitive one and the relMSE bound catches
+    structural differences (wrong light direction, wrong glass/metal), not noise.
+    """
+    spp = 256
+    sc = C.parity_scene()
+    C.use_cycles(sc, spp)
+    t0 = time.perf_counter()
+    cy = C.render_pixels(sc, os.path.join(OUT, "parity_cycles.exr"))[..., :3]
+    t_cy = time.perf_counter() - t0
+    sc = C.parity_scene()
+    C.use_prism(sc, spp)
+    t0 = time.perf_counter()
+    pr = C.render_pixels(sc, os.path.join(OUT, "parity_prism.exr"))[..., :3]
+    t_pr = time.perf_counter() - t0
+    print("  cycles %.2f s, prism %.2f s" % (t_cy, t_pr))
+    mc, mp = cy.mean(axis=(0, 1)), pr.mean(axis=(0, 1))
+    ratio = mp / mc
+    C.check(np.all(np.abs(ratio - 1.0) < 0.03), "channel means within 3%%: prism %s cycles %s ratio %s" % (mp, mc, ratio))
+    raw = C.rel_mse(pr, cy)
+    blurred = C.rel_mse(C.blur(pr), C.blur(cy))
+    C.check(blurred < 0.02, "relMSE after 3x3 blur %.4f < 0.02 (raw %.4f)" % (blurred, raw))
+
+
+def test_error_missing_binary():
+    sc = C.simple_scene()
+    C.use_prism(sc, spp=1)
+    C.prefs().binary_path = os.path.join(OUT, "no-such-prism")
+    try:
+        try:
+            bpy.ops.render.render()
+            raise AssertionError("render should have failed")
+        except RuntimeError as e:
+            msg = str(e)
+        C.check("binary not found" in msg and "no-such-prism" in msg, "clear error: %s" % msg)
+        C.check(prism.engine.LAST["error"] is not None, "error recorded once")
+    finally:
+        C.prefs().binary_path = C.BINARY
+
+
+def test_error_binary_fails():
+    """A binary that exits 2 with Prism's one-line error: that line reaches the user."""
+    fake = os.path.join(OUT, "failing-prism")
+    with open(fake, "w") as f:
+        f.write("#!/bin/sh\necho 'prism: error: scene.gltf: mesh 3 has no positions' >&2\nexit 2\n")
+    os.chmod(fake, os.stat(fake).st_mode | stat.S_IEXEC)
+    sc = C.simple_scene()
+    C.use_prism(sc, spp=1)
+    C.prefs().binary_path = fake
+    before = prism_tmpdirs()
+    try:
+        t0 = time.perf_counter()
+        try:
+            bpy.ops.render.render()
+            raise AssertionError("render should have failed")
+        except RuntimeError as e:
+            msg = str(e)
+        C.check("prism: error: scene.gltf: mesh 3 has no positions" in msg, "binary's error line shown: %s" % msg)
+        C.check(time.perf_counter() - t0 < 5.0, "no hang")
+        C.check(prism_tmpdirs() <= before, "temporary folder removed")
+    finally:
+        C.prefs().binary_path = C.BINARY
+
+
+def test_unsupported_node_warns():
+    sc = C.simple_scene()
+    C.use_prism(sc, spp=4)
+    toon = C.material("Toony", "ShaderNodeBsdfToon", (0.2, 0.9, 0.2))
+    bpy.data.objects["Ball"].data.materials[0] = toon
+    px = C.render_pixels(sc, os.path.join(OUT, "toon.exr"))
+    w = prism.engine.LAST["warnings"]
+    C.check(len([x for x in w if "Toony" in x]) == 1, "one warning naming the material: %s" % w)
+    rgb = px[..., :3]
+    h, wd = rgb.shape[:2]
+    c = rgb[h // 2 - 5:h // 2 + 5, wd // 2 - 5:wd // 2 + 5].mean(axis=(0, 1))
+    C.check(np.isfinite(px).all() and c.mean() > 0.1 and abs(c[0] - c[1]) < 0.1 * c.mean(), "still renders, grey sphere: %s" % c)
+
+
+def test_export_content():
+    """The written glTF/JSON: instances, modifiers, hidden objects, lights, camera, materials."""
+    import json
+
+    sc = C.simple_scene()
+    ball = bpy.data.objects["Ball"]
+    ball.modifiers.new("Sub", "SUBSURF").levels = 1
+    dup = bpy.data.objects.new("Ball2", ball.data)
+    dup.location = (2.0, 1.0, 1.0)
+    sc.collection.objects.link(dup)
+    hid = bpy.data.objects.new("Hidden", ball.data)
+    hid.hide_render = True
+    sc.collection.objects.link(hid)
+    C.light("Spot", "SPOT", 500.0, (0, 0, 5), spot_size=1.0, spot_blend=0.25)
+    C.light("Sun", "SUN", 3.0, (0, 0, 5))
+    C.light("Disk", "AREA", 100.0, (0, 0, 5), shape="DISK", size=2.0)
+    glass = C.material("Prismatic", "ShaderNodeBsdfGlass", (1, 1, 1), IOR=1.5)
+    glass.prism.dispersion_mode = "GLASS"
+    glass.prism.glass_preset = "DIAMOND"
+    skin = C.material("Skin", "ShaderNodeBsdfPrincipled", (0.8, 0.5, 0.4))
+    skin.node_tree.nodes["Principled BSDF"].inputs["Subsurface Weight"].default_value = 1.0
+    C.mesh_object("Gem", C.cube(0.5), glass, location=(-2, 0, 0.5))
+    C.mesh_object("Hand", C.cube(0.5), skin, location=(-3, 0, 0.5))
+    sc.render.engine = "PRISM"
+    dg = bpy.context.evaluated_depsgraph_get()
+    from prism import export
+
+    d = tempfile.mkdtemp(dir=OUT)
+    gltf_path, json_path, warnings, tris = export.export_scene(dg, d)
+    g = json.load(open(gltf_path))
+    mj = json.load(open(json_path))
+    names = [n.get("name") for n in g["nodes"]]
+    C.check("Ball2" in names and "Hidden" not in names, "instance exported, hidden object skipped")
+    C.check(tris > 2 * 4 * 2200 // 2, "subdivision modifier applied (%d triangles)" % tris)
+    lights = g["extensions"]["KHR_lights_punctual"]["lights"]
+    spot = next(x for x in lights if x["type"] == "spot")
+    import math
+
+    C.check(abs(spot["intensity"] - 500 / (4 * math.pi) * 683) < 1e-3, "spot intensity W/(4pi)*683")
+    C.check(abs(spot["spot"]["outerConeAngle"] - 0.5) < 1e-6 and abs(spot["spot"]["innerConeAngle"] - 0.375) < 1e-6, "spot cone")
+    sun = next(x for x in lights if x["type"] == "directional")
+    C.check(abs(sun["intensity"] - 3 * 683) < 1e-3, "sun S*683 lux")
+    area = next(m for m in g["materials"] if m["name"].startswith("PrismAreaLight_Disk"))
+    L = area["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"]
+    C.check(abs(L - 100 / (math.pi * math.pi)) / L < 0.01, "disk light radiance P/(pi A) = %.3f" % L)
+    C.check(mj["materials"]["Prismatic"]["dielectric"]["cauchy"]["a"] > 2.3, "diamond preset -> Cauchy")
+    C.check("subsurface" in mj["materials"]["Skin"], "Principled subsurface -> subsurface block")
+    C.check(abs(mj["world"]["color"][0] - 0.05) < 1e-6, "world colour")
+    yfov = g["cameras"][0]["perspective"]["yfov"]
+    exp = 2 * math.atan(36.0 / 2 / 50.0 * 100 / 160)
+    C.check(abs(yfov - exp) < 1e-6, "yfov from lens, sensor and aspect")
+
+
+def main():
+    names = sys.argv[1:] or [n for n in globals() if n.startswith("test_")]
+    failed = []
+    for n in names:
+        print("== %s" % n, flush=True)
+        try:
+            globals()[n]()
+        except Exception:
+            traceback.print_exc()
+            failed.append(n)
+    print("bpy add-on tests: %d passed, %d failed %s" % (len(names) - len(failed), len(failed), failed or ""), flush=True)
+    sys.exit(1 if failed else 0)
+
+
+if __name__ == "__main__":
+    main()
