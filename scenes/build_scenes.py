@@ -1,0 +1,277 @@
+"""Build the report's reference scenes in Blender, save them as .blend and export glTF + material JSON.
+
+Run by Blender (either works):
+    blender -b --factory-startup -P scenes/build_scenes.py [-- NAME ...]
+    .venv-bpy/bin/python scenes/build_scenes.py [NAME ...]
+
+For each scene NAME this writes scenes/NAME/NAME.blend (not committed) and, with the add-on's own
+exporter (the one the render engine uses), scenes/NAME/NAME.gltf + NAME.bin + NAME.materials.json
+(committed, so `prism render scenes/NAME/NAME.gltf` needs no Blender).
+
+Scenes (1 unit = 1 m; the subsurface presets are in mm^-1, so their scale is 1000):
+  sss_vs_diffuse    the same 4 cm sphere twice: Marble subsurface (left) and diffuse of the same colour
+  sss_presets       Chicken1, Marble, Potato spheres (measured media of Jensen et al. 2001)
+  rough_glass       four glass spheres, roughness 0 / 0.02 / 0.2 / 0.5, in front of a striped wall
+  diamond           a brilliant-cut-like gem with the diamond Cauchy fit, lit by a small spot light
+  rgb_vs_spectral   colour patches and a dispersive BK7 prism under a sun, at 1 spp
+"""
+
+import math
+import os
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(HERE)
+sys.path.insert(0, os.path.join(REPO, "blender_addon"))
+
+import bpy  # noqa: E402  (first: the bpy wheel provides bmesh only after it)
+import bmesh  # noqa: E402
+
+import prism  # noqa: E402
+from prism import export  # noqa: E402
+
+
+# ----------------------------------------------------------------------------- building blocks
+
+
+def reset():
+    bpy.ops.wm.read_homefile(use_empty=True)
+    sc = bpy.context.scene
+    sc.render.engine = "PRISM"
+    return sc
+
+
+def material(name, kind="ShaderNodeBsdfDiffuse", color=(0.8, 0.8, 0.8), **inputs):
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    nt = mat.node_tree
+    nt.nodes.clear()
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    node = nt.nodes.new(kind)
+    for key in ("Color", "Base Color"):
+        if key in node.inputs:
+            node.inputs[key].default_value = (*color, 1.0)
+    for k, v in inputs.items():
+        node.inputs[k].default_value = v
+    nt.links.new(node.outputs[0], out.inputs["Surface"])
+    return mat
+
+
+def obj(name, build, mat, location=(0, 0, 0), rotation=(0, 0, 0), smooth=False):
+    me = bpy.data.meshes.new(name)
+    bm = bmesh.new()
+    build(bm)
+    bm.to_mesh(me)
+    bm.free()
+    for p in me.polygons:
+        p.use_smooth = smooth
+    me.materials.append(mat)
+    ob = bpy.data.objects.new(name, me)
+    ob.location = location
+    ob.rotation_euler = rotation
+    bpy.context.scene.collection.objects.link(ob)
+    return ob
+
+
+def sphere(r):
+    def build(bm):
+        try:
+            bmesh.ops.create_uvsphere(bm, u_segments=64, v_segments=32, radius=r)
+        except TypeError:
+            bmesh.ops.create_uvsphere(bm, u_segments=64, v_segments=32, diameter=r)
+    return build
+
+
+def grid(sx, sy):
+    def build(bm):
+        bmesh.ops.create_grid(bm, x_segments=1, y_segments=1, size=0.5)
+        bmesh.ops.scale(bm, vec=(sx, sy, 1.0), verts=bm.verts)
+    return build
+
+
+def hull(points):
+    def build(bm):
+        verts = [bm.verts.new(p) for p in points]
+        bmesh.ops.convex_hull(bm, input=verts)
+    return build
+
+
+def gem_points(r):
+    """A round brilliant-like cut: table, crown, girdle, pavilion, culet."""
+    pts = []
+    n = 16
+    for i in range(n):
+        a = 2 * math.pi * i / n
+        b = a + math.pi / n
+        pts.append((r * math.cos(a), r * math.sin(a), 0.0))
+        pts.append((r * math.cos(a), r * math.sin(a), 0.03 * r))
+        pts.append((0.8 * r * math.cos(b), 0.8 * r * math.sin(b), 0.2 * r))
+        pts.append((0.56 * r * math.cos(a), 0.56 * r * math.sin(a), 0.33 * r))
+        pts.append((0.55 * r * math.cos(b), 0.55 * r * math.sin(b), -0.45 * r))
+    pts.append((0.0, 0.0, -0.86 * r))
+    return pts
+
+
+def triangular_prism(w, h, depth):
+    pts = []
+    for y in (-depth / 2, depth / 2):
+        pts += [(-w / 2, y, 0.0), (w / 2, y, 0.0), (0.0, y, h)]
+    return hull(pts)
+
+
+def light(name, kind, energy, location, rotation=(0, 0, 0), **kw):
+    L = bpy.data.lights.new(name, kind)
+    L.energy = energy
+    for k, v in kw.items():
+        setattr(L, k, v)
+    ob = bpy.data.objects.new(name, L)
+    ob.location = location
+    ob.rotation_euler = rotation
+    bpy.context.scene.collection.objects.link(ob)
+    return ob
+
+
+def camera(location, target, lens=50.0):
+    from mathutils import Vector
+
+    cam = bpy.data.cameras.new("Camera")
+    cam.lens = lens
+    ob = bpy.data.objects.new("Camera", cam)
+    ob.location = location
+    ob.rotation_euler = (Vector(target) - Vector(location)).to_track_quat("-Z", "Y").to_euler()
+    bpy.context.scene.collection.objects.link(ob)
+    bpy.context.scene.camera = ob
+
+
+def world(color, strength=1.0):
+    w = bpy.data.worlds.new("World")
+    bpy.context.scene.world = w
+    if w.node_tree is None:
+        w.use_nodes = True
+    bg = next(n for n in w.node_tree.nodes if n.type == "BACKGROUND")
+    bg.inputs["Color"].default_value = (*color, 1.0)
+    bg.inputs["Strength"].default_value = strength
+
+
+def settings(sc, width, height, spp, max_depth=32, wavelengths="HERO"):
+    sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = width, height, 100
+    sc.prism.samples = spp
+    sc.prism.max_depth = max_depth
+    sc.prism.wavelengths = wavelengths
+
+
+def sss(mat, preset=None, scale=1000.0, eta=1.3):
+    mat.prism.sss_mode = "PRESET"
+    mat.prism.sss_preset = preset
+    mat.prism.sss_scale = scale
+    mat.prism.sss_eta = eta
+
+
+def studio(size=0.6, light_power=6.0):
+    """A grey floor, a back wall, one soft area light."""
+    floor = material("Floor", color=(0.5, 0.5, 0.5))
+    obj("Floor", grid(size * 4, size * 4), floor)
+    obj("Wall", grid(size * 4, size), floor, location=(0, size, size / 2), rotation=(math.pi / 2, 0, 0))
+    light("Key", "AREA", light_power, (-0.25 * size, -0.4 * size, 0.8 * size), rotation=(0.6, -0.3, 0.0),
+          shape="RECTANGLE", size=0.3 * size, size_y=0.2 * size)
+
+
+# ----------------------------------------------------------------------------- scenes
+
+
+def sss_vs_diffuse():
+    sc = reset()
+    studio()
+    colour = (0.85, 0.83, 0.78)
+    marble = material("MarbleSSS", color=colour)
+    sss(marble, "Marble")
+    obj("SSSBall", sphere(0.04), marble, location=(-0.05, 0, 0.04), smooth=True)
+    obj("DiffuseBall", sphere(0.04), material("MarbleDiffuse", color=colour), location=(0.05, 0, 0.04), smooth=True)
+    world((0.02, 0.02, 0.025))
+    camera((0, -0.45, 0.12), (0, 0, 0.035), lens=60)
+    settings(sc, 512, 256, 256)
+
+
+def sss_presets():
+    sc = reset()
+    studio()
+    for i, (name, colour) in enumerate((("Chicken1", (0.9, 0.7, 0.6)), ("Marble", (0.85, 0.83, 0.78)), ("Potato", (0.85, 0.75, 0.5)))):
+        m = material(name, color=colour)
+        sss(m, name)
+        obj(name + "Ball", sphere(0.035), m, location=(-0.09 + 0.09 * i, 0, 0.035), smooth=True)
+    world((0.02, 0.02, 0.025))
+    camera((0, -0.5, 0.12), (0, 0, 0.03), lens=55)
+    settings(sc, 600, 240, 256)
+
+
+def rough_glass():
+    sc = reset()
+    floor = material("Floor", color=(0.5, 0.5, 0.5))
+    obj("Floor", grid(4, 4), floor)
+    dark = material("Stripe", color=(0.05, 0.05, 0.05))
+    for i in range(9):  # a striped wall behind the spheres shows the blur of the transmission
+        obj("Stripe%d" % i, grid(0.1, 1.0), dark if i % 2 else floor, location=(-0.8 + 0.2 * i, 0.6, 0.5), rotation=(math.pi / 2, 0, 0))
+    for i, r in enumerate((0.0, 0.02, 0.2, 0.5)):
+        m = material("Glass_r%s" % str(r).replace(".", ""), "ShaderNodeBsdfGlass", (1, 1, 1), Roughness=r, IOR=1.5)
+        obj("Glass%d" % i, sphere(0.12), m, location=(-0.45 + 0.3 * i, 0, 0.12), smooth=True)
+    light("Key", "AREA", 40.0, (0, -0.6, 1.2), rotation=(0.45, 0, 0), shape="SQUARE", size=0.5)
+    world((0.3, 0.3, 0.32))
+    camera((0, -2.2, 0.45), (0, 0, 0.15), lens=50)
+    settings(sc, 640, 240, 256)
+
+
+def diamond():
+    sc = reset()
+    obj("Floor", grid(2, 2), material("Black", color=(0.02, 0.02, 0.02)))
+    gem = material("Diamond", "ShaderNodeBsdfGlass", (1, 1, 1), IOR=2.417)
+    gem.prism.dispersion_mode = "GLASS"
+    gem.prism.glass_preset = "DIAMOND"
+    obj("Gem", hull(gem_points(0.05)), gem, location=(0, 0, 0.06), rotation=(0.35, 0.2, 0.0))
+    light("Spot", "SPOT", 400.0, (0.15, -0.3, 0.5), rotation=(0.55, 0.25, 0.0), spot_size=0.35, spot_blend=0.1, shadow_soft_size=0.0)
+    light("Fill", "AREA", 5.0, (0.0, 0.0, 0.6), shape="SQUARE", size=0.3)
+    world((0.01, 0.01, 0.012))
+    camera((0, -0.42, 0.3), (0, 0, 0.05), lens=60)
+    settings(sc, 400, 400, 1024, max_depth=64)
+
+
+def rgb_vs_spectral():
+    sc = reset()
+    obj("Floor", grid(3, 3), material("Floor", color=(0.7, 0.7, 0.7)))
+    colours = [(0.8, 0.1, 0.1), (0.1, 0.6, 0.1), (0.1, 0.1, 0.8), (0.8, 0.7, 0.1), (0.7, 0.1, 0.7), (0.1, 0.7, 0.7)]
+    for i, c in enumerate(colours):
+        obj("Patch%d" % i, grid(0.18, 0.18), material("Patch%d" % i, color=c), location=(-0.5 + 0.2 * i, 0.3, 0.001))
+    glass = material("BK7", "ShaderNodeBsdfGlass", (1, 1, 1), IOR=1.5168)
+    glass.prism.dispersion_mode = "GLASS"
+    glass.prism.glass_preset = "BK7"
+    obj("Prism", triangular_prism(0.25, 0.22, 0.4), glass, location=(0, -0.1, 0.0), rotation=(0, 0, 0.3))
+    light("Sun", "SUN", 2.0, (0, 0, 2), rotation=(0.5, -0.6, 0.0))
+    world((0.1, 0.12, 0.15))
+    camera((0, -1.6, 0.9), (0, 0.05, 0.05), lens=45)
+    settings(sc, 480, 320, 1)
+
+
+SCENES = {f.__name__: f for f in (sss_vs_diffuse, sss_presets, rough_glass, diamond, rgb_vs_spectral)}
+
+
+def main():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
+    names = [a for a in argv if a in SCENES] or list(SCENES)
+    try:
+        prism.register()
+    except ValueError:  # already registered (enabled as an add-on)
+        pass
+    for name in names:
+        SCENES[name]()
+        out = os.path.join(HERE, name)
+        os.makedirs(out, exist_ok=True)
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(out, name + ".blend"), compress=True)
+        dg = bpy.context.evaluated_depsgraph_get()
+        gltf, mj, warnings, tris = export.export_scene(dg, out, name)
+        for w in warnings:
+            print("warning:", w)
+        print("%s: %d triangles -> %s, %s" % (name, tris, os.path.relpath(gltf, REPO), os.path.relpath(mj, REPO)))
+
+
+if __name__ == "__main__":
+    main()
