@@ -4,6 +4,7 @@
 //! [`integrator`] (per pixel, per path) -> [`film`] -> EXR.
 
 pub mod bsdf;
+pub mod bssrdf;
 pub mod error;
 pub mod film;
 pub mod geometry;

@@ -2,6 +2,7 @@
 //! (Veach 1997, ch. 9; power heuristic), Russian roulette, spectral throughout.
 
 use crate::bsdf::Bsdf;
+use crate::bssrdf::{active_wavelengths, random_walk, SubsurfaceMethod};
 use crate::geometry::{offset_ray_origin, Ray};
 use crate::math::{power_heuristic, Frame};
 use crate::sampler::Sampler;
@@ -50,10 +51,33 @@ impl<'a> PathTracer<'a> {
         let mut medium: Option<SampledSpectrum> = None;
         // Product of eta^2 over refractions: undoes radiance scaling for Russian roulette.
         let mut eta_scale = 1.0f32;
+        // Material id of the random-walk subsurface medium the ray travels inside, if any.
+        let mut walk_medium: Option<u32> = None;
 
         for depth in 0..=self.max_depth {
             rays += 1;
-            let Some(hit) = geometry.intersect(&ray, f32::INFINITY) else {
+            let next_hit = match walk_medium {
+                // Inside a random-walk medium: free flights until the walk reaches a surface,
+                // which is then shaded from inside like any other hit.
+                Some(id) => {
+                    let Some(ss) = scene.materials[id as usize].subsurface() else {
+                        break;
+                    };
+                    let (sigma_a, sigma_s) = ss.walk_coefficients(w);
+                    let n = active_wavelengths(w);
+                    match random_walk::walk(
+                        geometry, ray, sigma_a, sigma_s, ss.g, n, sampler, &mut beta,
+                    ) {
+                        Some((hit, last)) => {
+                            ray = last;
+                            Some(hit)
+                        }
+                        None => break,
+                    }
+                }
+                None => geometry.intersect(&ray, f32::INFINITY),
+            };
+            let Some(hit) = next_hit else {
                 let le = lights.environment_radiance(w);
                 if !le.is_black() {
                     let weight = if specular_bounce {
@@ -165,8 +189,77 @@ impl<'a> PathTracer<'a> {
             beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
             specular_bounce = bs.specular;
             prev_pdf = bs.pdf;
-            if bs.transmission {
-                let entering = wi_world.dot(sp.ng) < 0.0;
+            // Where the path continues: point, normal for the ray offset, direction.
+            let mut next = (sp.p, ng, wi_world);
+            let subsurface = material.subsurface();
+            let entering = wi_world.dot(sp.ng) < 0.0;
+            let sss_table = bs.transmission
+                && entering
+                && subsurface.is_some_and(|s| s.method == SubsurfaceMethod::Table);
+            if sss_table {
+                // Separable BSSRDF: the boundary's transmission sample stands for
+                // (1 - Fr(cos theta_o)); undo the radiance 1/eta^2 it carries (light refracts
+                // in at the exit point and out here), find the exit point and shade it with Sw.
+                let Some(ss) = subsurface else { break };
+                beta *= ss.eta * ss.eta;
+                let bssrdf = ss.bssrdf(w);
+                let u_axis = sampler.next_1d();
+                let u_disk = sampler.next_2d();
+                let u_hit = sampler.next_1d();
+                rays += 1;
+                let Some(probe) =
+                    bssrdf.sample_probe(geometry, sp.material, sp.p, &frame, u_axis, u_disk, u_hit)
+                else {
+                    break;
+                };
+                beta *= probe.weight;
+                let pi = probe.point;
+                // Outward normals at the exit point (shading normal on the geometric side).
+                let ng_i = pi.ng;
+                let ns_i = if pi.ns.dot(ng_i) < 0.0 { -pi.ns } else { pi.ns };
+                let frame_i = Frame::from_normal_tangent(ns_i, pi.dpdu);
+                let sw = ss.sw();
+                // Next-event estimation at the exit point with the Sw lobe.
+                let u_light = sampler.next_1d();
+                let u_light2 = sampler.next_2d();
+                if let Some(ls) = lights.sample(
+                    geometry,
+                    &scene.materials,
+                    &scene.textures,
+                    pi.p,
+                    u_light,
+                    u_light2,
+                    w,
+                ) {
+                    let cos = frame_i.to_local(ls.wi).z;
+                    let f = sw.eval(cos);
+                    if f > 0.0 && ls.wi.dot(ng_i) > 0.0 {
+                        rays += 1;
+                        let origin = offset_ray_origin(pi.p, ng_i, ls.wi);
+                        if !geometry.occluded(&Ray::new(origin, ls.wi), ls.distance) {
+                            let weight = if ls.delta {
+                                1.0
+                            } else {
+                                power_heuristic(ls.pdf, sw.pdf(cos))
+                            };
+                            l += beta * ls.li * (f * cos * weight / ls.pdf);
+                        }
+                    }
+                }
+                let wi = sw.sample(sampler.next_2d());
+                let pdf = sw.pdf(wi.z);
+                if !(pdf > 0.0) {
+                    break;
+                }
+                let wi_world = frame_i.to_world(wi);
+                if !(wi_world.dot(ng_i) > 0.0) {
+                    break;
+                }
+                beta *= sw.eval(wi.z) * wi.z / pdf;
+                specular_bounce = false;
+                prev_pdf = pdf;
+                next = (pi.p, ng_i, wi_world);
+            } else if bs.transmission {
                 if let Bsdf::Dielectric(d) = &bsdf {
                     let eta = d.eta[0];
                     eta_scale *= if entering {
@@ -179,6 +272,12 @@ impl<'a> PathTracer<'a> {
                     material.absorption(w)
                 } else {
                     None
+                };
+                walk_medium = match subsurface {
+                    Some(s) if entering && s.method == SubsurfaceMethod::RandomWalk => {
+                        Some(sp.material)
+                    }
+                    _ => None,
                 };
             }
             if !beta.is_finite() {
@@ -194,7 +293,8 @@ impl<'a> PathTracer<'a> {
                     beta /= 1.0 - q;
                 }
             }
-            ray = Ray::new(offset_ray_origin(sp.p, ng, wi_world), wi_world);
+            let (p, n, dir) = next;
+            ray = Ray::new(offset_ray_origin(p, n, dir), dir);
         }
         PathSample { radiance: l, rays }
     }

@@ -1,6 +1,7 @@
 //! Small math toolbox shared by every module: shading frames, sampling warps,
 //! multiple-importance-sampling heuristics. Everything geometric uses `glam::Vec3`.
 
+pub mod catmull_rom;
 pub mod distribution;
 pub mod frame;
 pub mod sampling;

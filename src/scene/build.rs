@@ -32,7 +32,7 @@ impl Scene {
             camera,
             world,
             render,
-            mut warnings,
+            warnings,
         } = desc;
         let camera = camera.ok_or_else(|| PrismError::input("the scene has no camera"))?;
 
@@ -47,18 +47,6 @@ impl Scene {
             },
             sidecar: None,
         }));
-        let subsurface: Vec<&str> = runtime_materials
-            .iter()
-            .filter(|m| m.is_subsurface())
-            .map(|m| m.name.as_str())
-            .collect();
-        if !subsurface.is_empty() {
-            warnings.push(format!(
-                "subsurface scattering is not implemented yet; rendering {} with the glTF surface model",
-                subsurface.join(", ")
-            ));
-        }
-
         // Meshes: keep valid triangles only (indices in range, finite, non-zero area).
         let mut mesh_map = vec![u32::MAX; meshes.len()];
         let mut runtime_meshes = Vec::new();

@@ -2,16 +2,17 @@
 //! into a `Bsdf` and an emitted spectrum for the path's wavelengths.
 
 use super::desc::{
-    GltfMaterialDesc, IorDesc, MaterialDesc, MaterialOverride, SubsurfaceDesc, TextureDesc,
-    TextureRef,
+    GltfMaterialDesc, IorDesc, MaterialDesc, MaterialOverride, TextureDesc, TextureRef,
 };
 use super::texture::sample_texture;
 use crate::bsdf::{Bsdf, DielectricBsdf, DiffuseBsdf, MetallicRoughnessBsdf};
+use crate::bssrdf::SubsurfaceMaterial;
 use crate::spectrum::{
     RgbAlbedoSpectrum, RgbIlluminantSpectrum, RgbUnboundedSpectrum, SampledSpectrum,
     SampledWavelengths,
 };
 use glam::{Vec2, Vec3, Vec4, Vec4Swizzles};
+use std::sync::Arc;
 
 /// Which scattering model replaces the glTF one (from the sidecar).
 #[derive(Clone, Debug)]
@@ -21,9 +22,8 @@ enum SurfaceModel {
         ior: IorDesc,
         alpha: f32,
     },
-    /// Parsed and validated; rendered with its glTF surface until the BSSRDF lands.
-    #[allow(dead_code)] // the description is consumed by the BSSRDF (subsurface issue)
-    Subsurface(SubsurfaceDesc),
+    /// Subsurface scattering: a dielectric boundary over a scattering medium (`crate::bssrdf`).
+    Subsurface(Arc<SubsurfaceMaterial>),
 }
 
 #[derive(Clone, Debug)]
@@ -67,7 +67,9 @@ impl Material {
                 ior: d.ior.clone(),
                 alpha: roughness_to_alpha(d.roughness),
             },
-            Some(MaterialOverride::Subsurface(s)) => SurfaceModel::Subsurface(s.clone()),
+            Some(MaterialOverride::Subsurface(s)) => {
+                SurfaceModel::Subsurface(Arc::new(SubsurfaceMaterial::new(s)))
+            }
         };
         let emission =
             (g.emissive.max_element() > 0.0).then(|| RgbIlluminantSpectrum::new(g.emissive));
@@ -95,6 +97,14 @@ impl Material {
 
     pub fn is_subsurface(&self) -> bool {
         matches!(self.model, SurfaceModel::Subsurface(_))
+    }
+
+    /// The medium below a subsurface material's boundary.
+    pub fn subsurface(&self) -> Option<&SubsurfaceMaterial> {
+        match &self.model {
+            SurfaceModel::Subsurface(s) => Some(s),
+            _ => None,
+        }
     }
 
     /// Linear RGB emitted radiance factor (before texture), for light power estimates.
@@ -155,9 +165,14 @@ impl Material {
                 alpha: if *alpha < MIN_ALPHA { 0.0 } else { *alpha },
                 transmission_tint: SampledSpectrum::ONE,
             }),
-            SurfaceModel::Gltf | SurfaceModel::Subsurface(_) => {
-                self.gltf_bsdf(textures, uv, w, u_select)
-            }
+            // The boundary of a subsurface medium: a (rough) dielectric; a transmission sample
+            // hands the path to the BSSRDF (see `integrator::path`).
+            SurfaceModel::Subsurface(s) => Bsdf::Dielectric(DielectricBsdf {
+                eta: SampledSpectrum::splat(s.eta),
+                alpha: if s.alpha < MIN_ALPHA { 0.0 } else { s.alpha },
+                transmission_tint: SampledSpectrum::ONE,
+            }),
+            SurfaceModel::Gltf => self.gltf_bsdf(textures, uv, w, u_select),
         }
     }
 

@@ -1,0 +1,335 @@
+//! Subsurface scattering.
+//!
+//! Two methods, selected per material by the sidecar's `subsurface.method`:
+//!
+//! * `"table"` (default): the separable BSSRDF of Jensen et al. 2001 (eq. 1 with the
+//!   separable approximation popularised by pbrt-v3, section 11.4)
+//!   S(po, wo, pi, wi) = (1 - Fr(cos theta_o)) Sp(|po - pi|) Sw(wi), with the radial profile
+//!   Sp from a photon-beam-diffusion table (`table.rs`). The path tracer samples the rough
+//!   dielectric boundary at the entry point; a transmission sample triggers `sample_probe`,
+//!   which finds an exit point with probe rays (axis 0.5/0.25/0.25 along normal/tangents, a
+//!   segment of length 2 r_max, every hit on the same material, one chosen uniformly) and
+//!   returns Sp / pdf, the pdf combining all three axes and all of the path's wavelengths
+//!   (spectral MIS: one-sample balance heuristic over the wavelength that drove the radius).
+//!   The exit point then gets next-event estimation with the Sw lobe (`SwLobe`).
+//! * `"random_walk"`: a volumetric random walk inside the closed mesh (`random_walk.rs`).
+//!
+//! Coefficients are RGB triples in 1 / scene unit, upsampled to unbounded spectra, so every
+//! wavelength of the path has its own profile.
+
+pub mod media;
+pub mod random_walk;
+pub mod table;
+
+use crate::bsdf::fresnel_dielectric;
+use crate::geometry::{offset_ray_origin, Geometry, Ray, SurfacePoint};
+use crate::math::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
+use crate::math::{Frame, INV_PI};
+use crate::scene::SubsurfaceDesc;
+use crate::spectrum::{RgbUnboundedSpectrum, SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
+use glam::{Vec2, Vec3};
+use std::sync::Arc;
+pub use table::BssrdfTable;
+
+/// Fraction of the radial CDF inside the probe radius r_max; the radius pdf is renormalised
+/// to it so the estimator stays unbiased on flat surfaces.
+const R_MAX_CDF: f32 = 0.999;
+/// Probe hits kept per sample (a ray through a thin, folded object rarely sees more).
+const MAX_PROBE_HITS: usize = 16;
+/// Probe axis probabilities: tangent s, tangent t, normal.
+const AXIS_PROB: [f32; 3] = [0.25, 0.25, 0.5];
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SubsurfaceMethod {
+    Table,
+    RandomWalk,
+}
+
+/// A subsurface material's runtime data (built once per material instance).
+#[derive(Clone, Debug)]
+pub struct SubsurfaceMaterial {
+    pub table: Arc<BssrdfTable>,
+    pub coefficients: media::Coefficients,
+    pub sigma_a: RgbUnboundedSpectrum,
+    /// Reduced scattering coefficient sigma_s (1 - g).
+    pub sigma_s_reduced: RgbUnboundedSpectrum,
+    pub g: f32,
+    pub eta: f32,
+    /// GGX alpha of the boundary (perceptual roughness squared).
+    pub alpha: f32,
+    pub method: SubsurfaceMethod,
+    /// Exit lobe normalisation c = 1 - 2 Fm1_external(eta).
+    sw_norm: f32,
+}
+
+impl SubsurfaceMaterial {
+    pub fn new(desc: &SubsurfaceDesc) -> Self {
+        let table = Arc::new(BssrdfTable::new(desc.eta));
+        let coefficients = media::coefficients(desc, &table);
+        let r = desc.roughness.clamp(0.0, 1.0);
+        SubsurfaceMaterial {
+            sigma_a: RgbUnboundedSpectrum::new(coefficients.sigma_a),
+            sigma_s_reduced: RgbUnboundedSpectrum::new(coefficients.sigma_s_reduced),
+            coefficients,
+            table,
+            g: desc.g,
+            eta: desc.eta,
+            alpha: r * r,
+            method: if desc.method == "random_walk" {
+                SubsurfaceMethod::RandomWalk
+            } else {
+                SubsurfaceMethod::Table
+            },
+            sw_norm: (1.0 - 2.0 * table::fresnel_moment_external(desc.eta, 1)) as f32,
+        }
+    }
+
+    /// The separable BSSRDF for the path's wavelengths.
+    pub fn bssrdf(&self, w: &SampledWavelengths) -> SeparableBssrdf<'_> {
+        SeparableBssrdf::new(
+            &self.table,
+            self.sigma_a.sample(w),
+            self.sigma_s_reduced.sample(w),
+            active_wavelengths(w),
+        )
+    }
+
+    /// Exit lobe Sw at the exit point.
+    pub fn sw(&self) -> SwLobe {
+        SwLobe {
+            eta: self.eta,
+            norm: self.sw_norm,
+        }
+    }
+
+    /// (sigma_a, full sigma_s) for the random walk.
+    pub fn walk_coefficients(&self, w: &SampledWavelengths) -> (SampledSpectrum, SampledSpectrum) {
+        let k = 1.0 / (1.0 - self.g).max(1e-3);
+        (self.sigma_a.sample(w), self.sigma_s_reduced.sample(w) * k)
+    }
+}
+
+/// Number of wavelengths still carried by the path (1 after a dispersive termination).
+pub fn active_wavelengths(w: &SampledWavelengths) -> usize {
+    if w.secondary_terminated() {
+        1
+    } else {
+        N_WAVELENGTHS
+    }
+}
+
+/// The exit lobe of the separable BSSRDF: Sw(wi) = (1 - Fr(cos theta_i)) / (c pi), with
+/// c = 1 - 2 Fm1 so that \int Sw cos dw = 1 (pbrt-v3 section 11.4.1's normalisation).
+#[derive(Clone, Copy, Debug)]
+pub struct SwLobe {
+    eta: f32,
+    norm: f32,
+}
+
+impl SwLobe {
+    /// Sw for a direction with `cos_theta` to the outward normal (0 below the surface).
+    pub fn eval(&self, cos_theta: f32) -> f32 {
+        if !(cos_theta > 0.0) {
+            return 0.0;
+        }
+        (1.0 - fresnel_dielectric(cos_theta, self.eta)) * INV_PI / self.norm
+    }
+
+    pub fn pdf(&self, cos_theta: f32) -> f32 {
+        if cos_theta > 0.0 {
+            cosine_hemisphere_pdf(cos_theta)
+        } else {
+            0.0
+        }
+    }
+
+    /// Cosine-weighted direction in the local frame (outward normal = +z).
+    pub fn sample(&self, u: Vec2) -> Vec3 {
+        sample_cosine_hemisphere(u)
+    }
+}
+
+/// The separable BSSRDF's spatial part for the path's wavelengths.
+#[derive(Clone, Copy, Debug)]
+pub struct SeparableBssrdf<'a> {
+    table: &'a BssrdfTable,
+    sigma_t: SampledSpectrum,
+    rho: SampledSpectrum,
+    /// Wavelengths that take part in the radius sampling (1 or N).
+    n_active: usize,
+    /// Probe radius per wavelength (radius below which R_MAX_CDF of the profile lies).
+    r_max: [f32; N_WAVELENGTHS],
+}
+
+/// An exit point found by the probe rays and its weight Sp / pdf (per wavelength).
+#[derive(Clone, Copy, Debug)]
+pub struct ProbeSample {
+    pub point: SurfacePoint,
+    pub weight: SampledSpectrum,
+}
+
+impl<'a> SeparableBssrdf<'a> {
+    /// `sigma_s` is the reduced scattering coefficient.
+    pub fn new(
+        table: &'a BssrdfTable,
+        sigma_a: SampledSpectrum,
+        sigma_s: SampledSpectrum,
+        n_active: usize,
+    ) -> Self {
+        let sigma_t = sigma_a + sigma_s;
+        let rho = SampledSpectrum::from_fn(|i| {
+            if sigma_t[i] > 0.0 {
+                (sigma_s[i] / sigma_t[i]).clamp(0.0, 1.0)
+            } else {
+                0.0
+            }
+        });
+        let mut b = SeparableBssrdf {
+            table,
+            sigma_t,
+            rho,
+            n_active: n_active.clamp(1, N_WAVELENGTHS),
+            r_max: [0.0; N_WAVELENGTHS],
+        };
+        for i in 0..N_WAVELENGTHS {
+            b.r_max[i] = b.sample_sr_untruncated(i, R_MAX_CDF).unwrap_or(0.0);
+        }
+        b
+    }
+
+    /// Radial profile Sr(r) per wavelength (per unit area, in 1 / scene unit^2), so that
+    /// \int_0^inf Sr(r) 2 pi r dr = rho_eff.
+    pub fn sr(&self, r: f32) -> SampledSpectrum {
+        SampledSpectrum::from_fn(|i| {
+            let st = self.sigma_t[i];
+            if !(st > 0.0) {
+                return 0.0;
+            }
+            self.table.eval(self.rho[i], r * st).0 * st * st
+        })
+    }
+
+    /// Effective albedo per wavelength.
+    pub fn rho_eff(&self) -> SampledSpectrum {
+        SampledSpectrum::from_fn(|i| self.table.rho_eff_at(self.rho[i]))
+    }
+
+    pub fn r_max(&self, ch: usize) -> f32 {
+        self.r_max[ch]
+    }
+
+    fn sample_sr_untruncated(&self, ch: usize, u: f32) -> Option<f32> {
+        let st = self.sigma_t[ch];
+        if !(st > 0.0) {
+            return None;
+        }
+        self.table.sample_radius(self.rho[ch], u).map(|r| r / st)
+    }
+
+    /// Samples a radius (scene units) from wavelength `ch`'s profile, restricted to r < r_max.
+    pub fn sample_sr(&self, ch: usize, u: f32) -> Option<f32> {
+        let r = self.sample_sr_untruncated(ch, u * R_MAX_CDF)?;
+        (r < self.r_max[ch] && r.is_finite()).then_some(r)
+    }
+
+    /// Area density (on a plane) of `sample_sr` for wavelength `ch` at radius r.
+    pub fn pdf_sr(&self, ch: usize, r: f32) -> f32 {
+        let st = self.sigma_t[ch];
+        if !(st > 0.0) || !(r < self.r_max[ch]) {
+            return 0.0;
+        }
+        let (value, eff) = self.table.eval(self.rho[ch], r * st);
+        if !(eff > 0.0) {
+            return 0.0;
+        }
+        (value * st * st / (eff * R_MAX_CDF)).max(0.0)
+    }
+
+    /// Area density of an exit point `pi` (with geometric normal `ni`) over the three probe
+    /// axes and the active wavelengths (before the 1 / count factor of the chosen hit).
+    pub fn pdf_sp(&self, po: Vec3, frame: &Frame, pi: Vec3, ni: Vec3) -> f32 {
+        let d = pi - po;
+        let dl = frame.to_local(d);
+        let nl = frame.to_local(ni);
+        let r_proj = [
+            (dl.y * dl.y + dl.z * dl.z).sqrt(),
+            (dl.z * dl.z + dl.x * dl.x).sqrt(),
+            (dl.x * dl.x + dl.y * dl.y).sqrt(),
+        ];
+        let mut pdf = 0.0;
+        let ch_prob = 1.0 / self.n_active as f32;
+        for axis in 0..3 {
+            let cos = nl[axis].abs();
+            if cos == 0.0 {
+                continue;
+            }
+            for ch in 0..self.n_active {
+                pdf += self.pdf_sr(ch, r_proj[axis]) * cos * AXIS_PROB[axis] * ch_prob;
+            }
+        }
+        pdf
+    }
+
+    /// Finds an exit point around `po` on surfaces of material `material` with probe rays.
+    /// `frame` is the shading frame at `po` (normal = frame.n).
+    #[allow(clippy::too_many_arguments)]
+    pub fn sample_probe(
+        &self,
+        geometry: &Geometry,
+        material: u32,
+        po: Vec3,
+        frame: &Frame,
+        u_axis: f32,
+        u_disk: Vec2,
+        u_hit: f32,
+    ) -> Option<ProbeSample> {
+        // Probe axis: normal with probability 1/2, each tangent 1/4.
+        let (vx, vy, vz, mut u) = if u_axis < 0.5 {
+            (frame.s, frame.t, frame.n, u_axis * 2.0)
+        } else if u_axis < 0.75 {
+            (frame.t, frame.n, frame.s, (u_axis - 0.5) * 4.0)
+        } else {
+            (frame.n, frame.s, frame.t, (u_axis - 0.75) * 4.0)
+        };
+        // Wavelength whose profile drives the radius.
+        let ch = ((u * self.n_active as f32) as usize).min(self.n_active - 1);
+        u = (u * self.n_active as f32 - ch as f32).clamp(0.0, 1.0 - f32::EPSILON);
+        let r = self.sample_sr(ch, u)?;
+        let r_max = self.r_max[ch];
+        let phi = 2.0 * std::f32::consts::PI * u_disk.x;
+        let half = (r_max * r_max - r * r).max(0.0).sqrt();
+        if !(half > 0.0) {
+            return None;
+        }
+        let base = po + r * (vx * phi.cos() + vy * phi.sin()) - vz * half;
+        // Every intersection along the segment base -> base + 2 half vz with this material.
+        let mut hits = [None; MAX_PROBE_HITS];
+        let mut count = 0usize;
+        let mut origin = base;
+        let mut remaining = 2.0 * half;
+        while remaining > 0.0 && count < MAX_PROBE_HITS {
+            let Some(hit) = geometry.intersect(&Ray::new(origin, vz), remaining) else {
+                break;
+            };
+            let sp = geometry.surface_point(&hit);
+            if sp.material == material {
+                hits[count] = Some(sp);
+                count += 1;
+            }
+            let next = offset_ray_origin(sp.p, sp.ng, vz);
+            remaining -= (next - origin).dot(vz);
+            origin = next;
+        }
+        if count == 0 {
+            return None;
+        }
+        let k = ((u_hit * count as f32) as usize).min(count - 1);
+        let point = hits[k]?;
+        let pdf = self.pdf_sp(po, frame, point.p, point.ng) / count as f32;
+        if !(pdf > 0.0) || !pdf.is_finite() {
+            return None;
+        }
+        let weight = self.sr((point.p - po).length()) / pdf;
+        weight.is_finite().then_some(ProbeSample { point, weight })
+    }
+}

@@ -1,0 +1,242 @@
+//! Subsurface scattering through the whole renderer: a thick flat slab of a subsurface
+//! material in a uniform white world, seen head-on through a narrow camera.
+//!
+//! For the separable BSSRDF under uniform illumination L the outgoing radiance is exactly
+//! L (Fr(cos theta_o) + (1 - Fr(cos theta_o)) rho_eff): the exit lobe Sw integrates to 1 over
+//! the hemisphere and Sp integrates to rho_eff over a plane. So the image must equal that
+//! (a smooth boundary makes Fr exact) within 2%, for grey and for coloured (spectral) media,
+//! without NaN/Inf. The random-walk method must agree with the table within the diffusion
+//! error (see `bssrdf_walk.rs` for the radially resolved comparison).
+
+mod common;
+
+use common::scenes::{camera, material_with};
+use glam::{Mat4, Vec3};
+use prism::bsdf::fresnel_dielectric;
+use prism::bssrdf::SubsurfaceMaterial;
+use prism::render::{render, RenderSettings};
+use prism::scene::{
+    GltfMaterialDesc, InstanceDesc, MaterialOverride, MeshDesc, Scene, SceneDesc,
+    SubsurfaceCoefficients, SubsurfaceDesc, WorldDesc,
+};
+use prism::spectrum::rgb::xyz_to_linear_srgb;
+use prism::spectrum::{spectrum_to_xyz, RgbIlluminantSpectrum, SampledWavelengths};
+use std::sync::atomic::AtomicBool;
+
+const ETA: f32 = 1.33;
+
+/// Closed box [-w, w] x [-w, w] x [-depth, 0], outward normals (counter-clockwise winding).
+fn slab_mesh(w: f32, depth: f32) -> MeshDesc {
+    let p = |x: f32, y: f32, z: f32| Vec3::new(x * w, y * w, if z > 0.0 { 0.0 } else { -depth });
+    let positions = vec![
+        p(-1.0, -1.0, -1.0),
+        p(1.0, -1.0, -1.0),
+        p(1.0, 1.0, -1.0),
+        p(-1.0, 1.0, -1.0),
+        p(-1.0, -1.0, 1.0),
+        p(1.0, -1.0, 1.0),
+        p(1.0, 1.0, 1.0),
+        p(-1.0, 1.0, 1.0),
+    ];
+    let quads: [[u32; 4]; 6] = [
+        [4, 5, 6, 7], // top (+z)
+        [0, 3, 2, 1], // bottom (-z)
+        [0, 1, 5, 4], // -y
+        [2, 3, 7, 6], // +y
+        [1, 2, 6, 5], // +x
+        [3, 0, 4, 7], // -x
+    ];
+    let indices = quads
+        .iter()
+        .flat_map(|q| [q[0], q[1], q[2], q[0], q[2], q[3]])
+        .collect();
+    MeshDesc {
+        name: "slab".into(),
+        positions,
+        normals: None,
+        uvs: None,
+        indices,
+        material: Some(0),
+    }
+}
+
+fn subsurface(sigma_a: Vec3, sigma_s: Vec3, method: &str) -> SubsurfaceDesc {
+    SubsurfaceDesc {
+        coefficients: SubsurfaceCoefficients::Explicit { sigma_a, sigma_s },
+        scale: 1.0,
+        eta: ETA,
+        g: 0.0,
+        roughness: 0.0,
+        method: method.into(),
+    }
+}
+
+fn slab_scene(desc: &SubsurfaceDesc) -> SceneDesc {
+    SceneDesc {
+        meshes: vec![slab_mesh(400.0, 200.0)],
+        instances: vec![InstanceDesc {
+            mesh: 0,
+            object_to_world: Mat4::IDENTITY,
+            name: "slab".into(),
+        }],
+        materials: vec![material_with(
+            GltfMaterialDesc {
+                name: "sss".into(),
+                ..Default::default()
+            },
+            Some(MaterialOverride::Subsurface(desc.clone())),
+        )],
+        camera: Some(camera(5.0, 0.05)),
+        world: WorldDesc {
+            color: Vec3::ONE,
+            strength: 1.0,
+        },
+        ..Default::default()
+    }
+}
+
+/// Mean RGB over the image and the number of discarded (non-finite) samples.
+fn render_mean(desc: SceneDesc, spp: u32, seed: u64) -> (Vec3, u64) {
+    let scene = Scene::build(desc).expect("scene builds");
+    assert!(
+        scene.warnings.iter().all(|w| !w.contains("subsurface")),
+        "{:?}",
+        scene.warnings
+    );
+    let settings = RenderSettings {
+        width: 16,
+        height: 16,
+        spp,
+        max_depth: 32,
+        seed,
+    };
+    let (film, stats) = render(
+        &scene,
+        &settings,
+        &AtomicBool::new(false),
+        &|_| {},
+        &mut |_, _| {},
+    );
+    let rgba = film.to_rgba();
+    for p in &rgba {
+        assert!(p.iter().all(|v| v.is_finite()), "non-finite pixel {p:?}");
+    }
+    let mean = rgba
+        .iter()
+        .map(|p| Vec3::new(p[0], p[1], p[2]))
+        .sum::<Vec3>()
+        / rgba.len() as f32;
+    (mean, stats.discarded)
+}
+
+/// Exact expected colour of the slab under the white world: the spectrum
+/// Fr(1) + (1 - Fr(1)) rho_eff(lambda) times the world's illuminant, integrated against the
+/// CIE matching functions (stratified over wavelengths: converged to ~1e-5).
+fn spectral_reference(desc: &SubsurfaceDesc) -> Vec3 {
+    let m = SubsurfaceMaterial::new(desc);
+    let fr = fresnel_dielectric(1.0, ETA);
+    let world = RgbIlluminantSpectrum::new(Vec3::ONE);
+    let n = 20_000;
+    let mut xyz = Vec3::ZERO;
+    for i in 0..n {
+        let w = SampledWavelengths::sample_hero((i as f32 + 0.5) / n as f32);
+        let rho_eff = m.bssrdf(&w).rho_eff();
+        let r = (rho_eff * (1.0 - fr)) + prism::spectrum::SampledSpectrum::splat(fr);
+        xyz += spectrum_to_xyz(&(r * world.sample(&w)), &w);
+    }
+    xyz_to_linear_srgb(xyz / n as f32)
+}
+
+#[test]
+fn grey_slab_reflects_rho_eff() {
+    // rho = 0.99 (sigma_a = 0.01, sigma_s' = 0.99 per unit): rho_eff ~ 0.56; mfp = 1 unit,
+    // the slab is 400 mfp deep and 800 wide (semi-infinite for the profile).
+    let desc = subsurface(Vec3::splat(0.01), Vec3::splat(0.99), "table");
+    let m = SubsurfaceMaterial::new(&desc);
+    let rho_eff = m.table.rho_eff_at(0.99);
+    let fr = fresnel_dielectric(1.0, ETA);
+    let expected = fr + (1.0 - fr) * rho_eff;
+    let (mean, discarded) = render_mean(slab_scene(&desc), 256, 1);
+    assert_eq!(discarded, 0);
+    for c in mean.to_array() {
+        assert!(
+            (c / expected - 1.0).abs() < 0.02,
+            "slab {mean} vs Fr + (1 - Fr) rho_eff = {expected}"
+        );
+    }
+    // And the subsurface part alone (what is left after the specular reflection).
+    let sss = (mean.element_sum() / 3.0 - fr) / (1.0 - fr);
+    assert!(
+        (sss / rho_eff - 1.0).abs() < 0.02,
+        "diffuse reflectance {sss} vs rho_eff {rho_eff}"
+    );
+}
+
+#[test]
+fn spectral_slab_matches_spectral_and_rgb_references() {
+    // Skin1 of Jensen et al. 2001 (mm^-1; 1 unit = 1 mm): strongly coloured.
+    let desc = SubsurfaceDesc {
+        coefficients: SubsurfaceCoefficients::Preset("Skin1".into()),
+        ..subsurface(Vec3::ZERO, Vec3::ZERO, "table")
+    };
+    let (mean, discarded) = render_mean(slab_scene(&desc), 256, 2);
+    assert_eq!(discarded, 0);
+    let reference = spectral_reference(&desc);
+    for c in 0..3 {
+        assert!(
+            (mean[c] / reference[c] - 1.0).abs() < 0.02,
+            "spectral render {mean} vs spectral reference {reference}"
+        );
+    }
+    // Against the RGB-albedo-equivalent reference (the same formula per RGB channel with the RGB
+    // albedos) this saturated medium differs by up to 19% in red (measured: 0.372 vs 0.458):
+    // upsampling sigma_a and sigma_s separately makes the per-wavelength albedo a non-linear
+    // function of the RGB inputs and rho_eff is steep near albedo 1. That comparison is
+    // therefore made on a mildly coloured medium below.
+}
+
+#[test]
+fn mildly_coloured_slab_matches_rgb_albedo_reference() {
+    let desc = subsurface(Vec3::new(0.01, 0.02, 0.04), Vec3::ONE, "table");
+    let (mean, discarded) = render_mean(slab_scene(&desc), 256, 4);
+    assert_eq!(discarded, 0);
+    let m = SubsurfaceMaterial::new(&desc);
+    let fr = fresnel_dielectric(1.0, ETA);
+    let c = m.coefficients;
+    let reference = spectral_reference(&desc);
+    for ch in 0..3 {
+        let rho = c.sigma_s_reduced[ch] / (c.sigma_s_reduced[ch] + c.sigma_a[ch]);
+        let rgb_ref = fr + (1.0 - fr) * m.table.rho_eff_at(rho);
+        eprintln!(
+            "ch {ch} render {} rgb ref {rgb_ref} spectral ref {}",
+            mean[ch], reference[ch]
+        );
+        assert!(
+            (mean[ch] / rgb_ref - 1.0).abs() < 0.03,
+            "channel {ch}: spectral render {} vs RGB reference {rgb_ref}",
+            mean[ch]
+        );
+        assert!(
+            (mean[ch] / reference[ch] - 1.0).abs() < 0.02,
+            "channel {ch}: spectral render {} vs spectral reference {}",
+            mean[ch],
+            reference[ch]
+        );
+    }
+}
+
+#[test]
+fn random_walk_slab_agrees_with_table() {
+    let table = subsurface(Vec3::splat(0.01), Vec3::splat(0.99), "table");
+    let walk = subsurface(Vec3::splat(0.01), Vec3::splat(0.99), "random_walk");
+    let (m_table, d1) = render_mean(slab_scene(&table), 128, 3);
+    let (m_walk, d2) = render_mean(slab_scene(&walk), 128, 3);
+    assert_eq!(d1 + d2, 0);
+    let a = m_table.element_sum() / 3.0;
+    let b = m_walk.element_sum() / 3.0;
+    eprintln!("table {m_table} walk {m_walk}");
+    assert!(
+        (a / b - 1.0).abs() < 0.05,
+        "table {m_table} vs walk {m_walk}"
+    );
+}
