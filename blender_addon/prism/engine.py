@@ -101,7 +101,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
         t_start = time.perf_counter()
         proc = runner.PrismProcess(args, cwd=tmp)
         LAST["pid"] = proc.proc.pid
-        _log("started %s (pid %d) in %s" % (os.path.basename(binary), proc.proc.pid, tmp))
+        _log("started %s (pid %d) in %s" % (binary, proc.proc.pid, tmp))
         seen_warnings = set()
         try:
             while True:

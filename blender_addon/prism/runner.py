@@ -39,7 +39,12 @@ def find_binary(configured=""):
         if os.path.isfile(path) and os.access(path, os.X_OK):
             return path
         raise RunnerError("binary not found at '%s' (set it in Preferences > Add-ons > Prism)" % configured)
-    for _where, path in candidate_binaries():
+    for where, path in candidate_binaries():
+        if where == "bundled" and os.path.isfile(path) and not os.access(path, os.X_OK):
+            try:  # zip installs (addon_install, extensions) drop the executable bit
+                os.chmod(path, os.stat(path).st_mode | 0o755)
+            except OSError:
+                pass
         if os.path.isfile(path) and os.access(path, os.X_OK):
             return path
     raise RunnerError(

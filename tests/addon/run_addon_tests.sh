@@ -3,7 +3,7 @@
 #   - a venv .venv-bpy/ with the bpy wheel (Blender 5.0.1 as a Python module) and numpy,
 #   - Debian's blender (3.4, for `blender -b`) and python3-numpy via apt-get (as root, if missing),
 #   - the release binary (cargo build --release).
-# Usage: tests/addon/run_addon_tests.sh [bpy|background|all]
+# Usage: tests/addon/run_addon_tests.sh [bpy|background|package|all]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 REPO=$(pwd)
@@ -45,6 +45,11 @@ if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
     .venv-bpy/bin/python tests/addon/test_background.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
 fi
-leftover=$(find "$TMPDIR" -maxdepth 1 -name 'prism_*' -type d | grep -v -E 'prism_(addon|bg)_test_' || true)
+if [ "$WHICH" = all ] || [ "$WHICH" = package ]; then
+    echo "== packaged zips: extension in bpy 5.0.1, legacy add-on in blender -b 3.4"
+    .venv-bpy/bin/python tests/addon/test_package.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
+fi
+leftover=$(find "$TMPDIR" -maxdepth 1 -name 'prism_*' -type d | grep -v -E 'prism_(addon|bg|pkg)_test_' || true)
 if [ -n "$leftover" ]; then echo "temporary render folders left behind: $leftover" >&2; exit 1; fi
 echo "== add-on tests passed"
