@@ -1,12 +1,12 @@
 #!/usr/bin/env python3
 """Package the Blender add-on with the compiled prism binary inside.
 
-    python3 blender_addon/package.py [--out dist] [--no-build] [--binary PATH]
+    python3 blender_addon/package.py [--out target/addon] [--no-build] [--binary PATH]
 
 Writes two installable zips (the binary goes to prism/bin/prism, where the add-on looks first):
-  dist/prism-<version>-addon.zip      legacy add-on (Blender 3.4+): one top-level folder prism/
+  target/addon/prism-<version>-addon.zip      legacy add-on (Blender 3.4+): one top-level folder prism/
                                       (Preferences > Add-ons > Install, or addon_install(filepath=...))
-  dist/prism-<version>-extension.zip  extension (Blender 4.2+): blender_manifest.toml at the root
+  target/addon/prism-<version>-extension.zip  extension (Blender 4.2+): blender_manifest.toml at the root
                                       (Get Extensions > Install from Disk, or
                                       extensions.package_install_files(filepath=..., repo='user_default'))
 Prints the two paths, one per line.
@@ -66,7 +66,7 @@ def stripped_copy(binary, out_dir):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", default=os.path.join(REPO, "dist"))
+    ap.add_argument("--out", default=os.path.join(REPO, "target", "addon"))
     ap.add_argument("--no-build", action="store_true", help="use the existing target/release/prism")
     ap.add_argument("--binary", default=os.path.join(REPO, "target", "release", "prism"))
     args = ap.parse_args()

@@ -120,6 +120,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
                         self.update_stats("", "Prism: %.0f%% | %.1f s" % (100.0 * frac, float(ev.get("elapsed_s", 0.0))))
                     elif kind == "start":
                         timings["to_start_event"] = time.perf_counter() - t_start
+                        timings["prism_load"] = float(ev.get("load_s", 0.0))
                     elif kind == "preview":
                         try:
                             self._set_pixels(result, read_exr(ev["path"], width, height))

@@ -21,6 +21,8 @@ import json
 import math
 import os
 import shutil
+import struct
+import zlib
 
 import numpy as np
 
@@ -280,6 +282,36 @@ def prism_override(mat):
     return None
 
 
+# ----------------------------------------------------------------------------- images
+
+
+def image_rgba8(img):
+    """An image's pixels as 8-bit sRGB RGBA rows, top row first (float images are encoded)."""
+    w, h = img.size
+    px = np.empty(w * h * 4, np.float32)
+    img.pixels.foreach_get(px)
+    px = px.reshape(h, w, 4)[::-1]
+    if img.is_float:
+        c = np.clip(px[..., :3], 0.0, 1.0)
+        px[..., :3] = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+    return (np.clip(px, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+
+
+def write_png(path, rgba):
+    """Minimal PNG writer (8-bit RGBA, zlib), no Blender image API needed."""
+    h, w = rgba.shape[:2]
+    raw = np.concatenate([np.zeros((h, 1), np.uint8), rgba.reshape(h, w * 4)], axis=1).tobytes()
+
+    def chunk(tag, data):
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n")
+        f.write(chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 6, 0, 0, 0)))
+        f.write(chunk(b"IDAT", zlib.compress(raw, 6)))
+        f.write(chunk(b"IEND", b""))
+
+
 # ----------------------------------------------------------------------------- mesh data
 
 
@@ -364,15 +396,7 @@ class Exporter:
             fname = "tex%d%s" % (len(self.images), ext)
             shutil.copyfile(src, os.path.join(self.out_dir, fname))
         else:
-            copy = img.copy()
-            try:
-                copy.filepath_raw = dst
-                copy.file_format = "PNG"
-                copy.save()
-            finally:
-                import bpy
-
-                bpy.data.images.remove(copy)
+            write_png(dst, image_rgba8(img))
         self.images.append({"uri": fname})
         self.image_index[key] = len(self.images) - 1
         return self.image_index[key]

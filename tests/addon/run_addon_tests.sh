@@ -14,10 +14,15 @@ if [ ! -x .venv-bpy/bin/python ] || ! .venv-bpy/bin/python -c "import bpy, numpy
     if ! python3 -m venv --help >/dev/null 2>&1 || ! python3 -c "import ensurepip" 2>/dev/null; then
         apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv
     fi
-    python3 -m venv .venv-bpy
+    PY=$(command -v python3.11 || command -v python3)  # the bpy 5.0.1 wheel is for CPython 3.11
+    "$PY" -m venv .venv-bpy
     .venv-bpy/bin/pip install -q bpy==5.0.1 numpy
 fi
-if ! command -v blender >/dev/null || ! python3 -c "import numpy" 2>/dev/null; then
+blender_ok() {
+    command -v blender >/dev/null &&
+        blender -b --factory-startup --python-exit-code 1 --python-expr "import numpy" >/dev/null 2>&1
+}
+if ! blender_ok; then
     echo "== installing Debian's blender and python3-numpy (apt-get)"
     if [ "$(id -u)" != 0 ]; then echo "need root for apt-get install blender python3-numpy" >&2; exit 1; fi
     apt-get update -qq

@@ -130,6 +130,63 @@ def test_cancel():
     check(elapsed < 10, "blender exited %.1f s after SIGINT" % elapsed)
 
 
+def principled_export(blender_cmd, tag):
+    import json
+
+    out = os.path.join(OUT, "principled_" + tag)
+    p = subprocess.run(blender_cmd + [os.path.join(HERE, "export_principled.py"), "--", out],
+                       capture_output=True, text=True, timeout=120)
+    line = next((x for x in p.stdout.splitlines() if x.startswith("EXPORT ")), None)
+    if line is None:
+        print(p.stdout[-2000:], p.stderr[-2000:])
+    check(line is not None, "%s: exporter ran" % tag)
+    d = json.loads(line[7:])
+    mats = {m["name"]: m for m in d["materials"]}
+    pbr = lambda n: mats[n]["pbrMetallicRoughness"]  # noqa: E731
+    ext = lambda n: mats[n].get("extensions", {})  # noqa: E731
+    check(pbr("Metal")["metallicFactor"] == 1.0 and abs(pbr("Metal")["roughnessFactor"] - 0.25) < 1e-6, "%s: metallic/roughness" % tag)
+    check(ext("Glassy")["KHR_materials_transmission"]["transmissionFactor"] == 1.0
+          and abs(ext("Glassy")["KHR_materials_ior"]["ior"] - 1.33) < 1e-6, "%s: transmission + IOR" % tag)
+    e = [c * ext("Glow")["KHR_materials_emissive_strength"]["emissiveStrength"] for c in mats["Glow"]["emissiveFactor"]]
+    check(all(abs(a - b) < 1e-5 for a, b in zip(e, [4.0, 2.0, 1.0])), "%s: emission colour x strength = %s" % (tag, e))
+    check(abs(ext("Spec")["KHR_materials_specular"]["specularFactor"] - 0.5) < 1e-6, "%s: specular 0.25 -> factor 0.5" % tag)
+    s = d["json"]["materials"]["Skin"]["subsurface"]
+    check(all(abs(a - b) < 1e-5 for a, b in zip(s["mfp"], [0.1, 0.05, 0.025])) and abs(s["eta"] - 1.4) < 1e-5
+          and all(abs(a - b) < 1e-5 for a, b in zip(s["reflectance"], [0.5, 0.25, 0.125])),
+          "%s: subsurface block %s" % (tag, s))
+    check("baseColorTexture" in pbr("Textured") and d["images"] and d["images"][0]["uri"] in d["files"],
+          "%s: base colour image written (%s)" % (tag, d["images"]))
+    check(not d["warnings"], "%s: no warnings" % tag)
+
+
+def test_principled_names_34_and_50():
+    """Principled inputs of Blender 3.x (Subsurface, Transmission, Emission, Specular) and 4.x+."""
+    principled_export([BLENDER, "-b", "--factory-startup", "-P"], "blender34")
+    principled_export([sys.executable], "bpy50")
+
+
+def test_animation_frames():
+    """blender -b ... -a renders each frame of the range at that frame (an animated light)."""
+    import numpy as np
+
+    blend = os.path.join(OUT, "anim.blend")
+    script = (
+        "import bpy; sc = bpy.context.scene; L = bpy.data.objects['Lamp'];"
+        "L.data.energy = 200.0; L.data.keyframe_insert('energy', frame=1);"
+        "L.data.energy = 2000.0; L.data.keyframe_insert('energy', frame=2);"
+        "sc.frame_start, sc.frame_end = 1, 2; bpy.ops.wm.save_as_mainfile(filepath=%r)" % blend
+    )
+    subprocess.run([BLENDER, "-b", make_blend("simple", 4), "--factory-startup", "--addons", "prism",
+                    "--python-expr", script], check=True, capture_output=True, timeout=120)
+    pattern = os.path.join(OUT, "anim_####")
+    p = subprocess.run([BLENDER, "-b", "--factory-startup", "--addons", "prism", blend, "-E", "PRISM",
+                        "-o", pattern, "-F", "OPEN_EXR", "-a"], capture_output=True, text=True, timeout=120)
+    check(p.returncode == 0, "blender -b -a exited 0")
+    f1, f2 = (read_exr(os.path.join(OUT, "anim_%04d.exr" % i))[..., :3].mean() for i in (1, 2))
+    check(f2 > 1.5 * f1, "frame 2 (2000 W) brighter than frame 1 (200 W): %.3f vs %.3f" % (f2, f1))
+    check(np.isfinite([f1, f2]).all(), "finite")
+
+
 def main():
     names = sys.argv[1:] or [n for n in globals() if n.startswith("test_")]
     failed = []

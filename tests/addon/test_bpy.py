@@ -131,6 +131,23 @@ def test_unsupported_node_warns():
     C.check(np.isfinite(px).all() and c.mean() > 0.1 and abs(c[0] - c[1]) < 0.1 * c.mean(), "still renders, grey sphere: %s" % c)
 
 
+def test_texture_render():
+    """A generated (unsaved) image on the Principled base colour reaches the render."""
+    sc = C.simple_scene()
+    C.use_prism(sc, spp=8)
+    img = bpy.data.images.new("Green", 8, 8)
+    img.pixels = [0.0, 1.0, 0.0, 1.0] * 64
+    mat = C.material("Tex", "ShaderNodeBsdfPrincipled", (1, 1, 1))
+    tex = mat.node_tree.nodes.new("ShaderNodeTexImage")
+    tex.image = img
+    mat.node_tree.links.new(tex.outputs["Color"], mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    bpy.data.objects["Ball"].data.materials[0] = mat
+    rgb = C.render_pixels(sc, os.path.join(OUT, "tex.exr"))[..., :3]
+    h, w = rgb.shape[:2]
+    c = rgb[h // 2 - 5:h // 2 + 5, w // 2 - 5:w // 2 + 5].mean(axis=(0, 1))
+    C.check(c[1] > 3.0 * c[0] and c[1] > 3.0 * c[2], "textured sphere is green: %s" % c)
+
+
 def test_export_content():
     """The written glTF/JSON: instances, modifiers, hidden objects, lights, camera, materials."""
     import json
