@@ -51,11 +51,15 @@ def test_render_bpy():
 def test_parity_cycles():
     """Cycles vs Prism on diffuse + metal + glass lit by an area light, a point light and the world.
 
-    Bounds: per-channel means within 3%; relMSE (mean of (p - c)^2 / (c^2 + 0.01)) after a 3x3 box
-    blur below 0.02. Measured at 256 spp, 96x72: means within 0.4%, blurred relMSE 0.0032
-    (raw 0.019); a 10% change of the area light's power raises the blurred relMSE to > 0.005 and
-    moves the means by ~5%, so the mean bound is the sensitive one and the relMSE bound catches
-    structural differences (wrong light direction, wrong glass/metal), not noise.
+    Bounds: per-channel means within 3%, and relMSE (mean over pixels and channels of
+    (p - c)^2 / (c^2 + 0.01)) after a 3x3 box blur below 0.005. Measured at 256 spp, 96x72
+    (both renderers with fixed seeds, box pixel filter, 8 bounces, no clamping):
+      Cycles seed 2 vs Cycles seed 1 (noise floor)   means within 0.08%, relMSE 0.0020
+      Prism vs Cycles                                 means within 0.34%, relMSE 0.0031
+      Prism with the area light at 110% power         means +6.5%,        relMSE 0.0068
+      Prism with the metal's roughness 0.1 not 0.3    means within 0.3%,  relMSE 0.0073
+    So 0.005 is 2.5x Cycles' own seed-to-seed noise and 1.6x the measured value, and fails on
+    both a 10% light-unit error and a visible BSDF change that leaves the means unchanged.
     """
     spp = 256
     sc = C.parity_scene()
@@ -74,7 +78,31 @@ def test_parity_cycles():
     C.check(np.all(np.abs(ratio - 1.0) < 0.03), "channel means within 3%%: prism %s cycles %s ratio %s" % (mp, mc, ratio))
     raw = C.rel_mse(pr, cy)
     blurred = C.rel_mse(C.blur(pr), C.blur(cy))
-    C.check(blurred < 0.02, "relMSE after 3x3 blur %.4f < 0.02 (raw %.4f)" % (blurred, raw))
+    C.check(blurred < 0.005, "relMSE after 3x3 blur %.4f < 0.005 (raw %.4f)" % (blurred, raw))
+
+
+def test_area_light_shapes_parity():
+    """Disk and ellipse area lights, rotated and with a scaled object, alone: Prism vs Cycles means.
+
+    The emissive mesh gets radiance P / (pi A) with A the world-space area; measured at 128 spp:
+    square, disk and ellipse within 0.5% of Cycles on every channel."""
+    for shape in ("DISK", "ELLIPSE"):
+        imgs = []
+        for engine in ("cycles", "prism"):
+            sc = C.parity_scene(64, 48)
+            bpy.data.objects.remove(bpy.data.objects["Point"])
+            sc.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+            area = bpy.data.objects["Area"]
+            area.data.shape = shape
+            area.scale = (1.5, 1.0, 1.0)
+            area.rotation_euler = (0.3, 0.0, 0.0)
+            if engine == "cycles":
+                C.use_cycles(sc, 128)
+            else:
+                C.use_prism(sc, 128)
+            imgs.append(C.render_pixels(sc, os.path.join(OUT, "area_%s_%s.exr" % (shape, engine)))[..., :3])
+        ratio = imgs[1].mean(axis=(0, 1)) / imgs[0].mean(axis=(0, 1))
+        C.check(np.all(np.abs(ratio - 1.0) < 0.03), "%s area light: Prism/Cycles channel means %s" % (shape, ratio))
 
 
 def test_error_missing_binary():
