@@ -583,6 +583,8 @@ class Exporter:
         c = cam_ob.data
         if c.type != "PERSP":
             self.warnings.append("camera '%s': only perspective cameras are supported; rendering as perspective" % cam_ob.name)
+        if getattr(c, "dof", None) is not None and c.dof.use_dof:
+            self.warnings.append("camera '%s': depth of field is not supported yet; rendering in focus" % cam_ob.name)
         r = self.scene.render
         w = self.width * r.pixel_aspect_x
         h = self.height * r.pixel_aspect_y
