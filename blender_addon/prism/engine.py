@@ -50,7 +50,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
         scene = depsgraph.scene
         width, height = export.render_size(scene)
         LAST.clear()
-        LAST.update(error=None, warnings=[], cancelled=False, width=width, height=height, timings={})
+        LAST.update(error=None, warnings=[], cancelled=False, width=width, height=height, timings={}, previews=0, progress=[])
         result = self.begin_result(0, 0, width, height)
         tmp = tempfile.mkdtemp(prefix="prism_")
         LAST["tmpdir"] = tmp
@@ -112,11 +112,12 @@ class PrismRenderEngine(bpy.types.RenderEngine):
                     timings["cancel"] = time.perf_counter() - t_cancel
                     _log("cancelled; process %d stopped in %.2f s" % (proc.proc.pid, timings["cancel"]))
                     return
-                for ev in proc.poll(0.05):
+                for ev in proc.poll(0.02):
                     kind = ev.get("event")
                     if kind == "progress":
                         frac = float(ev.get("fraction", 0.0))
                         self.update_progress(min(max(frac, 0.0), 1.0))
+                        LAST["progress"].append(frac)
                         self.update_stats("", "Prism: %.0f%% | %.1f s" % (100.0 * frac, float(ev.get("elapsed_s", 0.0))))
                     elif kind == "start":
                         timings["to_start_event"] = time.perf_counter() - t_start
@@ -125,6 +126,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
                         try:
                             self._set_pixels(result, read_exr(ev["path"], width, height))
                             self.update_result(result)
+                            LAST["previews"] += 1
                             self.update_stats("", "Prism: preview at %s spp" % ev.get("spp"))
                         except Exception as e:  # a preview is best effort
                             _log("preview skipped: %s" % e)

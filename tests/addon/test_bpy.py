@@ -44,7 +44,11 @@ def test_render_bpy():
     c = rgb[h // 2 - 5:h // 2 + 5, w // 2 - 5:w // 2 + 5].mean(axis=(0, 1))
     C.check(c[0] > 2.0 * c[1] and c[0] > 0.1, "centre pixels are the lit red sphere: %s" % c)
     C.check((px[..., 3] > 0.99).all(), "alpha is 1")
-    C.check(prism.engine.LAST.get("error") is None, "no error reported")
+    last = prism.engine.LAST
+    C.check(last.get("error") is None, "no error reported")
+    C.check(last["previews"] >= 3, "progressive previews shown in the result (%d)" % last["previews"])
+    prog = last["progress"]
+    C.check(len(prog) >= 3 and prog == sorted(prog) and prog[-1] > 0.99, "progress lines mapped to update_progress, rising to 1")
     C.check(prism_tmpdirs() <= before, "temporary folder removed")
 
 
