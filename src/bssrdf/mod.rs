@@ -31,9 +31,6 @@ use glam::{Vec2, Vec3};
 use std::sync::Arc;
 pub use table::BssrdfTable;
 
-/// Fraction of the radial CDF inside the probe radius r_max; the radius pdf is renormalised
-/// to it so the estimator stays unbiased on flat surfaces.
-const R_MAX_CDF: f32 = 0.999;
 /// Probe hits kept per sample (a ray through a thin, folded object rarely sees more).
 const MAX_PROBE_HITS: usize = 16;
 /// Probe axis probabilities: tangent s, tangent t, normal.
@@ -157,7 +154,7 @@ pub struct SeparableBssrdf<'a> {
     rho: SampledSpectrum,
     /// Wavelengths that take part in the radius sampling (1 or N).
     n_active: usize,
-    /// Probe radius per wavelength (radius below which R_MAX_CDF of the profile lies).
+    /// Probe radius per wavelength (radius holding ~99.9% of the profile).
     r_max: [f32; N_WAVELENGTHS],
 }
 
@@ -184,17 +181,20 @@ impl<'a> SeparableBssrdf<'a> {
                 0.0
             }
         });
-        let mut b = SeparableBssrdf {
+        let r_max = std::array::from_fn(|i| {
+            if sigma_t[i] > 0.0 {
+                table.r_max_at(rho[i]) / sigma_t[i]
+            } else {
+                0.0
+            }
+        });
+        SeparableBssrdf {
             table,
             sigma_t,
             rho,
             n_active: n_active.clamp(1, N_WAVELENGTHS),
-            r_max: [0.0; N_WAVELENGTHS],
-        };
-        for i in 0..N_WAVELENGTHS {
-            b.r_max[i] = b.sample_sr_untruncated(i, R_MAX_CDF).unwrap_or(0.0);
+            r_max,
         }
-        b
     }
 
     /// Radial profile Sr(r) per wavelength (per unit area, in 1 / scene unit^2), so that
@@ -218,31 +218,27 @@ impl<'a> SeparableBssrdf<'a> {
         self.r_max[ch]
     }
 
-    fn sample_sr_untruncated(&self, ch: usize, u: f32) -> Option<f32> {
+    /// Samples a radius (scene units) from wavelength `ch`'s profile (the whole table range).
+    pub fn sample_sr(&self, ch: usize, u: f32) -> Option<f32> {
         let st = self.sigma_t[ch];
         if !(st > 0.0) {
             return None;
         }
-        self.table.sample_radius(self.rho[ch], u).map(|r| r / st)
-    }
-
-    /// Samples a radius (scene units) from wavelength `ch`'s profile, restricted to r < r_max.
-    pub fn sample_sr(&self, ch: usize, u: f32) -> Option<f32> {
-        let r = self.sample_sr_untruncated(ch, u * R_MAX_CDF)?;
-        (r < self.r_max[ch] && r.is_finite()).then_some(r)
+        let r = self.table.sample_radius(self.rho[ch], u)? / st;
+        r.is_finite().then_some(r)
     }
 
     /// Area density (on a plane) of `sample_sr` for wavelength `ch` at radius r.
     pub fn pdf_sr(&self, ch: usize, r: f32) -> f32 {
         let st = self.sigma_t[ch];
-        if !(st > 0.0) || !(r < self.r_max[ch]) {
+        if !(st > 0.0) {
             return 0.0;
         }
         let (value, eff) = self.table.eval(self.rho[ch], r * st);
         if !(eff > 0.0) {
             return 0.0;
         }
-        (value * st * st / (eff * R_MAX_CDF)).max(0.0)
+        (value * st * st / eff).max(0.0)
     }
 
     /// Area density of an exit point `pi` (with geometric normal `ni`) over the three probe
@@ -295,7 +291,10 @@ impl<'a> SeparableBssrdf<'a> {
         let ch = ((u * self.n_active as f32) as usize).min(self.n_active - 1);
         u = (u * self.n_active as f32 - ch as f32).clamp(0.0, 1.0 - f32::EPSILON);
         let r = self.sample_sr(ch, u)?;
-        let r_max = self.r_max[ch];
+        // The probe spans the sphere of radius r_max around po. The rare radii beyond r_max
+        // (0.1%) still get a short probe rather than failing: the radius density stays exactly
+        // `pdf_sr`, so the estimator is unbiased on a plane.
+        let r_max = self.r_max[ch].max(1.05 * r);
         let phi = 2.0 * std::f32::consts::PI * u_disk.x;
         let half = (r_max * r_max - r * r).max(0.0).sqrt();
         if !(half > 0.0) {

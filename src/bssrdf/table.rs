@@ -28,6 +28,8 @@ use crate::math::catmull_rom::{catmull_rom_weights, integrate_catmull_rom};
 
 pub const N_ALBEDO: usize = 100;
 pub const N_RADIUS: usize = 64;
+/// Fraction of the profile's integral inside the probe radius r_max.
+pub const R_MAX_QUANTILE: f32 = 0.999;
 /// Quadrature points per depth integral (both the multiple- and the single-scattering term).
 const N_DEPTH: usize = 100;
 
@@ -152,6 +154,8 @@ pub struct BssrdfTable {
     /// Effective albedo rho_eff (total diffuse reflectance) per albedo: the integral of the
     /// profile row.
     pub rho_eff: Vec<f32>,
+    /// Optical radius holding 99.9% of the row's integral (the probe radius), per albedo.
+    pub r_max: Vec<f32>,
     pub eta: f32,
 }
 
@@ -185,14 +189,31 @@ impl BssrdfTable {
                 &mut profile_cdf[i * N_RADIUS..(i + 1) * N_RADIUS],
             );
         }
-        BssrdfTable {
+        let mut table = BssrdfTable {
             albedos,
             radii,
             profile,
             profile_cdf,
             rho_eff,
+            r_max: Vec::new(),
             eta,
-        }
+        };
+        table.r_max = (0..N_ALBEDO)
+            .map(|i| {
+                table
+                    .sample_radius(table.albedos[i], R_MAX_QUANTILE)
+                    .unwrap_or(0.0)
+            })
+            .collect();
+        table
+    }
+
+    /// Probe radius (optical units) for an albedo: interpolated between the nodes' 99.9%
+    /// quantiles. It only bounds the probe segment, so interpolation error costs nothing but
+    /// a slightly longer or shorter probe.
+    pub fn r_max_at(&self, rho: f32) -> f32 {
+        crate::math::catmull_rom::catmull_rom_eval(&self.albedos, &self.r_max, rho)
+            .max(self.radii[1])
     }
 
     /// Effective albedo for a single-scattering albedo (Catmull-Rom over the table).
