@@ -10,3 +10,6 @@ cargo clippy --all-targets -- -D warnings
 
 echo "== Rust unit, statistical, image and CLI tests"
 cargo test --all-targets
+
+echo "== Blender add-on tests (bpy wheel 5.0.1 and Debian's blender -b; installs them if missing)"
+tests/addon/run_addon_tests.sh
