@@ -203,6 +203,22 @@ def test_export_content():
     skin.node_tree.nodes["Principled BSDF"].inputs["Subsurface Weight"].default_value = 1.0
     C.mesh_object("Gem", C.cube(0.5), glass, location=(-2, 0, 0.5))
     C.mesh_object("Hand", C.cube(0.5), skin, location=(-3, 0, 0.5))
+    # a collection instanced twice by empties: two nodes sharing one glTF mesh
+    coll = bpy.data.collections.new("Props")
+    prop = bpy.data.objects.new("Prop", bpy.data.meshes.new("PropMesh"))
+    import bmesh
+
+    bm = bmesh.new()
+    bmesh.ops.create_cube(bm, size=0.2)
+    bm.to_mesh(prop.data)
+    bm.free()
+    coll.objects.link(prop)
+    for i in range(2):
+        e = bpy.data.objects.new("PropInstance%d" % i, None)
+        e.instance_type = "COLLECTION"
+        e.instance_collection = coll
+        e.location = (3.0, i, 0.1)
+        sc.collection.objects.link(e)
     sc.render.engine = "PRISM"
     dg = bpy.context.evaluated_depsgraph_get()
     from prism import export
@@ -212,7 +228,10 @@ def test_export_content():
     g = json.load(open(gltf_path))
     mj = json.load(open(json_path))
     names = [n.get("name") for n in g["nodes"]]
-    C.check("Ball2" in names and "Hidden" not in names, "instance exported, hidden object skipped")
+    C.check("Ball2" in names and "Hidden" not in names, "linked duplicate exported, hidden object skipped")
+    props = [n for n in g["nodes"] if n.get("name") == "Prop"]
+    C.check(len(props) == 2 and props[0]["mesh"] == props[1]["mesh"], "collection instanced twice -> 2 nodes, 1 mesh")
+    C.check(sorted(round(p["matrix"][13], 3) for p in props) == [0.0, 1.0], "instance transforms")
     C.check(tris > 2 * 4 * 2200 // 2, "subdivision modifier applied (%d triangles)" % tris)
     lights = g["extensions"]["KHR_lights_punctual"]["lights"]
     spot = next(x for x in lights if x["type"] == "spot")
