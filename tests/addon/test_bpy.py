@@ -180,6 +180,21 @@ def test_texture_render():
     C.check(c[1] > 3.0 * c[0] and c[1] > 3.0 * c[2], "textured sphere is green: %s" % c)
 
 
+def test_panels_and_discovery():
+    """Prism panels poll only with Prism as the engine; an empty binary path finds target/release."""
+    sc = C.simple_scene()
+    panels = [bpy.types.RENDER_PT_prism_sampling, bpy.types.MATERIAL_PT_prism]
+    sc.render.engine = "CYCLES"
+    C.check(not any(p.poll(bpy.context) for p in panels[:1]), "render panel hidden for Cycles")
+    sc.render.engine = "PRISM"
+    C.check(panels[0].poll(bpy.context), "render panel shown for Prism")
+    C.check("PRISM" in bpy.types.RENDER_PT_format.COMPAT_ENGINES, "Blender's output panels enabled for Prism")
+    from prism import runner
+
+    found = runner.find_binary("")
+    C.check(os.path.samefile(found, C.BINARY), "discovery without a path: %s" % found)
+
+
 def test_export_content():
     """The written glTF/JSON: instances, modifiers, hidden objects, lights, camera, materials."""
     import json
