@@ -11,7 +11,7 @@ import traceback
 import bpy
 import numpy as np
 
-from . import export, runner
+from . import exr, export, runner
 
 # What the last render did (read by the add-on tests and the benchmark).
 LAST = {}
@@ -24,7 +24,20 @@ def addon_preferences():
 
 
 def read_exr(path, width, height):
-    """RGBA float pixels of an EXR (bottom row first), read through a temporary image datablock."""
+    """RGBA float pixels of an EXR, bottom row first (the layout of RenderPass.rect).
+
+    With a user interface, the numpy reader (exr.py) avoids adding/removing an image datablock
+    from the render thread while the interface may be drawing; in background mode (no interface,
+    `blender -b` and the bpy module) Blender's own loader is used: it is faster on large images.
+    """
+    if not bpy.app.background:
+        try:
+            px = exr.read_rgba(path)
+            if px.shape[:2] != (height, width):
+                raise runner.RunnerError("%s is %dx%d, expected %dx%d" % (os.path.basename(path), px.shape[1], px.shape[0], width, height))
+            return np.ascontiguousarray(px[::-1]).reshape(-1, 4)
+        except exr.ExrError as e:
+            _log("EXR reader: %s; using Blender's loader" % e)
     img = bpy.data.images.load(path, check_existing=False)
     try:
         if tuple(img.size) != (width, height):

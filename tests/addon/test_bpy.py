@@ -180,6 +180,28 @@ def test_texture_render():
     C.check(c[1] > 3.0 * c[0] and c[1] > 3.0 * c[2], "textured sphere is green: %s" % c)
 
 
+def test_exr_reader():
+    """The add-on's numpy EXR reader (used with an interface) equals Blender's loader, bit for bit,
+    on Prism's output (RLE, 64x64 tiles) at a size that is not a multiple of the tile size."""
+    from prism import exr
+
+    sc = C.simple_scene()
+    sc.render.resolution_x, sc.render.resolution_y = 150, 70
+    C.use_prism(sc, spp=2)
+    d = tempfile.mkdtemp(dir=OUT)
+    gltf, mj, _w, _t = prism.export.export_scene(bpy.context.evaluated_depsgraph_get(), d)
+    out = os.path.join(d, "x.exr")
+    import subprocess
+
+    subprocess.run([C.BINARY, "render", gltf, "--materials", mj, "-o", out, "--spp", "2", "--progress", "none"], check=True)
+    mine = exr.read_rgba(out)
+    ref = C.read_exr(out)[::-1]
+    C.check(mine.shape == ref.shape == (70, 150, 4), "same size")
+    C.check(np.array_equal(mine, ref), "identical pixels")
+    via_engine = prism.engine.read_exr(out, 150, 70)
+    C.check(np.array_equal(via_engine.reshape(70, 150, 4)[::-1], ref), "engine's loader: bottom row first")
+
+
 def test_panels_and_discovery():
     """Prism panels poll only with Prism as the engine; an empty binary path finds target/release."""
     sc = C.simple_scene()
