@@ -2,17 +2,20 @@
 //! exponential free flights inside the closed mesh, Henyey-Greenstein scattering, and the
 //! boundary handled by the caller with the dielectric BSDF.
 //!
-//! Distances are sampled from one wavelength of the path chosen uniformly (hero-driven
-//! spectral MIS, the one-sample balance heuristic over the active wavelengths): the density of
-//! a scattering at distance t is the mean of sigma_t(l) exp(-sigma_t(l) t) over the active
-//! wavelengths, the probability of reaching a surface at distance d the mean of
-//! exp(-sigma_t(l) d) (Wilkie et al. 2014, section 4; the same construction as the spectral
-//! tracking of Miller, Georgiev, Jarosz 2019 with a single free-flight sample).
+//! Distances are sampled with the sigma_t of one wavelength of the path, chosen uniformly once
+//! per walk (the hero-wavelength idea of Wilkie et al. 2014 applied to the whole walk), and the
+//! wavelengths are combined with the one-sample balance heuristic over complete walks: the
+//! weight of wavelength j is f_j(walk) / mean_i p_i(walk), where p_i is the density of the walk
+//! when distances follow wavelength i. Per-event MIS (a fresh choice at every event) is also
+//! unbiased, but its weights multiply over the hundreds of events of a high-albedo walk and the
+//! variance explodes; with whole-walk MIS every weight is at most N times the albedo product.
+//! Products are kept in log space (thousands of events would overflow f32 and f64).
+//! Phase function: Henyey-Greenstein, sampled exactly (weight 1).
 
 use crate::geometry::{Geometry, Hit, Ray};
 use crate::math::Frame;
 use crate::sampler::Sampler;
-use crate::spectrum::SampledSpectrum;
+use crate::spectrum::{SampledSpectrum, N_WAVELENGTHS};
 use glam::Vec3;
 
 /// Upper bound on scattering events of one walk (a safety net: Russian roulette ends walks).
@@ -48,13 +51,19 @@ pub fn sample_hg(dir: Vec3, g: f32, u1: f32, u2: f32) -> Vec3 {
         .normalize()
 }
 
-fn mean_active(s: SampledSpectrum, n_active: usize) -> f32 {
-    s.0[..n_active].iter().sum::<f32>() / n_active as f32
+/// log(mean_i exp(x_i)) over the first `n` entries.
+fn log_mean_exp(x: &[f64], n: usize) -> f64 {
+    let m = x[..n].iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if m == f64::NEG_INFINITY {
+        return m;
+    }
+    (x[..n].iter().map(|v| (v - m).exp()).sum::<f64>() / n as f64).ln() + m
 }
 
 /// Walks from `ray` (starting inside the medium) until it reaches a surface. Returns the
 /// surface hit and the last ray segment (the caller shades the hit from inside), and multiplies
-/// `beta` by the walk's throughput. `None` if the walk was absorbed or escaped to infinity.
+/// `beta` by the walk's weight. `None` if the walk was absorbed, ended by Russian roulette, or
+/// escaped to infinity (an open mesh).
 #[allow(clippy::too_many_arguments)]
 pub fn walk(
     geometry: &Geometry,
@@ -67,54 +76,75 @@ pub fn walk(
     beta: &mut SampledSpectrum,
 ) -> Option<(Hit, Ray)> {
     let sigma_t = sigma_a + sigma_s;
-    let n_active = n_active.max(1);
-    let mut local = SampledSpectrum::ONE;
+    let n = n_active.clamp(1, N_WAVELENGTHS);
+    let ch = ((sampler.next_1d() * n as f32) as usize).min(n - 1);
+    let st_c = sigma_t[ch] as f64;
+    // log of f_j / p_ch (path contribution relative to the sampling density) and of
+    // p_i / p_ch (density under wavelength i's sampling relative to the one used).
+    let mut log_f = [0.0f64; N_WAVELENGTHS];
+    let mut log_p = [0.0f64; N_WAVELENGTHS];
+    let weight = |log_f: &[f64; N_WAVELENGTHS], log_p: &[f64; N_WAVELENGTHS]| {
+        let norm = log_mean_exp(log_p, n);
+        SampledSpectrum::from_fn(|j| {
+            if j < n {
+                (log_f[j] - norm).exp() as f32
+            } else {
+                0.0
+            }
+        })
+    };
     for event in 0..MAX_SCATTER {
-        let u_ch = sampler.next_1d();
         let u_t = sampler.next_1d();
-        let ch = ((u_ch * n_active as f32) as usize).min(n_active - 1);
-        let st = sigma_t[ch];
-        let t = if st > 0.0 {
-            -(1.0 - u_t).ln() / st
+        let t = if st_c > 0.0 {
+            (-(1.0 - u_t as f64).ln() / st_c) as f32
         } else {
             f32::INFINITY
         };
         match geometry.intersect(&ray, t) {
             Some(hit) => {
-                let tr = (sigma_t * -hit.t).exp();
-                let p = mean_active(tr, n_active);
-                if !(p > 0.0) {
+                // Reached the surface: transmittance over probability of flying that far.
+                let d = hit.t as f64;
+                for i in 0..n {
+                    let x = -(sigma_t[i] as f64 - st_c) * d;
+                    log_f[i] += x;
+                    log_p[i] += x;
+                }
+                let w = weight(&log_f, &log_p);
+                if !w.is_finite() {
                     return None;
                 }
-                local *= tr / p;
-                *beta *= local;
-                return beta.is_finite().then_some((hit, ray));
+                *beta *= w;
+                return Some((hit, ray));
             }
             None => {
                 if !t.is_finite() {
                     return None;
                 }
-                let tr = (sigma_t * -t).exp();
-                let pdf = mean_active(sigma_t * tr, n_active);
-                if !(pdf > 0.0) {
-                    return None;
+                let td = t as f64;
+                for i in 0..n {
+                    let st = sigma_t[i] as f64;
+                    let rel = -(st - st_c) * td - st_c.ln();
+                    log_f[i] += (sigma_s[i] as f64).ln() + rel;
+                    log_p[i] += st.ln() + rel;
                 }
-                local *= sigma_s * tr / pdf;
                 let u = sampler.next_2d();
                 let dir = sample_hg(ray.dir, g, u.x, u.y);
                 ray = Ray::new(ray.at(t), dir);
                 if event >= RR_START {
-                    let rr = local.max_component();
-                    if rr < 1.0 {
-                        let q = (1.0 - rr).clamp(0.0, 0.95);
+                    let w_max = weight(&log_f, &log_p).max_component();
+                    if !(w_max > 0.0) {
+                        return None;
+                    }
+                    if w_max < 1.0 {
+                        let q = (1.0 - w_max).clamp(0.0, 0.95);
                         if sampler.next_1d() < q {
                             return None;
                         }
-                        local /= 1.0 - q;
+                        let boost = -((1.0 - q) as f64).ln();
+                        for v in log_f.iter_mut().take(n) {
+                            *v += boost;
+                        }
                     }
-                }
-                if !local.is_finite() || local.is_black() {
-                    return None;
                 }
             }
         }
