@@ -324,7 +324,9 @@ impl Geometry {
                 t_max,
             );
             if self.meshes[inst.mesh as usize].occluded(&local) {
-                0.5 * t_max
+                // any distance below t_max counts as a hit; 0.5 * t_max is not < t_max when
+                // t_max is infinite (directional and world lights)
+                0.0
             } else {
                 f32::INFINITY
             }

@@ -1,0 +1,91 @@
+//! Shadow rays of infinite length (directional and world lights) are blocked by instanced
+//! geometry: a Lambertian plane under a large occluder, lit by a directional light from straight
+//! above, is black. (Regression: the instance-level occlusion test returned 0.5 * t_max, which is
+//! not < t_max when t_max is infinite, so sun shadows were missing; found by the Blender add-on's
+//! sun parity check against Cycles.)
+
+mod common;
+
+use common::scenes::{camera, diffuse_material};
+use glam::{Mat4, Vec3};
+use prism::render::{render, RenderSettings};
+use prism::scene::{InstanceDesc, MeshDesc, PunctualKind, PunctualLightDesc, Scene, SceneDesc};
+use std::sync::atomic::AtomicBool;
+
+fn quad(name: &str, half: f32) -> MeshDesc {
+    MeshDesc {
+        name: name.into(),
+        positions: vec![
+            Vec3::new(-half, 0.0, -half),
+            Vec3::new(half, 0.0, -half),
+            Vec3::new(half, 0.0, half),
+            Vec3::new(-half, 0.0, half),
+        ],
+        normals: Some(vec![Vec3::Y; 4]),
+        uvs: None,
+        indices: vec![0, 2, 1, 0, 3, 2],
+        material: Some(0),
+    }
+}
+
+fn mean_rgb(with_occluder: bool) -> Vec3 {
+    let mut cam = camera(0.0, 0.05);
+    cam.camera_to_world = Mat4::from_translation(Vec3::new(0.0, 3.0, 0.0))
+        * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+    let mut instances = vec![InstanceDesc {
+        mesh: 0,
+        object_to_world: Mat4::IDENTITY,
+        name: "plane".into(),
+    }];
+    if with_occluder {
+        // above the camera, so the camera does not see it
+        instances.push(InstanceDesc {
+            mesh: 1,
+            object_to_world: Mat4::from_translation(Vec3::new(0.0, 5.0, 0.0)),
+            name: "occluder".into(),
+        });
+    }
+    let desc = SceneDesc {
+        meshes: vec![quad("plane", 10.0), quad("occluder", 20.0)],
+        instances,
+        materials: vec![diffuse_material("grey", Vec3::splat(0.5))],
+        lights: vec![PunctualLightDesc {
+            name: "sun".into(),
+            kind: PunctualKind::Directional,
+            color: Vec3::ONE,
+            intensity: 3.0,
+            position: Vec3::ZERO,
+            direction: -Vec3::Y,
+        }],
+        camera: Some(cam),
+        ..Default::default()
+    };
+    let scene = Scene::build(desc).expect("scene builds");
+    let settings = RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 16,
+        max_depth: 4,
+        seed: 3,
+    };
+    let (film, _) = render(
+        &scene,
+        &settings,
+        &AtomicBool::new(false),
+        &|_| {},
+        &mut |_, _| {},
+    );
+    let px = film.to_rgba();
+    px.iter().map(|p| Vec3::new(p[0], p[1], p[2])).sum::<Vec3>() / px.len() as f32
+}
+
+#[test]
+fn directional_light_is_blocked_by_another_instance() {
+    let lit = mean_rgb(false);
+    assert!(lit.min_element() > 0.4, "unoccluded plane is lit: {lit}");
+    let shadowed = mean_rgb(true);
+    assert!(
+        shadowed.max_element() < 1e-3 * lit.max_element(),
+        "plane under the occluder is in shadow: {shadowed} (lit {lit})"
+    );
+}
