@@ -58,6 +58,8 @@ class PrismRenderEngine(bpy.types.RenderEngine):
     bl_label = "Prism"
     bl_use_preview = False
     bl_use_postprocess = True
+    bl_use_shading_nodes_custom = False  # materials are Blender's shader nodes (converted on export)
+    bl_use_eevee_viewport = True  # Material Preview / Rendered viewport shading through EEVEE
 
     def render(self, depsgraph):
         scene = depsgraph.scene
