@@ -11,11 +11,13 @@ WHICH=${1:-all}
 
 if [ ! -x .venv-bpy/bin/python ] || ! .venv-bpy/bin/python -c "import bpy, numpy" 2>/dev/null; then
     echo "== installing bpy==5.0.1 into .venv-bpy (about 375 MB)"
-    if ! python3 -m venv --help >/dev/null 2>&1 || ! python3 -c "import ensurepip" 2>/dev/null; then
-        apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv
-    fi
     PY=$(command -v python3.11 || command -v python3)  # the bpy 5.0.1 wheel is for CPython 3.11
-    "$PY" -m venv .venv-bpy
+    rm -rf .venv-bpy
+    if ! "$PY" -m venv .venv-bpy; then  # Debian: venv needs python3-venv
+        rm -rf .venv-bpy
+        apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv >/dev/null
+        "$PY" -m venv .venv-bpy
+    fi
     .venv-bpy/bin/pip install -q bpy==5.0.1 numpy
 fi
 blender_ok() {
