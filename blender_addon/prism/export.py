@@ -553,13 +553,16 @@ class Exporter:
         col = _rgb(L.color)
         peak = max(col) if max(col) > 0 else 1.0
         nrm = np.tile(np.array([0.0, 0.0, -1.0], np.float32), (len(pos), 1))
+        # Cycles' area lights emit from the front only and are otherwise invisible: paths go
+        # through them. An index-matched (IOR 1) clear dielectric lets paths through here too.
         mat = {
             "name": "PrismAreaLight_%s" % ob.name,
-            "pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0.0, "roughnessFactor": 1.0},
+            "pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0, "roughnessFactor": 0.0},
             "emissiveFactor": [c / peak for c in col],
             "extensions": {
                 "KHR_materials_emissive_strength": {"emissiveStrength": radiance * peak},
-                "KHR_materials_specular": {"specularFactor": 0.0},
+                "KHR_materials_transmission": {"transmissionFactor": 1.0},
+                "KHR_materials_ior": {"ior": 1.0},
             },
             "doubleSided": False,
         }
