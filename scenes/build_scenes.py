@@ -261,6 +261,7 @@ def main():
         prism.register()
     except ValueError:  # already registered (enabled as an add-on)
         pass
+    bpy.context.preferences.filepaths.save_version = 0  # no .blend1 backups
     for name in names:
         SCENES[name]()
         out = os.path.join(HERE, name)
