@@ -61,7 +61,7 @@ pub struct SubsurfaceMaterial {
 
 impl SubsurfaceMaterial {
     pub fn new(desc: &SubsurfaceDesc) -> Self {
-        let table = Arc::new(BssrdfTable::new(desc.eta));
+        let table = table_for_eta(desc.eta);
         let coefficients = media::coefficients(desc, &table);
         let r = desc.roughness.clamp(0.0, 1.0);
         SubsurfaceMaterial {
@@ -104,6 +104,19 @@ impl SubsurfaceMaterial {
         let k = 1.0 / (1.0 - self.g).max(1e-3);
         (self.sigma_a.sample(w), self.sigma_s_reduced.sample(w) * k)
     }
+}
+
+/// The profile table for a boundary IOR, built once per process and shared by every material
+/// with the same `eta` (a build takes ~50 ms).
+pub fn table_for_eta(eta: f32) -> Arc<BssrdfTable> {
+    use std::collections::HashMap;
+    use std::sync::{Mutex, OnceLock};
+    static CACHE: OnceLock<Mutex<HashMap<u32, Arc<BssrdfTable>>>> = OnceLock::new();
+    let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
+    let mut map = cache.lock().unwrap_or_else(|e| e.into_inner());
+    map.entry(eta.to_bits())
+        .or_insert_with(|| Arc::new(BssrdfTable::new(eta)))
+        .clone()
 }
 
 /// Number of wavelengths still carried by the path (1 after a dispersive termination).

@@ -81,6 +81,10 @@ pub fn walk(
     let st_c = sigma_t[ch] as f64;
     // log of f_j / p_ch (path contribution relative to the sampling density) and of
     // p_i / p_ch (density under wavelength i's sampling relative to the one used).
+    // Per-event constants (ln 0 = -inf is fine: that wavelength's weight becomes 0).
+    let ln_ss: [f64; N_WAVELENGTHS] = std::array::from_fn(|i| (sigma_s[i] as f64).ln());
+    let ln_st: [f64; N_WAVELENGTHS] = std::array::from_fn(|i| (sigma_t[i] as f64).ln());
+    let ln_st_c = st_c.ln();
     let mut log_f = [0.0f64; N_WAVELENGTHS];
     let mut log_p = [0.0f64; N_WAVELENGTHS];
     let weight = |log_f: &[f64; N_WAVELENGTHS], log_p: &[f64; N_WAVELENGTHS]| {
@@ -122,15 +126,15 @@ pub fn walk(
                 }
                 let td = t as f64;
                 for i in 0..n {
-                    let st = sigma_t[i] as f64;
-                    let rel = -(st - st_c) * td - st_c.ln();
-                    log_f[i] += (sigma_s[i] as f64).ln() + rel;
-                    log_p[i] += st.ln() + rel;
+                    let rel = -(sigma_t[i] as f64 - st_c) * td - ln_st_c;
+                    log_f[i] += ln_ss[i] + rel;
+                    log_p[i] += ln_st[i] + rel;
                 }
                 let u = sampler.next_2d();
                 let dir = sample_hg(ray.dir, g, u.x, u.y);
                 ray = Ray::new(ray.at(t), dir);
-                if event >= RR_START {
+                // Russian roulette (checked every 4th event: the weight needs exp/ln).
+                if event >= RR_START && event % 4 == 0 {
                     let w_max = weight(&log_f, &log_p).max_component();
                     if !(w_max > 0.0) {
                         return None;
