@@ -172,6 +172,18 @@ def test_error_binary_fails():
         C.prefs().binary_path = C.BINARY
 
 
+def test_error_no_camera():
+    sc = C.simple_scene()
+    C.use_prism(sc, spp=1)
+    bpy.data.objects.remove(bpy.data.objects["Camera"])
+    try:
+        bpy.ops.render.render()
+        raise AssertionError("render should have failed")
+    except RuntimeError as e:
+        msg = str(e)
+    C.check("camera" in msg, "clear error: %s" % msg.strip())
+
+
 def test_unsupported_node_warns():
     sc = C.simple_scene()
     C.use_prism(sc, spp=4)
