@@ -26,7 +26,10 @@ use crate::geometry::{offset_ray_origin, Geometry, Ray, SurfacePoint};
 use crate::math::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
 use crate::math::{Frame, INV_PI};
 use crate::scene::SubsurfaceDesc;
-use crate::spectrum::{RgbUnboundedSpectrum, SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
+use crate::spectrum::{
+    RgbAlbedoSpectrum, RgbUnboundedSpectrum, SampledSpectrum, SampledWavelengths, LAMBDA_MAX,
+    LAMBDA_MIN, N_WAVELENGTHS,
+};
 use glam::{Vec2, Vec3};
 use std::sync::Arc;
 pub use table::BssrdfTable;
@@ -47,9 +50,10 @@ pub enum SubsurfaceMethod {
 pub struct SubsurfaceMaterial {
     pub table: Arc<BssrdfTable>,
     pub coefficients: media::Coefficients,
-    pub sigma_a: RgbUnboundedSpectrum,
-    /// Reduced scattering coefficient sigma_s (1 - g).
-    pub sigma_s_reduced: RgbUnboundedSpectrum,
+    /// Reduced extinction sigma_a + sigma_s (1 - g), upsampled as an unbounded spectrum.
+    pub sigma_t: RgbUnboundedSpectrum,
+    /// Single-scattering albedo per nanometre from LAMBDA_MIN (see `spectral_albedo`).
+    albedo: Vec<f32>,
     pub g: f32,
     pub eta: f32,
     /// GGX alpha of the boundary (perceptual roughness squared).
@@ -65,8 +69,8 @@ impl SubsurfaceMaterial {
         let coefficients = media::coefficients(desc, &table);
         let r = desc.roughness.clamp(0.0, 1.0);
         SubsurfaceMaterial {
-            sigma_a: RgbUnboundedSpectrum::new(coefficients.sigma_a),
-            sigma_s_reduced: RgbUnboundedSpectrum::new(coefficients.sigma_s_reduced),
+            sigma_t: RgbUnboundedSpectrum::new(coefficients.sigma_a + coefficients.sigma_s_reduced),
+            albedo: spectral_albedo(&table, &coefficients),
             coefficients,
             table,
             g: desc.g,
@@ -81,14 +85,23 @@ impl SubsurfaceMaterial {
         }
     }
 
+    /// (sigma_a, reduced sigma_s) for the path's wavelengths.
+    pub fn coefficients_at(&self, w: &SampledWavelengths) -> (SampledSpectrum, SampledSpectrum) {
+        let sigma_t = self.sigma_t.sample(w);
+        let rho = SampledSpectrum::from_fn(|i| {
+            let x = (w.lambda[i] - LAMBDA_MIN).clamp(0.0, (self.albedo.len() - 1) as f32);
+            let k = (x as usize).min(self.albedo.len() - 2);
+            let t = x - k as f32;
+            self.albedo[k] * (1.0 - t) + self.albedo[k + 1] * t
+        });
+        let sigma_s = rho * sigma_t;
+        (sigma_t - sigma_s, sigma_s)
+    }
+
     /// The separable BSSRDF for the path's wavelengths.
     pub fn bssrdf(&self, w: &SampledWavelengths) -> SeparableBssrdf<'_> {
-        SeparableBssrdf::new(
-            &self.table,
-            self.sigma_a.sample(w),
-            self.sigma_s_reduced.sample(w),
-            active_wavelengths(w),
-        )
+        let (sigma_a, sigma_s) = self.coefficients_at(w);
+        SeparableBssrdf::new(&self.table, sigma_a, sigma_s, active_wavelengths(w))
     }
 
     /// Exit lobe Sw at the exit point.
@@ -102,8 +115,42 @@ impl SubsurfaceMaterial {
     /// (sigma_a, full sigma_s) for the random walk.
     pub fn walk_coefficients(&self, w: &SampledWavelengths) -> (SampledSpectrum, SampledSpectrum) {
         let k = 1.0 / (1.0 - self.g).max(1e-3);
-        (self.sigma_a.sample(w), self.sigma_s_reduced.sample(w) * k)
+        let (sigma_a, sigma_s) = self.coefficients_at(w);
+        (sigma_a, sigma_s * k)
     }
+}
+
+/// Single-scattering albedo per nanometre that reproduces the RGB effective albedo.
+///
+/// Upsampling sigma_a and sigma_s separately gives a per-wavelength albedo that is a non-linear
+/// function of the RGB inputs, and rho_eff is steep near albedo 1: Skin1 lost ~20% of its red
+/// that way. Instead the RGB effective albedo rho_eff(rho_rgb) (what a user sees as the
+/// material's colour) is upsampled as a reflectance spectrum (Jakob & Hanika 2019; normalised by
+/// rho_eff(1) so that a non-absorbing medium stays exactly non-absorbing), and each wavelength's
+/// albedo is the table inversion of it. The mean free path follows the upsampled sigma_t.
+fn spectral_albedo(table: &BssrdfTable, c: &media::Coefficients) -> Vec<f32> {
+    let eff_max = table.rho_eff[table.rho_eff.len() - 1];
+    let st = c.sigma_a + c.sigma_s_reduced;
+    let eff = Vec3::from_array(std::array::from_fn(|i| {
+        let rho = if st[i] > 0.0 {
+            (c.sigma_s_reduced[i] / st[i]).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (table.rho_eff_at(rho) / eff_max).clamp(0.0, 1.0)
+    }));
+    let spectrum = RgbAlbedoSpectrum::new(eff);
+    let n = (LAMBDA_MAX - LAMBDA_MIN) as usize + 1;
+    (0..n)
+        .map(|k| {
+            let e = spectrum.eval(LAMBDA_MIN + k as f32).clamp(0.0, 1.0);
+            if e >= 1.0 - 1e-6 {
+                1.0
+            } else {
+                table.invert_rho_eff(e * eff_max)
+            }
+        })
+        .collect()
 }
 
 /// The profile table for a boundary IOR, built once per process and shared by every material
@@ -319,7 +366,10 @@ impl<'a> SeparableBssrdf<'a> {
         let mut count = 0usize;
         let mut origin = base;
         let mut remaining = 2.0 * half;
-        while remaining > 0.0 && count < MAX_PROBE_HITS {
+        // Bounded: a grazing probe could otherwise crawl along a surface of another material.
+        let mut steps = 0;
+        while remaining > 0.0 && count < MAX_PROBE_HITS && steps < 4 * MAX_PROBE_HITS {
+            steps += 1;
             let Some(hit) = geometry.intersect(&Ray::new(origin, vz), remaining) else {
                 break;
             };
