@@ -216,6 +216,8 @@ pub struct SeparableBssrdf<'a> {
     n_active: usize,
     /// Probe radius per wavelength (radius holding ~99.9% of the profile).
     r_max: [f32; N_WAVELENGTHS],
+    /// Catmull-Rom weights of each wavelength's albedo in the table.
+    albedo_w: [Option<(isize, [f32; 4])>; N_WAVELENGTHS],
 }
 
 /// An exit point found by the probe rays and its weight Sp / pdf (per wavelength).
@@ -254,6 +256,7 @@ impl<'a> SeparableBssrdf<'a> {
             rho,
             n_active: n_active.clamp(1, N_WAVELENGTHS),
             r_max,
+            albedo_w: std::array::from_fn(|i| table.albedo_weights(rho[i])),
         }
     }
 
@@ -265,7 +268,7 @@ impl<'a> SeparableBssrdf<'a> {
             if !(st > 0.0) {
                 return 0.0;
             }
-            self.table.eval(self.rho[i], r * st).0 * st * st
+            self.table.eval_with(self.albedo_w[i], r * st).0 * st * st
         })
     }
 
@@ -294,7 +297,7 @@ impl<'a> SeparableBssrdf<'a> {
         if !(st > 0.0) {
             return 0.0;
         }
-        let (value, eff) = self.table.eval(self.rho[ch], r * st);
+        let (value, eff) = self.table.eval_with(self.albedo_w[ch], r * st);
         if !(eff > 0.0) {
             return 0.0;
         }

@@ -231,10 +231,23 @@ impl BssrdfTable {
     /// (albedo, optical radius): `(R(r), rho_eff)`, so that \int R(r) 2 pi r dr = rho_eff.
     /// Zero outside the table.
     pub fn eval(&self, rho: f32, r_optical: f32) -> (f32, f32) {
-        let (Some((oa, wa)), Some((or, wr))) = (
-            catmull_rom_weights(&self.albedos, rho),
-            catmull_rom_weights(&self.radii, r_optical),
-        ) else {
+        self.eval_with(self.albedo_weights(rho), r_optical)
+    }
+
+    /// Catmull-Rom weights of an albedo (computed once per wavelength and reused by `eval_with`).
+    pub fn albedo_weights(&self, rho: f32) -> Option<(isize, [f32; 4])> {
+        catmull_rom_weights(&self.albedos, rho)
+    }
+
+    /// `eval` with precomputed albedo weights.
+    pub fn eval_with(
+        &self,
+        albedo_weights: Option<(isize, [f32; 4])>,
+        r_optical: f32,
+    ) -> (f32, f32) {
+        let (Some((oa, wa)), Some((or, wr))) =
+            (albedo_weights, catmull_rom_weights(&self.radii, r_optical))
+        else {
             return (0.0, 0.0);
         };
         let mut value = 0.0;

@@ -124,7 +124,7 @@ fn newton_bisection(mut g: impl FnMut(f32) -> (f32, f32), target: f32, t0: f32) 
     for _ in 0..60 {
         let (value, slope) = g(t);
         let err = value - target;
-        if err.abs() < 1e-6 * target.abs().max(1e-6) {
+        if err.abs() < 1e-5 * target.abs().max(1e-6) {
             break;
         }
         if err < 0.0 {
@@ -132,7 +132,7 @@ fn newton_bisection(mut g: impl FnMut(f32) -> (f32, f32), target: f32, t0: f32) 
         } else {
             hi = t;
         }
-        if hi - lo < 1e-7 {
+        if hi - lo < 1e-6 {
             break;
         }
         let next = t - err / slope;
