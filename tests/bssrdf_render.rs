@@ -318,3 +318,28 @@ fn non_absorbing_sphere_in_white_furnace() {
         assert!((grey - 1.0).abs() < tol, "{method}: furnace mean {mean}");
     }
 }
+
+/// `reflectance` + `mfp` end to end: the slab's diffuse reflectance is the requested RGB
+/// reflectance (inversion through the table, then the spectral albedo that keeps it).
+#[test]
+fn reflectance_and_mfp_slab_reflects_the_requested_colour() {
+    let refl = Vec3::new(0.7, 0.45, 0.2);
+    let desc = SubsurfaceDesc {
+        coefficients: SubsurfaceCoefficients::Reflectance {
+            reflectance: refl,
+            mfp: Vec3::new(1.0, 0.5, 0.25),
+        },
+        ..subsurface(Vec3::ZERO, Vec3::ZERO, "table")
+    };
+    let (mean, discarded) = render_mean(slab_scene(&desc), 256, 8);
+    assert_eq!(discarded, 0);
+    let fr = fresnel_dielectric(1.0, ETA);
+    for ch in 0..3 {
+        let expected = fr + (1.0 - fr) * refl[ch];
+        eprintln!("ch {ch}: {} vs {expected}", mean[ch]);
+        assert!(
+            (mean[ch] / expected - 1.0).abs() < 0.03,
+            "channel {ch}: render {mean} vs Fr + (1 - Fr) reflectance = {expected}"
+        );
+    }
+}
