@@ -7,11 +7,10 @@ use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
 use prism::bssrdf::table::BssrdfTable;
 use prism::bssrdf::SeparableBssrdf;
-use prism::render::{render, RenderSettings};
+use prism::render::{render_quiet, RenderSettings};
 use prism::scene::{load_scene, Scene};
 use prism::spectrum::SampledSpectrum;
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
 
 fn scene(name: &str) -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/sss/{name}.gltf"));
@@ -59,16 +58,7 @@ fn bench_bssrdf(c: &mut Criterion) {
     for name in ["cornell_diffuse", "cornell_sss", "cornell_walk"] {
         let s = scene(name);
         group.bench_function(format!("render_{name}_64x64_1spp"), |b| {
-            b.iter(|| {
-                render(
-                    &s,
-                    &settings,
-                    &AtomicBool::new(false),
-                    &|_| {},
-                    &mut |_, _| {},
-                )
-                .1
-            })
+            b.iter(|| render_quiet(&s, &settings).1)
         });
     }
     group.finish();

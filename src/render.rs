@@ -185,6 +185,17 @@ pub fn render(
     (film, stats)
 }
 
+/// Renders without progress reports or cancellation (library users, tests, benchmarks).
+pub fn render_quiet(scene: &Scene, settings: &RenderSettings) -> (Film, RenderStats) {
+    render(
+        scene,
+        settings,
+        &AtomicBool::new(false),
+        &|_| {},
+        &mut |_, _| {},
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::pass_sizes;

@@ -5,12 +5,11 @@ mod common;
 
 use common::scenes::{camera, diffuse_material, furnace_scene, material_with};
 use glam::{Mat4, Vec3};
-use prism::render::{render, RenderSettings};
+use prism::render::{render_quiet, RenderSettings};
 use prism::scene::{
     DielectricDesc, GltfMaterialDesc, InstanceDesc, IorDesc, MaterialOverride, MeshDesc,
     PunctualKind, PunctualLightDesc, Scene, SceneDesc,
 };
-use std::sync::atomic::AtomicBool;
 
 const ALBEDO: f32 = 0.5;
 
@@ -55,13 +54,7 @@ fn mean_rgb(desc: SceneDesc, spp: u32) -> Vec3 {
         max_depth: 4,
         seed: 3,
     };
-    let (film, _) = render(
-        &scene,
-        &settings,
-        &AtomicBool::new(false),
-        &|_| {},
-        &mut |_, _| {},
-    );
+    let (film, _) = render_quiet(&scene, &settings);
     let px = film.to_rgba();
     px.iter().map(|p| Vec3::new(p[0], p[1], p[2])).sum::<Vec3>() / px.len() as f32
 }

@@ -14,14 +14,13 @@ use common::scenes::{camera, material_with};
 use glam::{Mat4, Vec3};
 use prism::bsdf::fresnel_dielectric;
 use prism::bssrdf::SubsurfaceMaterial;
-use prism::render::{render, RenderSettings};
+use prism::render::{render_quiet, RenderSettings};
 use prism::scene::{
     GltfMaterialDesc, InstanceDesc, MaterialOverride, MeshDesc, Scene, SceneDesc,
     SubsurfaceCoefficients, SubsurfaceDesc, WorldDesc,
 };
 use prism::spectrum::rgb::xyz_to_linear_srgb;
 use prism::spectrum::{spectrum_to_xyz, RgbIlluminantSpectrum, SampledWavelengths};
-use std::sync::atomic::AtomicBool;
 
 const ETA: f32 = 1.33;
 
@@ -110,13 +109,7 @@ fn render_mean(desc: SceneDesc, spp: u32, seed: u64) -> (Vec3, u64) {
         max_depth: 32,
         seed,
     };
-    let (film, stats) = render(
-        &scene,
-        &settings,
-        &AtomicBool::new(false),
-        &|_| {},
-        &mut |_, _| {},
-    );
+    let (film, stats) = render_quiet(&scene, &settings);
     let rgba = film.to_rgba();
     for p in &rgba {
         assert!(p.iter().all(|v| v.is_finite()), "non-finite pixel {p:?}");

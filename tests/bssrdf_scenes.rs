@@ -1,10 +1,9 @@
 //! The committed subsurface scenes (scenes/sss/) load with their sidecars, build every
 //! subsurface material without warnings and render finite images (both methods).
 
-use prism::render::{render, RenderSettings};
+use prism::render::{render_quiet, RenderSettings};
 use prism::scene::{load_scene, Scene};
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
 
 #[test]
 fn sss_scenes_load_and_render_finite() {
@@ -29,13 +28,7 @@ fn sss_scenes_load_and_render_finite() {
             max_depth: 16,
             seed: 3,
         };
-        let (film, stats) = render(
-            &scene,
-            &settings,
-            &AtomicBool::new(false),
-            &|_| {},
-            &mut |_, _| {},
-        );
+        let (film, stats) = render_quiet(&scene, &settings);
         assert_eq!(stats.discarded, 0, "{name}");
         let rgba = film.to_rgba();
         assert!(rgba.iter().flatten().all(|v| v.is_finite()), "{name}");

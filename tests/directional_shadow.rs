@@ -8,9 +8,8 @@ mod common;
 
 use common::scenes::{camera, diffuse_material};
 use glam::{Mat4, Vec3};
-use prism::render::{render, RenderSettings};
+use prism::render::{render_quiet, RenderSettings};
 use prism::scene::{InstanceDesc, MeshDesc, PunctualKind, PunctualLightDesc, Scene, SceneDesc};
-use std::sync::atomic::AtomicBool;
 
 fn quad(name: &str, half: f32) -> MeshDesc {
     MeshDesc {
@@ -68,13 +67,7 @@ fn mean_rgb(with_occluder: bool) -> Vec3 {
         max_depth: 4,
         seed: 3,
     };
-    let (film, _) = render(
-        &scene,
-        &settings,
-        &AtomicBool::new(false),
-        &|_| {},
-        &mut |_, _| {},
-    );
+    let (film, _) = render_quiet(&scene, &settings);
     let px = film.to_rgba();
     px.iter().map(|p| Vec3::new(p[0], p[1], p[2])).sum::<Vec3>() / px.len() as f32
 }

@@ -6,9 +6,8 @@ mod common;
 
 use common::scenes::{diffuse_material, furnace_scene, material_with};
 use glam::Vec3;
-use prism::render::{render, RenderSettings};
+use prism::render::{render_quiet, RenderSettings};
 use prism::scene::{DielectricDesc, GltfMaterialDesc, IorDesc, MaterialOverride, Scene, SceneDesc};
-use std::sync::atomic::AtomicBool;
 
 fn render_mean(desc: SceneDesc, spp: u32) -> (Vec3, Vec<[f32; 4]>) {
     let scene = Scene::build(desc).expect("scene builds");
@@ -19,13 +18,7 @@ fn render_mean(desc: SceneDesc, spp: u32) -> (Vec3, Vec<[f32; 4]>) {
         max_depth: 64,
         seed: 7,
     };
-    let (film, stats) = render(
-        &scene,
-        &settings,
-        &AtomicBool::new(false),
-        &|_| {},
-        &mut |_, _| {},
-    );
+    let (film, stats) = render_quiet(&scene, &settings);
     assert_eq!(stats.discarded, 0);
     let rgba = film.to_rgba();
     let mean = rgba

@@ -7,10 +7,9 @@
 
 use prism::film::metrics::{box_downsample, channel_means, clamp_pixels, rel_mse};
 use prism::film::{read_exr_rgba, write_exr_rgba, Film};
-use prism::render::{render, RenderSettings};
+use prism::render::{render_quiet, RenderSettings};
 use prism::scene::{load_scene, Scene};
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
 
 const SIZE: u32 = 64;
 const REFERENCE: &str = "tests/data/cornell_64_ref.exr";
@@ -34,16 +33,7 @@ fn render_with(scene: &Scene, spp: u32, seed: u64, threads: usize) -> Film {
         .num_threads(threads)
         .build()
         .unwrap();
-    pool.install(|| {
-        render(
-            scene,
-            &settings,
-            &AtomicBool::new(false),
-            &|_| {},
-            &mut |_, _| {},
-        )
-    })
-    .0
+    pool.install(|| render_quiet(scene, &settings)).0
 }
 
 #[test]
