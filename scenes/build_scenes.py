@@ -30,6 +30,9 @@ import bmesh  # noqa: E402
 import prism  # noqa: E402
 from prism import export  # noqa: E402
 
+sys.path.insert(0, HERE)
+from bpy_helpers import camera, light  # noqa: E402
+
 
 # ----------------------------------------------------------------------------- building blocks
 
@@ -118,30 +121,6 @@ def triangular_prism(w, h, depth):
     for y in (-depth / 2, depth / 2):
         pts += [(-w / 2, y, 0.0), (w / 2, y, 0.0), (0.0, y, h)]
     return hull(pts)
-
-
-def light(name, kind, energy, location, rotation=(0, 0, 0), **kw):
-    L = bpy.data.lights.new(name, kind)
-    L.energy = energy
-    for k, v in kw.items():
-        setattr(L, k, v)
-    ob = bpy.data.objects.new(name, L)
-    ob.location = location
-    ob.rotation_euler = rotation
-    bpy.context.scene.collection.objects.link(ob)
-    return ob
-
-
-def camera(location, target, lens=50.0):
-    from mathutils import Vector
-
-    cam = bpy.data.cameras.new("Camera")
-    cam.lens = lens
-    ob = bpy.data.objects.new("Camera", cam)
-    ob.location = location
-    ob.rotation_euler = (Vector(target) - Vector(location)).to_track_quat("-Z", "Y").to_euler()
-    bpy.context.scene.collection.objects.link(ob)
-    bpy.context.scene.camera = ob
 
 
 def world(color, strength=1.0):

@@ -14,6 +14,9 @@ import numpy as np
 REPO = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
 BINARY = os.path.join(REPO, "target", "release", "prism")
 
+sys.path.insert(0, os.path.join(REPO, "scenes"))
+from bpy_helpers import camera, light  # noqa: E402,F401  (re-exported to the tests)
+
 
 def enable_addon():
     """Enable the add-on as Blender users do (BLENDER_USER_SCRIPTS/addons/prism, set by the runner)."""
@@ -85,32 +88,6 @@ def sphere(radius, segs=48, rings=24):
 
 def cube(size):
     return lambda bm: bmesh.ops.create_cube(bm, size=size)
-
-
-def light(name, kind, energy, location, rotation=(0, 0, 0), **kw):
-    L = bpy.data.lights.new(name, kind)
-    L.energy = energy
-    for k, v in kw.items():
-        setattr(L, k, v)
-    ob = bpy.data.objects.new(name, L)
-    ob.location = location
-    ob.rotation_euler = rotation
-    bpy.context.scene.collection.objects.link(ob)
-    return ob
-
-
-def camera(location, look_at, lens=50.0):
-    from mathutils import Vector
-
-    cam = bpy.data.cameras.new("Camera")
-    cam.lens = lens
-    ob = bpy.data.objects.new("Camera", cam)
-    ob.location = location
-    d = Vector(look_at) - Vector(location)
-    ob.rotation_euler = d.to_track_quat("-Z", "Y").to_euler()
-    bpy.context.scene.collection.objects.link(ob)
-    bpy.context.scene.camera = ob
-    return ob
 
 
 def world(color, strength=1.0):
