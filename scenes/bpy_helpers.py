@@ -1,6 +1,7 @@
 """Scene-building helpers shared by scenes/build_scenes.py and the add-on tests (run inside Blender)."""
 
 import bpy
+import bmesh  # after bpy: the bpy wheel provides bmesh only once bpy is imported
 
 
 def light(name, kind, energy, location, rotation=(0, 0, 0), **kw):
@@ -27,4 +28,42 @@ def camera(location, look_at, lens=50.0):
     ob.rotation_euler = (Vector(look_at) - Vector(location)).to_track_quat("-Z", "Y").to_euler()
     bpy.context.scene.collection.objects.link(ob)
     bpy.context.scene.camera = ob
+    return ob
+
+
+def material(name, kind="ShaderNodeBsdfDiffuse", color=(0.8, 0.8, 0.8), **inputs):
+    """A node material with one shader node of `kind` ('Color' / 'Base Color' set to `color`,
+    other inputs by name) connected to the output."""
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    nt = mat.node_tree
+    nt.nodes.clear()
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    node = nt.nodes.new(kind)
+    for key in ("Color", "Base Color"):
+        if key in node.inputs:
+            node.inputs[key].default_value = (*color, 1.0)
+    for k, v in inputs.items():
+        node.inputs[k].default_value = v
+    nt.links.new(node.outputs[0], out.inputs["Surface"])
+    return mat
+
+
+def mesh_object(name, build, mat, location=(0, 0, 0), rotation=(0, 0, 0), scale=(1, 1, 1), smooth=False):
+    """A mesh object built by `build(bm)` (a bmesh callback), with material `mat` (or None)."""
+    me = bpy.data.meshes.new(name)
+    bm = bmesh.new()
+    build(bm)
+    bm.to_mesh(me)
+    bm.free()
+    for p in me.polygons:
+        p.use_smooth = smooth
+    if mat is not None:
+        me.materials.append(mat)
+    ob = bpy.data.objects.new(name, me)
+    ob.location = location
+    ob.rotation_euler = rotation
+    ob.scale = scale
+    bpy.context.scene.collection.objects.link(ob)
     return ob

@@ -31,7 +31,8 @@ import prism  # noqa: E402
 from prism import export  # noqa: E402
 
 sys.path.insert(0, HERE)
-from bpy_helpers import camera, light  # noqa: E402
+from bpy_helpers import camera, light, material  # noqa: E402
+from bpy_helpers import mesh_object as obj  # noqa: E402
 
 
 # ----------------------------------------------------------------------------- building blocks
@@ -42,39 +43,6 @@ def reset():
     sc = bpy.context.scene
     sc.render.engine = "PRISM"
     return sc
-
-
-def material(name, kind="ShaderNodeBsdfDiffuse", color=(0.8, 0.8, 0.8), **inputs):
-    mat = bpy.data.materials.new(name)
-    if mat.node_tree is None:
-        mat.use_nodes = True
-    nt = mat.node_tree
-    nt.nodes.clear()
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    node = nt.nodes.new(kind)
-    for key in ("Color", "Base Color"):
-        if key in node.inputs:
-            node.inputs[key].default_value = (*color, 1.0)
-    for k, v in inputs.items():
-        node.inputs[k].default_value = v
-    nt.links.new(node.outputs[0], out.inputs["Surface"])
-    return mat
-
-
-def obj(name, build, mat, location=(0, 0, 0), rotation=(0, 0, 0), smooth=False):
-    me = bpy.data.meshes.new(name)
-    bm = bmesh.new()
-    build(bm)
-    bm.to_mesh(me)
-    bm.free()
-    for p in me.polygons:
-        p.use_smooth = smooth
-    me.materials.append(mat)
-    ob = bpy.data.objects.new(name, me)
-    ob.location = location
-    ob.rotation_euler = rotation
-    bpy.context.scene.collection.objects.link(ob)
-    return ob
 
 
 def sphere(r):

@@ -15,7 +15,7 @@ REPO = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
 BINARY = os.path.join(REPO, "target", "release", "prism")
 
 sys.path.insert(0, os.path.join(REPO, "scenes"))
-from bpy_helpers import camera, light  # noqa: E402,F401  (re-exported to the tests)
+from bpy_helpers import camera, light, material, mesh_object  # noqa: E402,F401  (re-exported to the tests)
 
 
 def enable_addon():
@@ -35,42 +35,6 @@ def prefs():
 def reset():
     """An empty scene; keeps the preferences (and so the enabled add-on)."""
     bpy.ops.wm.read_homefile(use_empty=True)
-
-
-def material(name, kind, color=(0.8, 0.8, 0.8), **kw):
-    mat = bpy.data.materials.new(name)
-    if mat.node_tree is None:
-        mat.use_nodes = True
-    nt = mat.node_tree
-    nt.nodes.clear()
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    node = nt.nodes.new(kind)
-    if "Color" in node.inputs:
-        node.inputs["Color"].default_value = (*color, 1.0)
-    if "Base Color" in node.inputs:
-        node.inputs["Base Color"].default_value = (*color, 1.0)
-    for k, v in kw.items():
-        node.inputs[k].default_value = v
-    nt.links.new(node.outputs[0], out.inputs["Surface"])
-    return mat
-
-
-def mesh_object(name, builder, mat, location=(0, 0, 0), scale=(1, 1, 1), smooth=False):
-    me = bpy.data.meshes.new(name)
-    bm = bmesh.new()
-    builder(bm)
-    bm.to_mesh(me)
-    bm.free()
-    if smooth:
-        for p in me.polygons:
-            p.use_smooth = True
-    ob = bpy.data.objects.new(name, me)
-    ob.location = location
-    ob.scale = scale
-    if mat is not None:
-        me.materials.append(mat)
-    bpy.context.scene.collection.objects.link(ob)
-    return ob
 
 
 def plane(size):

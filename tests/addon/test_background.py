@@ -12,7 +12,6 @@ import subprocess
 import sys
 import tempfile
 import time
-import traceback
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
@@ -187,19 +186,8 @@ def test_animation_frames():
     check(np.isfinite([f1, f2]).all(), "finite")
 
 
-def main():
-    names = sys.argv[1:] or [n for n in globals() if n.startswith("test_")]
-    failed = []
-    for n in names:
-        print("== %s" % n, flush=True)
-        try:
-            globals()[n]()
-        except Exception:
-            traceback.print_exc()
-            failed.append(n)
-    print("blender -b add-on tests: %d passed, %d failed %s" % (len(names) - len(failed), len(failed), failed or ""), flush=True)
-    sys.exit(1 if failed else 0)
-
 
 if __name__ == "__main__":
-    main()
+    from runner_util import run_tests
+
+    run_tests('blender -b add-on tests', globals())

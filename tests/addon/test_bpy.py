@@ -9,7 +9,6 @@ import stat
 import sys
 import tempfile
 import time
-import traceback
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bpy  # noqa: E402
@@ -324,19 +323,8 @@ def test_export_content():
     C.check(abs(yfov - exp) < 1e-6, "yfov from lens, sensor and aspect")
 
 
-def main():
-    names = sys.argv[1:] or [n for n in globals() if n.startswith("test_")]
-    failed = []
-    for n in names:
-        print("== %s" % n, flush=True)
-        try:
-            globals()[n]()
-        except Exception:
-            traceback.print_exc()
-            failed.append(n)
-    print("bpy add-on tests: %d passed, %d failed %s" % (len(names) - len(failed), len(failed), failed or ""), flush=True)
-    sys.exit(1 if failed else 0)
-
 
 if __name__ == "__main__":
-    main()
+    from runner_util import run_tests
+
+    run_tests('bpy add-on tests', globals())

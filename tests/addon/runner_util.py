@@ -1,0 +1,20 @@
+"""The add-on test scripts' runner (no bpy import: test_background.py runs without Blender state)."""
+
+import sys
+import traceback
+
+
+def run_tests(label, namespace):
+    """Runs the `test_*` functions of `namespace` (or those named on the command line), prints
+    one closing line 'LABEL: N passed, M failed' and exits non-zero if any failed."""
+    names = sys.argv[1:] or [n for n in namespace if n.startswith("test_")]
+    failed = []
+    for n in names:
+        print("== %s" % n, flush=True)
+        try:
+            namespace[n]()
+        except Exception:
+            traceback.print_exc()
+            failed.append(n)
+    print("%s: %d passed, %d failed %s" % (label, len(names) - len(failed), len(failed), failed or ""), flush=True)
+    sys.exit(1 if failed else 0)
