@@ -246,9 +246,20 @@ fn random_walk_slab_agrees_with_table() {
 }
 
 /// Curved geometry, rough boundary, both methods, all presets' extremes: finite, bounded.
+/// A unit sphere of the subsurface material `desc` in a uniform white world.
+fn subsurface_furnace(desc: SubsurfaceDesc) -> SceneDesc {
+    let gltf = GltfMaterialDesc {
+        name: "sss".into(),
+        ..Default::default()
+    };
+    common::scenes::furnace_scene(
+        material_with(gltf, Some(MaterialOverride::Subsurface(desc))),
+        Vec3::ONE,
+    )
+}
+
 #[test]
 fn sphere_in_furnace_is_finite_and_bounded_for_both_methods() {
-    use common::scenes::furnace_scene;
     for method in ["table", "random_walk"] {
         for (preset, roughness) in [("Skin1", 0.4), ("Ketchup", 0.0), ("Spectralon", 0.8)] {
             let desc = SubsurfaceDesc {
@@ -257,16 +268,7 @@ fn sphere_in_furnace_is_finite_and_bounded_for_both_methods() {
                 roughness,
                 ..subsurface(Vec3::ZERO, Vec3::ZERO, method)
             };
-            let scene = furnace_scene(
-                material_with(
-                    GltfMaterialDesc {
-                        name: "sss".into(),
-                        ..Default::default()
-                    },
-                    Some(MaterialOverride::Subsurface(desc)),
-                ),
-                Vec3::ONE,
-            );
+            let scene = subsurface_furnace(desc);
             let (mean, discarded) = render_mean(scene, 16, 5);
             assert_eq!(discarded, 0, "{method} {preset}");
             eprintln!("{method} {preset}: {mean}");
@@ -287,23 +289,13 @@ fn sphere_in_furnace_is_finite_and_bounded_for_both_methods() {
 /// and nearly so with the table (rho_eff(1) = 1.019; probe rays lose a little on the sphere).
 #[test]
 fn non_absorbing_sphere_in_white_furnace() {
-    use common::scenes::furnace_scene;
     for (method, tol) in [("random_walk", 0.03), ("table", 0.03)] {
         let desc = SubsurfaceDesc {
             coefficients: SubsurfaceCoefficients::Preset("Spectralon".into()),
             scale: 10.0,
             ..subsurface(Vec3::ZERO, Vec3::ZERO, method)
         };
-        let scene = furnace_scene(
-            material_with(
-                GltfMaterialDesc {
-                    name: "sss".into(),
-                    ..Default::default()
-                },
-                Some(MaterialOverride::Subsurface(desc)),
-            ),
-            Vec3::ONE,
-        );
+        let scene = subsurface_furnace(desc);
         let (mean, discarded) = render_mean(scene, 64, 6);
         assert_eq!(discarded, 0);
         eprintln!("furnace {method}: {mean}");
