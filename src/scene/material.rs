@@ -33,6 +33,8 @@ pub struct Material {
     model: SurfaceModel,
     /// Precomputed spectra for the untextured case (the common one).
     base_albedo: RgbAlbedoSpectrum,
+    /// KHR_materials_specular colour, upsampled once (not per shading point).
+    specular_color: RgbAlbedoSpectrum,
     emission: Option<RgbIlluminantSpectrum>,
     /// Beer–Lambert absorption coefficient inside the object (KHR_materials_volume), per unit length.
     absorption: Option<RgbUnboundedSpectrum>,
@@ -86,6 +88,7 @@ impl Material {
             gltf: g.clone(),
             model,
             base_albedo: RgbAlbedoSpectrum::new(g.base_color.xyz()),
+            specular_color: RgbAlbedoSpectrum::new(g.specular_color),
             emission,
             absorption,
         }
@@ -216,7 +219,7 @@ impl Material {
             metallic,
             alpha: alpha.max(MIN_ALPHA),
             specular: g.specular,
-            specular_color: RgbAlbedoSpectrum::new(g.specular_color).sample(w),
+            specular_color: self.specular_color.sample(w),
             ior: g.ior,
         })
     }
