@@ -52,6 +52,7 @@ fn bench_bssrdf(c: &mut Criterion) {
         spp: 1,
         max_depth: 16,
         seed: 0,
+        ..Default::default()
     };
     group.throughput(Throughput::Elements(64 * 64));
     group.sample_size(10);

@@ -3,8 +3,10 @@
 
 use clap::{Parser, Subcommand, ValueEnum};
 use prism::error::{PrismError, Result};
+use prism::integrator::{WavelengthPdf, WavelengthSampling, WavelengthStrategy};
 use prism::render::{render, Progress, RenderSettings, RenderStats};
 use prism::scene::{load_scene, Scene};
+use prism::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
 use std::io::{IsTerminal, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -52,6 +54,31 @@ struct SceneArgs {
     /// Camera node or camera name (default: the scene's first camera)
     #[arg(long)]
     camera: Option<String>,
+    /// Wavelength strategy: hero (4 per path, spectral MIS), single (1 per path, independent)
+    /// or stratified (1 per path, stratified over a pixel's samples). Default: the JSON's
+    /// render.wavelengths, else hero
+    #[arg(long, value_enum)]
+    wavelengths: Option<WavelengthsArg>,
+    /// Density wavelengths are drawn from: visible (importance sampling of the visible band)
+    /// or uniform over 360-830 nm (default: visible)
+    #[arg(long, value_enum)]
+    wavelength_pdf: Option<WavelengthPdfArg>,
+    /// Diagnostic: render every path at this one wavelength (nm, 360-830)
+    #[arg(long)]
+    lambda: Option<f32>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum WavelengthsArg {
+    Hero,
+    Single,
+    Stratified,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum WavelengthPdfArg {
+    Visible,
+    Uniform,
 }
 
 #[derive(Subcommand)]
@@ -109,6 +136,9 @@ enum Command {
         /// Repetitions per thread count (the median is reported)
         #[arg(long, default_value_t = 3)]
         repeat: usize,
+        /// Wavelength strategy (default: the scene JSON's, else hero)
+        #[arg(long, value_enum)]
+        wavelengths: Option<WavelengthsArg>,
     },
 }
 
@@ -141,7 +171,17 @@ fn main() {
             max_depth,
             threads,
             repeat,
-        } => run_bench(&scene, width, height, spp, max_depth, &threads, repeat),
+            wavelengths,
+        } => run_bench(
+            &scene,
+            width,
+            height,
+            spp,
+            max_depth,
+            &threads,
+            repeat,
+            wavelengths,
+        ),
     };
     if let Err(e) = result {
         // One line, whatever the message contained.
@@ -159,12 +199,40 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
     )?;
     let defaults = desc.render.clone();
     let scene = Scene::build(desc)?;
+    let strategy = match args.wavelengths {
+        Some(WavelengthsArg::Hero) => WavelengthStrategy::Hero,
+        Some(WavelengthsArg::Single) => WavelengthStrategy::Single,
+        Some(WavelengthsArg::Stratified) => WavelengthStrategy::Stratified,
+        // The sidecar loader has already validated the name.
+        None => defaults
+            .wavelengths
+            .as_deref()
+            .and_then(WavelengthStrategy::from_name)
+            .unwrap_or_default(),
+    };
+    let pdf = match args.wavelength_pdf {
+        Some(WavelengthPdfArg::Visible) => WavelengthPdf::Visible,
+        Some(WavelengthPdfArg::Uniform) => WavelengthPdf::Uniform,
+        None => WavelengthPdf::default(),
+    };
+    if let Some(l) = args.lambda {
+        if !(LAMBDA_MIN..=LAMBDA_MAX).contains(&l) {
+            return Err(PrismError::input(format!(
+                "--lambda {l} is outside the spectral range {LAMBDA_MIN}-{LAMBDA_MAX} nm"
+            )));
+        }
+    }
     let settings = RenderSettings {
         width: args.width.or(defaults.width).unwrap_or(512),
         height: args.height.or(defaults.height).unwrap_or(512),
         spp: args.spp.or(defaults.spp).unwrap_or(64),
         max_depth: args.max_depth.or(defaults.max_depth).unwrap_or(16),
         seed: args.seed,
+        wavelengths: WavelengthSampling {
+            strategy,
+            pdf,
+            fixed: args.lambda,
+        },
     };
     if settings.width == 0
         || settings.height == 0
@@ -350,6 +418,7 @@ fn run_bench(
     max_depth: u32,
     threads: &[usize],
     repeat: usize,
+    wavelengths: Option<WavelengthsArg>,
 ) -> Result<()> {
     let args = SceneArgs {
         scene: scene_path.to_path_buf(),
@@ -360,6 +429,9 @@ fn run_bench(
         max_depth: Some(max_depth),
         seed: 0,
         camera: None,
+        wavelengths,
+        wavelength_pdf: None,
+        lambda: None,
     };
     let (scene, settings) = load(&args)?;
     for &t in threads {

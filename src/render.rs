@@ -5,10 +5,10 @@
 
 use crate::film::Film;
 use crate::geometry::Ray;
-use crate::integrator::PathTracer;
-use crate::sampler::{stratified_per_pixel, Sampler};
+use crate::integrator::{PathTracer, WavelengthSampling};
+use crate::sampler::Sampler;
 use crate::scene::Scene;
-use crate::spectrum::{spectrum_to_xyz, SampledWavelengths};
+use crate::spectrum::spectrum_to_xyz;
 use glam::Vec2;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -21,6 +21,8 @@ pub struct RenderSettings {
     pub spp: u32,
     pub max_depth: u32,
     pub seed: u64,
+    /// Wavelength strategy, density and optional fixed wavelength.
+    pub wavelengths: WavelengthSampling,
 }
 
 impl Default for RenderSettings {
@@ -31,6 +33,7 @@ impl Default for RenderSettings {
             spp: 64,
             max_depth: 16,
             seed: 0,
+            wavelengths: WavelengthSampling::default(),
         }
     }
 }
@@ -146,11 +149,14 @@ pub fn render(
                         for sample in s0..s1 {
                             let mut sampler =
                                 Sampler::new(index as u64, sample as u64, settings.seed);
-                            let u_lambda =
-                                stratified_per_pixel(index as u64, sample as u64, settings.seed, 0);
-                            let mut wavelengths = SampledWavelengths::sample_hero(u_lambda);
+                            let mut wavelengths = settings.wavelengths.sample(
+                                index as u64,
+                                sample as u64,
+                                settings.seed,
+                                &mut sampler,
+                            );
                             let raster = Vec2::new(x, y) + sampler.next_2d();
-                            let ray: Ray = camera.generate_ray(raster);
+                            let ray: Ray = camera.generate_ray(raster, sampler.next_2d());
                             let result = tracer.radiance(ray, &mut wavelengths, &mut sampler);
                             band_rays += result.rays as u64;
                             if !px.add(spectrum_to_xyz(&result.radiance, &wavelengths)) {

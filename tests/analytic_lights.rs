@@ -53,6 +53,7 @@ fn mean_rgb(desc: SceneDesc, spp: u32) -> Vec3 {
         spp,
         max_depth: 4,
         seed: 3,
+        ..Default::default()
     };
     let (film, _) = render_quiet(&scene, &settings);
     let px = film.to_rgba();

@@ -20,7 +20,7 @@ use prism::scene::{
     SubsurfaceCoefficients, SubsurfaceDesc, WorldDesc,
 };
 use prism::spectrum::rgb::xyz_to_linear_srgb;
-use prism::spectrum::{spectrum_to_xyz, RgbIlluminantSpectrum, SampledWavelengths};
+use prism::spectrum::{spectrum_to_xyz, RgbIlluminantSpectrum, SampledWavelengths, WavelengthPdf};
 
 const ETA: f32 = 1.33;
 
@@ -108,6 +108,7 @@ fn render_mean(desc: SceneDesc, spp: u32, seed: u64) -> (Vec3, u64) {
         spp,
         max_depth: 32,
         seed,
+        ..Default::default()
     };
     let (film, stats) = render_quiet(&scene, &settings);
     let rgba = film.to_rgba();
@@ -132,7 +133,8 @@ fn spectral_reference(desc: &SubsurfaceDesc) -> Vec3 {
     let n = 20_000;
     let mut xyz = Vec3::ZERO;
     for i in 0..n {
-        let w = SampledWavelengths::sample_hero((i as f32 + 0.5) / n as f32);
+        let w =
+            SampledWavelengths::sample_hero((i as f32 + 0.5) / n as f32, WavelengthPdf::Visible);
         let rho_eff = m.bssrdf(&w).rho_eff();
         let r = (rho_eff * (1.0 - fr)) + prism::spectrum::SampledSpectrum::splat(fr);
         xyz += spectrum_to_xyz(&(r * world.sample(&w)), &w);

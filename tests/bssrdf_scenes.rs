@@ -27,6 +27,7 @@ fn sss_scenes_load_and_render_finite() {
             spp: 4,
             max_depth: 16,
             seed: 3,
+            ..Default::default()
         };
         let (film, stats) = render_quiet(&scene, &settings);
         assert_eq!(stats.discarded, 0, "{name}");

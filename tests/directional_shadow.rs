@@ -66,6 +66,7 @@ fn mean_rgb(with_occluder: bool) -> Vec3 {
         spp: 16,
         max_depth: 4,
         seed: 3,
+        ..Default::default()
     };
     let (film, _) = render_quiet(&scene, &settings);
     let px = film.to_rgba();

@@ -17,6 +17,7 @@ fn render_mean(desc: SceneDesc, spp: u32) -> (Vec3, Vec<[f32; 4]>) {
         spp,
         max_depth: 64,
         seed: 7,
+        ..Default::default()
     };
     let (film, stats) = render_quiet(&scene, &settings);
     assert_eq!(stats.discarded, 0);

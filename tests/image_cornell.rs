@@ -28,6 +28,7 @@ fn render_with(scene: &Scene, spp: u32, seed: u64, threads: usize) -> Film {
         spp,
         max_depth: 16,
         seed,
+        ..Default::default()
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)

@@ -4,7 +4,7 @@
 use glam::Vec3;
 use prism::spectrum::{
     cie, rgb, spectrum_to_xyz, RgbAlbedoSpectrum, RgbIlluminantSpectrum, RgbUnboundedSpectrum,
-    SampledWavelengths, LAMBDA_MAX, LAMBDA_MIN,
+    SampledWavelengths, WavelengthPdf, LAMBDA_MAX, LAMBDA_MIN,
 };
 
 /// XYZ of `f` over 360-830 nm, normalised so a constant 1 has Y = 1: composite Simpson with 8
@@ -159,7 +159,7 @@ fn monte_carlo_estimator_converges_to_quadrature() {
         // Independent uniform hero wavelengths, the renderer's per-path estimator, averaged.
         let (mut sum, mut sum2) = ([0.0f64; 3], [0.0f64; 3]);
         for _ in 0..N {
-            let w = SampledWavelengths::sample_hero(rng.next());
+            let w = SampledWavelengths::sample_hero(rng.next(), WavelengthPdf::Visible);
             let xyz = spectrum_to_xyz(&(s.sample(&w) * white.sample(&w)), &w);
             for k in 0..3 {
                 sum[k] += xyz[k] as f64;
@@ -189,7 +189,10 @@ fn monte_carlo_estimator_converges_to_quadrature() {
     let exact = quad_xyz(|l| e.eval(l));
     let mut sum = Vec3::ZERO.as_dvec3();
     for i in 0..N {
-        let w = SampledWavelengths::sample_hero((i as f32 + rng.next()) / N as f32);
+        let w = SampledWavelengths::sample_hero(
+            (i as f32 + rng.next()) / N as f32,
+            WavelengthPdf::Visible,
+        );
         sum += spectrum_to_xyz(&e.sample(&w), &w).as_dvec3();
     }
     let mc = (sum / N as f64).as_vec3();

@@ -1,5 +1,7 @@
 //! Light transport: the path tracer and wavelength sampling of camera paths.
 
 pub mod path;
+pub mod wavelengths;
 
 pub use path::{PathSample, PathTracer};
+pub use wavelengths::{WavelengthPdf, WavelengthSampling, WavelengthStrategy};

@@ -78,12 +78,12 @@ impl<'a> PathTracer<'a> {
                 None => geometry.intersect(&ray, f32::INFINITY),
             };
             let Some(hit) = next_hit else {
-                let le = lights.environment_radiance(w);
+                let le = lights.environment_radiance(ray.dir, w);
                 if !le.is_black() {
                     let weight = if specular_bounce {
                         1.0
                     } else {
-                        power_heuristic(prev_pdf, lights.environment_pdf())
+                        power_heuristic(prev_pdf, lights.environment_pdf(ray.dir))
                     };
                     l += beta * le * weight;
                 }

@@ -29,7 +29,8 @@ impl Camera {
     }
 
     /// Primary ray through the film position `raster` (pixels, origin at the top-left corner).
-    pub fn generate_ray(&self, raster: Vec2) -> Ray {
+    /// `u_lens` in [0,1)^2 picks the point on the lens (unused by a pinhole).
+    pub fn generate_ray(&self, raster: Vec2, _u_lens: Vec2) -> Ray {
         let ndc_x = 2.0 * raster.x / self.width as f32 - 1.0;
         let ndc_y = 1.0 - 2.0 * raster.y / self.height as f32;
         let d_cam = Vec3::new(ndc_x * self.tan_half_x, ndc_y * self.tan_half_y, -1.0);
@@ -45,11 +46,11 @@ mod tests {
     #[test]
     fn centre_ray_looks_down_minus_z() {
         let c = Camera::new(Affine3A::IDENTITY, 1.0, 64, 32);
-        let r = c.generate_ray(Vec2::new(32.0, 16.0));
+        let r = c.generate_ray(Vec2::new(32.0, 16.0), Vec2::splat(0.5));
         assert!((r.dir - Vec3::NEG_Z).length() < 1e-6);
-        let top = c.generate_ray(Vec2::new(32.0, 0.0));
+        let top = c.generate_ray(Vec2::new(32.0, 0.0), Vec2::splat(0.5));
         assert!((top.dir.y / -top.dir.z - 0.5f32.tan()).abs() < 1e-5);
-        let right = c.generate_ray(Vec2::new(64.0, 16.0));
+        let right = c.generate_ray(Vec2::new(64.0, 16.0), Vec2::splat(0.5));
         assert!((right.dir.x / -right.dir.z - 2.0 * 0.5f32.tan()).abs() < 1e-5);
     }
 }

@@ -190,16 +190,16 @@ impl Lights {
         self.scene_radius
     }
 
-    /// Radiance of the world seen along any escaping direction.
-    pub fn environment_radiance(&self, w: &SampledWavelengths) -> SampledSpectrum {
+    /// Radiance of the world seen along the escaping world-space direction `dir` (unit).
+    pub fn environment_radiance(&self, _dir: Vec3, w: &SampledWavelengths) -> SampledSpectrum {
         match self.environment.map(|i| &self.lights[i]) {
             Some(Light::Environment { radiance }) => radiance.sample(w),
             _ => SampledSpectrum::ZERO,
         }
     }
 
-    /// Density with which `sample` produces an escaping direction (the world light).
-    pub fn environment_pdf(&self) -> f32 {
+    /// Solid-angle density with which `sample` produces the escaping direction `dir`.
+    pub fn environment_pdf(&self, _dir: Vec3) -> f32 {
         self.environment.map_or(0.0, |i| {
             self.distribution.pmf(i) * sampling::uniform_sphere_pdf()
         })

@@ -8,7 +8,7 @@ pub mod upsample;
 
 pub use sampled::{
     sample_visible_wavelength, visible_wavelength_pdf, SampledSpectrum, SampledWavelengths,
-    LAMBDA_MAX, LAMBDA_MIN, N_WAVELENGTHS,
+    WavelengthPdf, LAMBDA_MAX, LAMBDA_MIN, N_WAVELENGTHS,
 };
 pub use upsample::{RgbAlbedoSpectrum, RgbIlluminantSpectrum, RgbUnboundedSpectrum};
 

@@ -153,26 +153,36 @@ pub struct SampledWavelengths {
 }
 
 impl SampledWavelengths {
-    /// Hero-wavelength rotation (Wilkie et al. 2014, eq. 5): the hero is drawn from
-    /// `visible_wavelength_pdf`, the companions are the hero shifted by k/N of the range.
+    /// Hero-wavelength rotation (Wilkie et al. 2014, eq. 5): the hero is drawn from `density`,
+    /// the companions are the hero shifted by k/N of the range.
     ///
     /// Any of the N members could have been the hero, so the one-sample MIS (balance
-    /// heuristic) density of every member is the mean of the hero density over the set.
-    pub fn sample_hero(u: f32) -> Self {
-        let hero = sample_visible_wavelength(u);
+    /// heuristic) density of every member is the mean of the hero density over the set. The
+    /// path tracer refines this when the members' path densities differ
+    /// (`integrator::spectral_mis`).
+    pub fn sample_hero(u: f32, density: WavelengthPdf) -> Self {
+        let hero = density.sample(u);
         let range = LAMBDA_MAX - LAMBDA_MIN;
         let lambda: [f32; N_WAVELENGTHS] = std::array::from_fn(|k| {
             let shifted = hero - LAMBDA_MIN + range * k as f32 / N_WAVELENGTHS as f32;
             LAMBDA_MIN + shifted.rem_euclid(range)
         });
-        let mean_pdf = lambda
-            .iter()
-            .map(|&l| visible_wavelength_pdf(l))
-            .sum::<f32>()
-            / N_WAVELENGTHS as f32;
+        let mean_pdf = lambda.iter().map(|&l| density.pdf(l)).sum::<f32>() / N_WAVELENGTHS as f32;
         SampledWavelengths {
             lambda,
             pdf: [mean_pdf; N_WAVELENGTHS],
+        }
+    }
+
+    /// One wavelength per path: slot 0 carries it, the other slots are inactive (pdf 0) from
+    /// the start. The film's mean over N slots must then see slot 0 with density `p / N`.
+    pub fn sample_single(u: f32, density: WavelengthPdf) -> Self {
+        let lambda = density.sample(u);
+        let mut pdf = [0.0; N_WAVELENGTHS];
+        pdf[0] = density.pdf(lambda) / N_WAVELENGTHS as f32;
+        SampledWavelengths {
+            lambda: [lambda; N_WAVELENGTHS],
+            pdf,
         }
     }
 
@@ -185,14 +195,11 @@ impl SampledWavelengths {
         }
     }
 
-    /// Keep only the hero (a direction valid only for it was chosen, e.g. a smooth dispersive
-    /// refraction). The hero then stands alone as a one-sample estimate drawn with the hero
-    /// density, which the film's mean over N slots must see as `p(hero) / N`.
+    /// Marks the secondary slots inactive (a direction valid only for the hero was chosen,
+    /// e.g. a smooth dispersive refraction). The path tracer uses this on its own copy to
+    /// tell later stages (the BSSRDF) how many wavelengths are still alive; the film keeps
+    /// the densities the wavelengths were drawn with.
     pub fn terminate_secondary(&mut self) {
-        if self.secondary_terminated() {
-            return;
-        }
-        self.pdf[0] = visible_wavelength_pdf(self.lambda[0]) / N_WAVELENGTHS as f32;
         for p in self.pdf.iter_mut().skip(1) {
             *p = 0.0;
         }
@@ -200,6 +207,54 @@ impl SampledWavelengths {
 
     pub fn secondary_terminated(&self) -> bool {
         self.pdf[1..].iter().all(|&p| p == 0.0)
+    }
+}
+
+/// The density wavelengths are drawn from, shared by every wavelength strategy.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum WavelengthPdf {
+    /// sech^2 bell over the visible band (`visible_wavelength_pdf`).
+    #[default]
+    Visible,
+    /// Uniform over [LAMBDA_MIN, LAMBDA_MAX].
+    Uniform,
+}
+
+impl WavelengthPdf {
+    pub const NAMES: &'static [&'static str] = &["visible", "uniform"];
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "visible" => Some(Self::Visible),
+            "uniform" => Some(Self::Uniform),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Visible => "visible",
+            Self::Uniform => "uniform",
+        }
+    }
+
+    /// Density per nm on [LAMBDA_MIN, LAMBDA_MAX] (0 outside).
+    pub fn pdf(self, lambda: f32) -> f32 {
+        match self {
+            Self::Visible => visible_wavelength_pdf(lambda),
+            Self::Uniform if (LAMBDA_MIN..=LAMBDA_MAX).contains(&lambda) => {
+                1.0 / (LAMBDA_MAX - LAMBDA_MIN)
+            }
+            Self::Uniform => 0.0,
+        }
+    }
+
+    /// Inverse-CDF sample from `u` in [0, 1).
+    pub fn sample(self, u: f32) -> f32 {
+        match self {
+            Self::Visible => sample_visible_wavelength(u),
+            Self::Uniform => (LAMBDA_MIN + u * (LAMBDA_MAX - LAMBDA_MIN)).min(LAMBDA_MAX),
+        }
     }
 }
 
@@ -261,7 +316,7 @@ mod tests {
 
     #[test]
     fn hero_rotation_covers_range_and_terminates() {
-        let mut w = SampledWavelengths::sample_hero(0.3);
+        let mut w = SampledWavelengths::sample_hero(0.3, WavelengthPdf::Visible);
         for l in w.lambda {
             assert!((LAMBDA_MIN..=LAMBDA_MAX).contains(&l));
         }

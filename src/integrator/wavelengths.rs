@@ -1,0 +1,84 @@
+//! How a camera path chooses its wavelengths.
+//!
+//! * `Hero` (Wilkie et al. 2014): a hero wavelength plus N-1 companions at equal spacing over
+//!   the range (hero rotation); all N are carried by one path, weighted by the balance
+//!   heuristic over the N "which one was the hero" techniques (see `integrator::spectral_mis`).
+//! * `Single`: one wavelength per path, drawn independently for every sample.
+//! * `Stratified`: one wavelength per path; the wavelengths of successive samples of a pixel
+//!   are stratified over the spectrum (a per-pixel rotated van der Corput sequence), the
+//!   method of the report this project grew from (Evans and McCool 1999).
+//!
+//! All three draw from the same wavelength density (`WavelengthPdf`): the visible-range
+//! importance density of `spectrum::sampled` or uniform over 360-830 nm.
+
+use crate::sampler::{stratified_per_pixel, Sampler};
+use crate::spectrum::SampledWavelengths;
+pub use crate::spectrum::WavelengthPdf;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum WavelengthStrategy {
+    #[default]
+    Hero,
+    Single,
+    Stratified,
+}
+
+impl WavelengthStrategy {
+    pub const NAMES: &'static [&'static str] = &["hero", "single", "stratified"];
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "hero" => Some(Self::Hero),
+            "single" => Some(Self::Single),
+            "stratified" => Some(Self::Stratified),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Hero => "hero",
+            Self::Single => "single",
+            Self::Stratified => "stratified",
+        }
+    }
+}
+
+/// Everything that decides a camera path's wavelengths.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct WavelengthSampling {
+    pub strategy: WavelengthStrategy,
+    pub pdf: WavelengthPdf,
+    /// Diagnostic: every path carries exactly this wavelength (nm) with density 1, so the film
+    /// receives f(lambda) * cmf(lambda). Overrides `strategy` and `pdf`.
+    pub fixed: Option<f32>,
+}
+
+impl WavelengthSampling {
+    /// Wavelengths of sample `sample` of pixel `pixel`. `sampler` supplies the independent
+    /// random number of `Single` (drawn before any other dimension of the path).
+    pub fn sample(
+        &self,
+        pixel: u64,
+        sample: u64,
+        seed: u64,
+        sampler: &mut Sampler,
+    ) -> SampledWavelengths {
+        if let Some(lambda) = self.fixed {
+            return SampledWavelengths::fixed(lambda);
+        }
+        match self.strategy {
+            WavelengthStrategy::Hero => SampledWavelengths::sample_hero(
+                stratified_per_pixel(pixel, sample, seed, 0),
+                self.pdf,
+            ),
+            WavelengthStrategy::Single => {
+                SampledWavelengths::sample_single(sampler.next_1d(), self.pdf)
+            }
+            WavelengthStrategy::Stratified => SampledWavelengths::sample_single(
+                stratified_per_pixel(pixel, sample, seed, 0),
+                self.pdf,
+            ),
+        }
+    }
+}
