@@ -81,6 +81,29 @@ enum WavelengthPdfArg {
     Uniform,
 }
 
+#[derive(clap::Args)]
+struct BenchArgs {
+    #[arg(default_value = "scenes/cornell/cornell.gltf")]
+    scene: PathBuf,
+    #[arg(long, default_value_t = 256)]
+    width: u32,
+    #[arg(long, default_value_t = 256)]
+    height: u32,
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    #[arg(long, default_value_t = 16)]
+    max_depth: u32,
+    /// Thread counts to measure, e.g. 1,2
+    #[arg(long, value_delimiter = ',', default_value = "1,2")]
+    threads: Vec<usize>,
+    /// Repetitions per thread count (the median is reported)
+    #[arg(long, default_value_t = 3)]
+    repeat: usize,
+    /// Wavelength strategy (default: the scene JSON's, else hero)
+    #[arg(long, value_enum)]
+    wavelengths: Option<WavelengthsArg>,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene to an OpenEXR file (float32 RGBA, linear Rec.709).
@@ -119,27 +142,7 @@ enum Command {
         clamp: Option<f32>,
     },
     /// Measure samples/s and rays/s per thread on a scene (default: the Cornell box).
-    Bench {
-        #[arg(default_value = "scenes/cornell/cornell.gltf")]
-        scene: PathBuf,
-        #[arg(long, default_value_t = 256)]
-        width: u32,
-        #[arg(long, default_value_t = 256)]
-        height: u32,
-        #[arg(long, default_value_t = 64)]
-        spp: u32,
-        #[arg(long, default_value_t = 16)]
-        max_depth: u32,
-        /// Thread counts to measure, e.g. 1,2
-        #[arg(long, value_delimiter = ',', default_value = "1,2")]
-        threads: Vec<usize>,
-        /// Repetitions per thread count (the median is reported)
-        #[arg(long, default_value_t = 3)]
-        repeat: usize,
-        /// Wavelength strategy (default: the scene JSON's, else hero)
-        #[arg(long, value_enum)]
-        wavelengths: Option<WavelengthsArg>,
-    },
+    Bench(BenchArgs),
 }
 
 fn main() {
@@ -163,25 +166,7 @@ fn main() {
             output,
             exposure,
         } => to_png(&input, &output, exposure),
-        Command::Bench {
-            scene,
-            width,
-            height,
-            spp,
-            max_depth,
-            threads,
-            repeat,
-            wavelengths,
-        } => run_bench(
-            &scene,
-            width,
-            height,
-            spp,
-            max_depth,
-            &threads,
-            repeat,
-            wavelengths,
-        ),
+        Command::Bench(args) => run_bench(&args),
     };
     if let Err(e) = result {
         // One line, whatever the message contained.
@@ -410,26 +395,19 @@ fn report_done(mode: ProgressMode, stats: &RenderStats, output: &Path) {
     }
 }
 
-fn run_bench(
-    scene_path: &Path,
-    width: u32,
-    height: u32,
-    spp: u32,
-    max_depth: u32,
-    threads: &[usize],
-    repeat: usize,
-    wavelengths: Option<WavelengthsArg>,
-) -> Result<()> {
+fn run_bench(bench: &BenchArgs) -> Result<()> {
+    let (scene_path, width, height, spp) = (&bench.scene, bench.width, bench.height, bench.spp);
+    let (threads, repeat) = (&bench.threads, bench.repeat);
     let args = SceneArgs {
-        scene: scene_path.to_path_buf(),
+        scene: bench.scene.clone(),
         materials: None,
-        spp: Some(spp),
-        width: Some(width),
-        height: Some(height),
-        max_depth: Some(max_depth),
+        spp: Some(bench.spp),
+        width: Some(bench.width),
+        height: Some(bench.height),
+        max_depth: Some(bench.max_depth),
         seed: 0,
         camera: None,
-        wavelengths,
+        wavelengths: bench.wavelengths,
         wavelength_pdf: None,
         lambda: None,
     };
