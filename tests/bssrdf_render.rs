@@ -64,6 +64,7 @@ fn subsurface(sigma_a: Vec3, sigma_s: Vec3, method: &str) -> SubsurfaceDesc {
         coefficients: SubsurfaceCoefficients::Explicit { sigma_a, sigma_s },
         scale: 1.0,
         eta: ETA,
+        ior: None,
         g: 0.0,
         roughness: 0.0,
         method: method.into(),

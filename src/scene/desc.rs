@@ -78,6 +78,9 @@ pub struct GltfMaterialDesc {
     pub transmission: f32,
     /// KHR_materials_ior (1.5 when absent).
     pub ior: f32,
+    /// KHR_materials_dispersion: 20 / V_d (Abbe number), 0 = no dispersion (the default).
+    /// The loader has validated it; `ior_model` turns (ior, dispersion) into an IOR model.
+    pub dispersion: f32,
     /// KHR_materials_volume: Beer-Lambert absorption inside the closed object.
     pub attenuation_color: Vec3,
     pub attenuation_distance: f32,
@@ -99,6 +102,7 @@ impl Default for GltfMaterialDesc {
             specular_color: Vec3::ONE,
             transmission: 0.0,
             ior: 1.5,
+            dispersion: 0.0,
             attenuation_color: Vec3::ONE,
             attenuation_distance: f32::INFINITY,
             double_sided: false,
@@ -106,16 +110,17 @@ impl Default for GltfMaterialDesc {
     }
 }
 
-/// Index of refraction as a function of wavelength.
-#[derive(Clone, Debug, PartialEq)]
-pub enum IorDesc {
-    Constant(f32),
-    /// eta(lambda) = a + b / lambda^2 + c / lambda^4, lambda in micrometres.
-    Cauchy {
-        a: f32,
-        b: f32,
-        c: f32,
-    },
+/// Index of refraction as a function of wavelength: the one model of `crate::spectrum::dispersion`
+/// (constant, Cauchy, Sellmeier, Abbe form, glass presets), under the name scene code uses.
+pub use crate::spectrum::dispersion::IorModel as IorDesc;
+
+impl GltfMaterialDesc {
+    /// The transmissive part's IOR: the Abbe form with n_d = `ior` and V_d = 20 / `dispersion`
+    /// when `dispersion` > 0, else the constant `ior`. Falls back to the constant if the pair is
+    /// invalid (the glTF loader rejects such files; hand-built descriptions may not).
+    pub fn ior_model(&self) -> IorDesc {
+        IorDesc::from_gltf(self.ior, self.dispersion).unwrap_or(IorDesc::Constant(self.ior))
+    }
 }
 
 /// Measured or explicit participating medium of a subsurface material (consumed by the BSSRDF).
@@ -134,11 +139,22 @@ pub struct SubsurfaceDesc {
     pub coefficients: SubsurfaceCoefficients,
     /// Multiplies coefficients (e.g. 1000 turns mm^-1 into m^-1 for a scene in metres).
     pub scale: f32,
+    /// Scalar IOR of the boundary, used by the BSSRDF's profile and Fresnel terms. When `ior`
+    /// is given this is its `n_d()`.
     pub eta: f32,
+    /// Optional spectral IOR of the boundary (sidecar `subsurface.ior`); `None` = constant `eta`.
+    pub ior: Option<IorDesc>,
     pub g: f32,
     pub roughness: f32,
     /// "table" (photon beam diffusion) or "random_walk".
     pub method: String,
+}
+
+impl SubsurfaceDesc {
+    /// The boundary dielectric's IOR model: `ior` if given, else the constant `eta`.
+    pub fn boundary_ior(&self) -> IorDesc {
+        self.ior.unwrap_or(IorDesc::Constant(self.eta))
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -218,6 +234,8 @@ pub struct RenderDefaults {
     pub height: Option<u32>,
     pub max_depth: Option<u32>,
     pub wavelengths: Option<String>,
+    /// `render.wavelength_pdf`: "visible" or "uniform" (validated by the sidecar parser).
+    pub wavelength_pdf: Option<String>,
 }
 
 #[derive(Clone, Debug, Default)]

@@ -5,7 +5,7 @@
 //!   [`InstanceDesc`] per node use. Strips and fans become triangle lists, points and lines are
 //!   skipped (one warning). Degenerate triangles (zero area, non-finite positions) are dropped.
 //! * Materials: metallic-roughness + KHR_materials_{emissive_strength, specular, transmission, ior,
-//!   volume} + KHR_texture_transform; textures decoded to linear texels.
+//!   volume, dispersion} + KHR_texture_transform; textures decoded to linear texels.
 //! * KHR_lights_punctual, converted to Blender/Cycles radiometric units by
 //!   [`gltf_light_intensity_to_prism`].
 //! * The camera: the first camera node in traversal order, or the one picked by name.
@@ -1007,12 +1007,22 @@ impl Importer<'_> {
                 "{label}: KHR_materials_volume.attenuationDistance must be positive, got {attenuation_distance}"
             ));
         }
-        if let Some(ext) = m.extensions() {
-            if let Some(d) = ext.get("KHR_materials_dispersion") {
-                let v = d.get("dispersion").and_then(|x| x.as_f64()).unwrap_or(0.0);
-                self.warn_once(format!(
-                    "{label}: KHR_materials_dispersion (dispersion {v}) is not supported yet and is ignored"
-                ));
+        // KHR_materials_dispersion: dispersion = 20 / V_d with n_d = KHR_materials_ior; the
+        // gltf crate does not parse it, so it is read from the raw extension object.
+        let mut dispersion = 0.0f32;
+        if let Some(d) = m
+            .extensions()
+            .and_then(|ext| ext.get("KHR_materials_dispersion"))
+        {
+            if let Some(v) = d.get("dispersion") {
+                let x = v.as_f64().ok_or_else(|| {
+                    format!(
+                        "{label}: KHR_materials_dispersion.dispersion must be a number, got {v}"
+                    )
+                })?;
+                dispersion = x as f32;
+                crate::spectrum::IorModel::from_gltf(ior, dispersion)
+                    .map_err(|e| format!("{label}: {e} (with KHR_materials_ior.ior = {ior})"))?;
             }
         }
         // Inputs the renderer does not model yet: reported once, never fatal.
@@ -1078,6 +1088,7 @@ impl Importer<'_> {
             specular_color: Vec3::from_array(specular_color),
             transmission,
             ior,
+            dispersion,
             attenuation_color: Vec3::from_array(attenuation_color),
             attenuation_distance,
             double_sided: m.double_sided(),

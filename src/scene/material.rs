@@ -23,7 +23,13 @@ enum SurfaceModel {
         alpha: f32,
     },
     /// Subsurface scattering: a dielectric boundary over a scattering medium (`crate::bssrdf`).
-    Subsurface(Arc<SubsurfaceMaterial>),
+    /// `boundary` is the sidecar's spectral IOR; the boundary BSDF still uses the medium's
+    /// scalar eta (= `boundary.n_d()`) because the integrator's subsurface hand-off and the
+    /// BSSRDF profile assume one eta for all wavelengths.
+    Subsurface {
+        medium: Arc<SubsurfaceMaterial>,
+        boundary: IorDesc,
+    },
 }
 
 #[derive(Clone, Debug)]
@@ -31,6 +37,8 @@ pub struct Material {
     pub name: String,
     gltf: GltfMaterialDesc,
     model: SurfaceModel,
+    /// IOR of glTF transmission (KHR_materials_ior + KHR_materials_dispersion).
+    gltf_ior: IorDesc,
     /// Precomputed spectra for the untextured case (the common one).
     base_albedo: RgbAlbedoSpectrum,
     /// KHR_materials_specular colour, upsampled once (not per shading point).
@@ -49,15 +57,9 @@ fn roughness_to_alpha(r: f32) -> f32 {
     a * a
 }
 
-/// Cauchy's equation eta = a + b / lambda^2 + c / lambda^4 with lambda in micrometres.
+/// The IOR of `ior` at `lambda_nm` (nanometres); the models live in `crate::spectrum::dispersion`.
 pub fn eval_ior(ior: &IorDesc, lambda_nm: f32) -> f32 {
-    match *ior {
-        IorDesc::Constant(n) => n,
-        IorDesc::Cauchy { a, b, c } => {
-            let l2 = (lambda_nm * 1e-3) * (lambda_nm * 1e-3);
-            a + b / l2 + c / (l2 * l2)
-        }
-    }
+    ior.eval(lambda_nm)
 }
 
 impl Material {
@@ -66,12 +68,13 @@ impl Material {
         let model = match &desc.sidecar {
             None => SurfaceModel::Gltf,
             Some(MaterialOverride::Dielectric(d)) => SurfaceModel::Dielectric {
-                ior: d.ior.clone(),
+                ior: d.ior,
                 alpha: roughness_to_alpha(d.roughness),
             },
-            Some(MaterialOverride::Subsurface(s)) => {
-                SurfaceModel::Subsurface(Arc::new(SubsurfaceMaterial::new(s)))
-            }
+            Some(MaterialOverride::Subsurface(s)) => SurfaceModel::Subsurface {
+                medium: Arc::new(SubsurfaceMaterial::new(s)),
+                boundary: s.boundary_ior(),
+            },
         };
         let emission =
             (g.emissive.max_element() > 0.0).then(|| RgbIlluminantSpectrum::new(g.emissive));
@@ -86,6 +89,7 @@ impl Material {
         Material {
             name: g.name.clone(),
             gltf: g.clone(),
+            gltf_ior: g.ior_model(),
             model,
             base_albedo: RgbAlbedoSpectrum::new(g.base_color.xyz()),
             specular_color: RgbAlbedoSpectrum::new(g.specular_color),
@@ -99,13 +103,22 @@ impl Material {
     }
 
     pub fn is_subsurface(&self) -> bool {
-        matches!(self.model, SurfaceModel::Subsurface(_))
+        matches!(self.model, SurfaceModel::Subsurface { .. })
     }
 
     /// The medium below a subsurface material's boundary.
     pub fn subsurface(&self) -> Option<&SubsurfaceMaterial> {
         match &self.model {
-            SurfaceModel::Subsurface(s) => Some(s),
+            SurfaceModel::Subsurface { medium, .. } => Some(medium),
+            _ => None,
+        }
+    }
+
+    /// The spectral IOR the sidecar gave a subsurface material's boundary (constant `eta` when
+    /// it gave none). Not used by `bsdf` yet: see `SurfaceModel::Subsurface`.
+    pub fn subsurface_boundary_ior(&self) -> Option<&IorDesc> {
+        match &self.model {
+            SurfaceModel::Subsurface { boundary, .. } => Some(boundary),
             _ => None,
         }
     }
@@ -170,7 +183,7 @@ impl Material {
             }),
             // The boundary of a subsurface medium: a (rough) dielectric; a transmission sample
             // hands the path to the BSSRDF (see `integrator::path`).
-            SurfaceModel::Subsurface(s) => Bsdf::Dielectric(DielectricBsdf {
+            SurfaceModel::Subsurface { medium: s, .. } => Bsdf::Dielectric(DielectricBsdf {
                 eta: SampledSpectrum::splat(s.eta),
                 alpha: if s.alpha < MIN_ALPHA { 0.0 } else { s.alpha },
                 transmission_tint: SampledSpectrum::ONE,
@@ -206,7 +219,7 @@ impl Material {
         let transmission = g.transmission * (1.0 - metallic);
         if transmission > 0.0 && u_select < transmission {
             return Bsdf::Dielectric(DielectricBsdf {
-                eta: SampledSpectrum::splat(g.ior),
+                eta: SampledSpectrum::from_fn(|i| self.gltf_ior.eval(w.lambda[i])),
                 alpha: if alpha < MIN_ALPHA { 0.0 } else { alpha },
                 transmission_tint: base,
             });
@@ -238,11 +251,7 @@ mod tests {
 
     #[test]
     fn cauchy_ior() {
-        let ior = IorDesc::Cauchy {
-            a: 1.5,
-            b: 0.01,
-            c: 0.0,
-        };
+        let ior = IorDesc::cauchy(1.5, 0.01, 0.0).unwrap();
         assert!((eval_ior(&ior, 500.0) - (1.5 + 0.01 / 0.25)).abs() < 1e-6);
         assert_eq!(eval_ior(&IorDesc::Constant(1.33), 400.0), 1.33);
     }

@@ -8,22 +8,36 @@
 //!                                  "scale": 1000.0, "eta": 1.4 } },
 //!     "Wax":     { "subsurface": { "reflectance": [0.8, 0.7, 0.6], "mfp": [0.01, 0.005, 0.0025],
 //!                                  "eta": 1.33 } },
-//!     "Diamond": { "dielectric": { "cauchy": { "a": 2.38, "b": 0.0117 }, "roughness": 0.0 } } },
+//!     "Diamond": { "dielectric": { "cauchy": { "a": 2.38, "b": 0.0117 }, "roughness": 0.0 } },
+//!     "Lens":    { "dielectric": { "preset": "BK7" } },
+//!     "Prism":   { "dielectric": { "abbe": { "ior": 1.7847, "abbe": 25.68 } } },
+//!     "Quartz":  { "dielectric": { "sellmeier": { "b": [0.6961663, 0.4079426, 0.8974794],
+//!                                                 "c": [0.00467914826, 0.0135120631, 97.9340025] } } },
+//!     "Jade":    { "subsurface": { "preset": "Marble", "ior": { "abbe": { "ior": 1.66, "abbe": 40 } } } } },
 //!   "world": { "color": [0.05, 0.05, 0.05], "strength": 1.0 },
-//!   "render": { "spp": 64, "width": 512, "height": 512, "max_depth": 16 } }
+//!   "render": { "spp": 64, "width": 512, "height": 512, "max_depth": 16,
+//!               "wavelengths": "hero", "wavelength_pdf": "visible" } }
 //! ```
 //!
 //! * `materials.<glTF material name>`: exactly one of `subsurface` | `dielectric`.
 //! * `subsurface`: exactly one of `preset` | `sigma_a` + `sigma_s` | `reflectance` + `mfp`;
-//!   optional `scale` (> 0, default 1), `eta` (> 0, default 1.33), `g` (in (-1,1), default 0),
-//!   `roughness` (in [0,1], default 0), `method` (`"table"` default | `"random_walk"`).
+//!   optional `scale` (> 0, default 1), `eta` (> 0, default 1.33) or `ior` (a number >= 1 or an
+//!   object with exactly one of the dielectric IOR forms below; the BSSRDF then uses its n_d as
+//!   the scalar eta), `g` (in (-1,1), default 0), `roughness` (in [0,1], default 0), `method`
+//!   (`"table"` default | `"random_walk"`).
 //!   Coefficients are non-negative RGB triples, `mfp` positive, `reflectance` in [0,1].
-//! * `dielectric`: exactly one of `ior` (> 0) | `cauchy` `{a > 0, b >= 0, c >= 0 (default 0)}`
-//!   (lambda in micrometres); `roughness` in [0,1], default 0.
+//! * `dielectric`: exactly one IOR form (models in `crate::spectrum::dispersion`, lambda in
+//!   micrometres): `ior` (number >= 1) | `cauchy` `{a > 0, b >= 0, c >= 0 (default 0)}` for
+//!   n = a + b/λ² + c/λ⁴ | `sellmeier` `{"b": [..], "c": [..]}` (1 to 6 non-negative terms each,
+//!   C_i in µm²) for n² = 1 + Σ B_i λ²/(λ² − C_i) | `abbe` `{"ior": n_d, "abbe": V_d > 0}` |
+//!   `preset` (one of `GLASS_PRESETS`: BK7, fused_silica, F2, SF11, diamond, water; any case).
+//!   Every model must give 1 <= n < ∞ over 360–830 nm (no Sellmeier pole in that range).
+//!   `roughness` in [0,1], default 0.
 //! * `world`: `color` (non-negative RGB, default black), `strength` (>= 0, default 1 when the
 //!   block is present). Without a `world` block the world is black with strength 0.
 //! * `render`: `spp`, `width`, `height` (positive integers), `max_depth` (integer >= 0),
-//!   `wavelengths` (`"hero"` | `"single"` | `"stratified"`).
+//!   `wavelengths` (`"hero"` | `"single"` | `"stratified"`), `wavelength_pdf` (`"visible"` |
+//!   `"uniform"`).
 //!
 //! Validation is strict and every error is one line:
 //! `<file>: <json path, e.g. materials.Skin.subsurface.sigma_a[1]>: <what is wrong>`
@@ -39,6 +53,7 @@ use crate::scene::desc::{
     DielectricDesc, IorDesc, MaterialOverride, RenderDefaults, SubsurfaceCoefficients,
     SubsurfaceDesc, WorldDesc,
 };
+use crate::spectrum::dispersion::MAX_SELLMEIER_TERMS;
 
 /// The only sidecar schema version this Prism reads.
 pub const SIDECAR_VERSION: u64 = 1;
@@ -62,6 +77,13 @@ pub const SUBSURFACE_PRESETS: &[&str] = &[
 
 /// Accepted values of `render.wavelengths`.
 pub const WAVELENGTH_MODES: &[&str] = &["hero", "single", "stratified"];
+
+/// Accepted values of `render.wavelength_pdf`.
+pub const WAVELENGTH_PDFS: &[&str] = &["visible", "uniform"];
+
+/// The keys that give an IOR model; a `dielectric` (or a `subsurface.ior` object) takes exactly
+/// one of them.
+pub const IOR_FORMS: &[&str] = &["ior", "cauchy", "sellmeier", "abbe", "preset"];
 
 /// Accepted values of `subsurface.method`.
 pub const SUBSURFACE_METHODS: &[&str] = &["table", "random_walk"];
@@ -401,6 +423,7 @@ impl Validator<'_> {
                 "mfp",
                 "scale",
                 "eta",
+                "ior",
                 "g",
                 "roughness",
                 "method",
@@ -470,10 +493,24 @@ impl Validator<'_> {
                 .to_string(),
             None => "table".to_string(),
         };
+        // The boundary's IOR: scalar `eta`, or any IOR form under `ior` (the BSSRDF then uses
+        // its n_d as the scalar eta).
+        let ior = match (m.get("eta"), m.get("ior")) {
+            (Some(_), Some(_)) => {
+                return Err(self.err(path, "give 'eta' or 'ior', not both"));
+            }
+            (_, Some(x)) => Some(self.subsurface_ior(x, &path.key("ior"))?),
+            _ => None,
+        };
+        let eta = match &ior {
+            Some(model) => model.n_d(),
+            None => opt("eta", Range::Positive, 1.33)?,
+        };
         Ok(SubsurfaceDesc {
             coefficients,
             scale: opt("scale", Range::Positive, 1.0)?,
-            eta: opt("eta", Range::Positive, 1.33)?,
+            eta,
+            ior,
             g: opt("g", Range::OpenSigned, 0.0)?,
             roughness: opt("roughness", Range::Unit, 0.0)?,
             method,
@@ -482,39 +519,143 @@ impl Validator<'_> {
 
     fn dielectric(&self, v: &Value, path: &JPath) -> R<DielectricDesc> {
         let m = self.object(v, path)?;
-        self.check_keys(m, &["ior", "cauchy", "roughness"], path)?;
-        let ior = match (m.get("ior"), m.get("cauchy")) {
-            (Some(x), None) => {
-                IorDesc::Constant(self.number(x, &path.key("ior"), Range::Positive)?)
-            }
-            (None, Some(c)) => {
-                let cp = path.key("cauchy");
-                let cm = self.object(c, &cp)?;
-                self.check_keys(cm, &["a", "b", "c"], &cp)?;
-                let a = match cm.get("a") {
-                    Some(x) => self.number(x, &cp.key("a"), Range::Positive)?,
-                    None => return Err(self.err(&cp, "missing 'a'")),
-                };
-                let b = match cm.get("b") {
-                    Some(x) => self.number(x, &cp.key("b"), Range::NonNeg)?,
-                    None => return Err(self.err(&cp, "missing 'b'")),
-                };
-                let c = match cm.get("c") {
-                    Some(x) => self.number(x, &cp.key("c"), Range::NonNeg)?,
-                    None => 0.0,
-                };
-                IorDesc::Cauchy { a, b, c }
-            }
-            (Some(_), Some(_)) => {
-                return Err(self.err(path, "give exactly one of 'ior' or 'cauchy', not both"))
-            }
-            (None, None) => return Err(self.err(path, "give exactly one of 'ior' or 'cauchy'")),
-        };
+        let mut keys = IOR_FORMS.to_vec();
+        keys.push("roughness");
+        self.check_keys(m, &keys, path)?;
+        let ior = self.ior_forms(m, path)?;
         let roughness = match m.get("roughness") {
             Some(x) => self.number(x, &path.key("roughness"), Range::Unit)?,
             None => 0.0,
         };
         Ok(DielectricDesc { ior, roughness })
+    }
+
+    /// `subsurface.ior`: a number, or an object holding exactly one IOR form.
+    fn subsurface_ior(&self, v: &Value, path: &JPath) -> R<IorDesc> {
+        if v.is_number() {
+            return self.constant_ior(v, path);
+        }
+        let m = v.as_object().ok_or_else(|| {
+            self.err(
+                path,
+                format!("expected a number or an object, found {}", kind(v)),
+            )
+        })?;
+        self.check_keys(m, IOR_FORMS, path)?;
+        self.ior_forms(m, path)
+    }
+
+    /// Exactly one of the `IOR_FORMS` keys of `m` (the object at `path`) as a validated model.
+    fn ior_forms(&self, m: &Map<String, Value>, path: &JPath) -> R<IorDesc> {
+        let given: Vec<&str> = IOR_FORMS
+            .iter()
+            .copied()
+            .filter(|k| m.contains_key(*k))
+            .collect();
+        let one_of = IOR_FORMS
+            .iter()
+            .map(|k| format!("'{k}'"))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let key = match given.as_slice() {
+            [k] => *k,
+            [] => return Err(self.err(path, format!("give exactly one of {one_of}"))),
+            many => {
+                return Err(self.err(
+                    path,
+                    format!(
+                        "give exactly one of {one_of}, not several (found {})",
+                        many.join(" and ")
+                    ),
+                ))
+            }
+        };
+        let p = path.key(key);
+        let v = &m[key];
+        // Errors of the model itself (pole in range, n < 1) point at the form's path.
+        let model = |r: Result<IorDesc, String>| r.map_err(|e| self.err(&p, e));
+        match key {
+            "ior" => self.constant_ior(v, &p),
+            "cauchy" => {
+                let cm = self.object(v, &p)?;
+                self.check_keys(cm, &["a", "b", "c"], &p)?;
+                let a = self.required(cm, "a", &p, Range::Positive)?;
+                let b = self.required(cm, "b", &p, Range::NonNeg)?;
+                let c = match cm.get("c") {
+                    Some(x) => self.number(x, &p.key("c"), Range::NonNeg)?,
+                    None => 0.0,
+                };
+                model(IorDesc::cauchy(a, b, c))
+            }
+            "sellmeier" => {
+                let sm = self.object(v, &p)?;
+                self.check_keys(sm, &["b", "c"], &p)?;
+                let b = self.coefficient_list(sm, "b", &p)?;
+                let c = self.coefficient_list(sm, "c", &p)?;
+                model(IorDesc::sellmeier(&b, &c))
+            }
+            "abbe" => {
+                let am = self.object(v, &p)?;
+                self.check_keys(am, &["ior", "abbe"], &p)?;
+                let n_d = self.required(am, "ior", &p, Range::Positive)?;
+                let v_d = self.required(am, "abbe", &p, Range::Positive)?;
+                model(IorDesc::from_abbe(n_d, v_d))
+            }
+            _ => {
+                let name = v
+                    .as_str()
+                    .ok_or_else(|| self.err(&p, format!("expected a string, found {}", kind(v))))?;
+                model(IorDesc::preset(name))
+            }
+        }
+    }
+
+    /// A constant IOR: a number >= 1 (sidecar IORs are relative to the surrounding air).
+    fn constant_ior(&self, v: &Value, path: &JPath) -> R<IorDesc> {
+        let n = self.number(v, path, Range::Positive)?;
+        if n < 1.0 {
+            return Err(self.err(path, format!("must be >= 1, got {n}")));
+        }
+        Ok(IorDesc::Constant(n))
+    }
+
+    /// `m[key]` as a number in `range`; missing is an error.
+    fn required(&self, m: &Map<String, Value>, key: &str, path: &JPath, range: Range) -> R<f32> {
+        match m.get(key) {
+            Some(x) => self.number(x, &path.key(key), range),
+            None => Err(self.err(path, format!("missing '{key}'"))),
+        }
+    }
+
+    /// `m[key]`: a non-empty array of at most `MAX_SELLMEIER_TERMS` non-negative numbers,
+    /// kept in double precision (catalogue coefficients have 9 significant digits).
+    fn coefficient_list(&self, m: &Map<String, Value>, key: &str, path: &JPath) -> R<Vec<f64>> {
+        let p = path.key(key);
+        let v = m
+            .get(key)
+            .ok_or_else(|| self.err(path, format!("missing '{key}'")))?;
+        let a = v.as_array().ok_or_else(|| {
+            self.err(
+                &p,
+                format!("expected an array of numbers, found {}", kind(v)),
+            )
+        })?;
+        if a.is_empty() || a.len() > MAX_SELLMEIER_TERMS {
+            return Err(self.err(
+                &p,
+                format!(
+                    "expected 1 to {MAX_SELLMEIER_TERMS} numbers, found {} elements",
+                    a.len()
+                ),
+            ));
+        }
+        a.iter()
+            .enumerate()
+            .map(|(i, e)| {
+                self.number(e, &p.idx(i), Range::NonNeg)?;
+                Ok(e.as_f64().unwrap_or(f64::NAN))
+            })
+            .collect()
     }
 
     fn world(&self, v: &Value, path: &JPath) -> R<WorldDesc> {
@@ -535,7 +676,14 @@ impl Validator<'_> {
         let m = self.object(v, path)?;
         self.check_keys(
             m,
-            &["spp", "width", "height", "max_depth", "wavelengths"],
+            &[
+                "spp",
+                "width",
+                "height",
+                "max_depth",
+                "wavelengths",
+                "wavelength_pdf",
+            ],
             path,
         )?;
         let get = |k: &str, min: u64| -> R<Option<u32>> {
@@ -556,6 +704,18 @@ impl Validator<'_> {
                         &path.key("wavelengths"),
                         WAVELENGTH_MODES,
                         "wavelength mode",
+                    )
+                    .map(str::to_string)
+                })
+                .transpose()?,
+            wavelength_pdf: m
+                .get("wavelength_pdf")
+                .map(|x| {
+                    self.string(
+                        x,
+                        &path.key("wavelength_pdf"),
+                        WAVELENGTH_PDFS,
+                        "wavelength pdf",
                     )
                     .map(str::to_string)
                 })
@@ -623,7 +783,95 @@ mod tests {
             ),
             (
                 r#"{"version":1,"materials":{"Diamond":{"dielectric":{"ior":1.5,"cauchy":{"a":1,"b":0}}}}}"#,
-                "materials.Diamond.dielectric: give exactly one of 'ior' or 'cauchy'",
+                "materials.Diamond.dielectric: give exactly one of 'ior', 'cauchy', 'sellmeier', 'abbe', 'preset', not several (found ior and cauchy)",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"ior":1.5,"preset":"BK7"}}}}"#,
+                "materials.Diamond.dielectric: give exactly one of 'ior', 'cauchy', 'sellmeier', 'abbe', 'preset', not several (found ior and preset)",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"roughness":0.1}}}}"#,
+                "materials.Diamond.dielectric: give exactly one of 'ior', 'cauchy', 'sellmeier', 'abbe', 'preset'",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"preset":"BK8"}}}}"#,
+                "materials.Diamond.dielectric.preset: unknown glass preset 'BK8' (valid: BK7, fused_silica, F2, SF11, diamond, water)",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"preset":7}}}}"#,
+                "materials.Diamond.dielectric.preset: expected a string, found a number",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"sellmeier":{"b":[],"c":[]}}}}}"#,
+                "materials.Diamond.dielectric.sellmeier.b: expected 1 to 6 numbers, found 0 elements",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"sellmeier":{"b":[1,1,1,1,1,1,1],"c":[0,0,0,0,0,0,0]}}}}}"#,
+                "materials.Diamond.dielectric.sellmeier.b: expected 1 to 6 numbers, found 7 elements",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"sellmeier":{"b":[1.0,0.2],"c":[0.006]}}}}}"#,
+                "materials.Diamond.dielectric.sellmeier: Sellmeier 'b' and 'c' must have the same length, got 2 and 1",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"sellmeier":{"b":[1.0]}}}}}"#,
+                "materials.Diamond.dielectric.sellmeier: missing 'c'",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"sellmeier":{"b":[1.0,-0.2],"c":[0.006,0.02]}}}}}"#,
+                "materials.Diamond.dielectric.sellmeier.b[1]: must be non-negative, got -0.2",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"sellmeier":{"b":[1.0],"c":["x"]}}}}}"#,
+                "materials.Diamond.dielectric.sellmeier.c[0]: expected a number, found a string",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"sellmeier":{"b":[1.0],"c":[0.25]}}}}}"#,
+                "materials.Diamond.dielectric.sellmeier: Sellmeier c[0] = 0.25 µm² puts a pole at 500.0 nm, inside the rendered range 360–830 nm",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"abbe":{"ior":1.5,"abbe":-30}}}}}"#,
+                "materials.Diamond.dielectric.abbe.abbe: must be positive, got -30",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"abbe":{"ior":1.5}}}}}"#,
+                "materials.Diamond.dielectric.abbe: missing 'abbe'",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"abbe":{"ior":1.1,"abbe":0.5}}}}}"#,
+                "materials.Diamond.dielectric.abbe: the index of refraction must be >= 1 over 360–830 nm, but n(",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"cauchy":{"a":0.5,"b":0.01}}}}}"#,
+                "materials.Diamond.dielectric.cauchy: the index of refraction must be >= 1 over 360–830 nm, but n(830 nm) = 0.51",
+            ),
+            (
+                r#"{"version":1,"materials":{"Diamond":{"dielectric":{"ior":0.75}}}}"#,
+                "materials.Diamond.dielectric.ior: must be >= 1, got 0.75",
+            ),
+            (
+                "{\"version\":1,\"materials\":{\"Diamond\":{\"dielectric\":{\"sellmeier\":{\"b\":[NaN],\"c\":[0.01]}}}}}",
+                "invalid JSON: expected value (NaN and Infinity are not valid JSON numbers)",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","eta":1.3,"ior":1.4}}}}"#,
+                "materials.Skin.subsurface: give 'eta' or 'ior', not both",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","ior":{"preset":"Skin1"}}}}}"#,
+                "materials.Skin.subsurface.ior.preset: unknown glass preset 'Skin1'",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","ior":{"roughness":0}}}}}"#,
+                "materials.Skin.subsurface.ior.roughness: unknown key 'roughness'",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","ior":"water"}}}}"#,
+                "materials.Skin.subsurface.ior: expected a number or an object, found a string",
+            ),
+            (
+                r#"{"version":1,"render":{"wavelength_pdf":"gaussian"}}"#,
+                "render.wavelength_pdf: unknown wavelength pdf 'gaussian' (valid: visible, uniform)",
             ),
             (
                 r#"{"version":1,"render":{"spp":0}}"#,
@@ -658,8 +906,74 @@ mod tests {
         assert_eq!(s.roughness, 0.0);
         assert_eq!(s.method, "table");
         assert_eq!(f.world.as_ref().unwrap().strength, 1.0);
+        assert_eq!(s.ior, None);
         let f = parse(r#"{"version":1}"#).unwrap();
         assert!(f.world.is_none());
         assert!(f.materials.is_empty());
+        assert_eq!(f.render.wavelength_pdf, None);
+    }
+
+    #[test]
+    fn ior_forms() {
+        let dielectric = |body: &str| -> IorDesc {
+            let f = parse(&format!(
+                r#"{{"version":1,"materials":{{"Diamond":{{"dielectric":{body}}}}}}}"#
+            ))
+            .unwrap();
+            let MaterialOverride::Dielectric(d) = &f.materials[0].1 else {
+                panic!()
+            };
+            d.ior
+        };
+        assert_eq!(dielectric(r#"{"ior":1.5}"#), IorDesc::Constant(1.5));
+        assert_eq!(
+            dielectric(r#"{"cauchy":{"a":1.5,"b":0.004}}"#),
+            IorDesc::Cauchy {
+                a: 1.5,
+                b: 0.004,
+                c: 0.0
+            }
+        );
+        assert_eq!(
+            dielectric(r#"{"preset":"bk7"}"#),
+            IorDesc::preset("BK7").unwrap()
+        );
+        assert_eq!(
+            dielectric(r#"{"abbe":{"ior":1.5168,"abbe":64.17}}"#),
+            IorDesc::Abbe {
+                n_d: 1.5168,
+                v_d: 64.17
+            }
+        );
+        let s = dielectric(
+            r#"{"sellmeier":{"b":[1.03961212,0.231792344,1.01046945],"c":[0.00600069867,0.0200179144,103.560653]}}"#,
+        );
+        assert_eq!(
+            s,
+            IorDesc::preset("BK7").unwrap(),
+            "full f64 precision kept"
+        );
+
+        let f = parse(
+            r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","ior":{"preset":"water"}}}},
+                "render":{"wavelength_pdf":"uniform"}}"#,
+        )
+        .unwrap();
+        let MaterialOverride::Subsurface(s) = &f.materials[0].1 else {
+            panic!()
+        };
+        let water = IorDesc::preset("water").unwrap();
+        assert_eq!(s.ior, Some(water));
+        assert_eq!(s.eta, water.n_d(), "the BSSRDF's scalar eta is n_d");
+        assert_eq!(s.boundary_ior(), water);
+        assert_eq!(f.render.wavelength_pdf.as_deref(), Some("uniform"));
+        let f = parse(
+            r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","ior":1.4}}}}"#,
+        )
+        .unwrap();
+        let MaterialOverride::Subsurface(s) = &f.materials[0].1 else {
+            panic!()
+        };
+        assert_eq!((s.eta, s.ior), (1.4, Some(IorDesc::Constant(1.4))));
     }
 }

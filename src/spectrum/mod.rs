@@ -2,10 +2,12 @@
 //! RGB <-> spectrum conversions. RGB appears only at the edges (scene loading and film).
 
 pub mod cie;
+pub mod dispersion;
 pub mod rgb;
 pub mod sampled;
 pub mod upsample;
 
+pub use dispersion::IorModel;
 pub use sampled::{
     sample_visible_wavelength, visible_wavelength_pdf, SampledSpectrum, SampledWavelengths,
     WavelengthPdf, LAMBDA_MAX, LAMBDA_MIN, N_WAVELENGTHS,
