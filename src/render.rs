@@ -149,7 +149,7 @@ pub fn render(
                         for sample in s0..s1 {
                             let mut sampler =
                                 Sampler::new(index as u64, sample as u64, settings.seed);
-                            let mut wavelengths = settings.wavelengths.sample(
+                            let wavelengths = settings.wavelengths.sample(
                                 index as u64,
                                 sample as u64,
                                 settings.seed,
@@ -157,7 +157,7 @@ pub fn render(
                             );
                             let raster = Vec2::new(x, y) + sampler.next_2d();
                             let ray: Ray = camera.generate_ray(raster, sampler.next_2d());
-                            let result = tracer.radiance(ray, &mut wavelengths, &mut sampler);
+                            let result = tracer.radiance(ray, &wavelengths, &mut sampler);
                             band_rays += result.rays as u64;
                             if !px.add(spectrum_to_xyz(&result.radiance, &wavelengths)) {
                                 band_discarded += 1;

@@ -251,10 +251,10 @@ fn draw_chunk(case: &Chi2Case, seed: u64, stream: u64, n: usize) -> SampleStats 
                 Some(s) if !s.specular => {
                     let f = b.eval(case.wo, s.wi);
                     let pdf = b.pdf(case.wo, s.wi);
-                    // Dispersive refraction: only the hero slot is meaningful.
-                    let slots = if s.terminates_secondary { 1 } else { 4 };
+                    let (_, pdfs) = b.eval_pdf_wavelengths(case.wo, s.wi);
                     let ok = relative_eq(s.pdf, pdf, 1e-3)
-                        && (0..slots).all(|i| relative_eq(s.f[i], f[i], 1e-3))
+                        && (0..4).all(|i| relative_eq(s.f[i], f[i], 1e-3))
+                        && (0..4).all(|i| relative_eq(s.pdf_wavelengths[i], pdfs[i], 1e-3))
                         && (s.wi.length() - 1.0).abs() < 1e-4;
                     if !ok {
                         inconsistent += 1;
@@ -433,7 +433,7 @@ fn smooth_dielectric_fresnel_snell_and_energy() {
                 let mut energy = 0.0f64;
                 if fr > 0.0 {
                     let r = b.sample(wo, fr * 0.5, Vec2::new(0.3, 0.3)).unwrap();
-                    assert!(r.specular && !r.transmission && !r.terminates_secondary);
+                    assert!(r.specular && !r.transmission && !r.hero_only());
                     assert_eq!(r.wi, Vec3::new(-wo.x, -wo.y, wo.z));
                     assert!(relative_eq(r.pdf, fr, 1e-6), "{} vs {fr}", r.pdf);
                     // Weight f |cos| / pdf of the reflected branch is exactly 1.
@@ -445,7 +445,7 @@ fn smooth_dielectric_fresnel_snell_and_energy() {
                     let t = b
                         .sample(wo, fr + (1.0 - fr) * 0.5, Vec2::new(0.3, 0.3))
                         .unwrap();
-                    assert!(t.specular && t.transmission && !t.terminates_secondary);
+                    assert!(t.specular && t.transmission && !t.hero_only());
                     assert!(relative_eq(t.pdf, 1.0 - fr, 1e-6));
                     assert!(t.wi.z * wo.z < 0.0);
                     assert!((t.wi.length() - 1.0).abs() < 1e-5);
@@ -732,7 +732,7 @@ fn rough_dielectric_generalized_reciprocity() {
 }
 
 #[test]
-fn dispersion_terminates_secondaries_on_refraction_only() {
+fn dispersion_terminates_secondaries_on_smooth_refraction_only() {
     let eta = SampledSpectrum([1.5, 1.52, 1.54, 1.56]);
     let mut rng = Pcg32::new(51, 6);
     for alpha in [0.0f32, 0.09] {
@@ -755,8 +755,21 @@ fn dispersion_terminates_secondaries_on_refraction_only() {
             let (Some(s), Some(h)) = (disp.sample(wo, uc, u), hero.sample(wo, uc, u)) else {
                 continue;
             };
-            assert_eq!(s.terminates_secondary, s.transmission);
-            assert!(!h.terminates_secondary);
+            // Only a smooth refraction leaves the hero alone; a rough one keeps every
+            // wavelength with its own density (hero MIS).
+            assert_eq!(s.hero_only(), s.transmission && alpha == 0.0);
+            assert!(!h.hero_only());
+            if alpha > 0.0 {
+                let (f, pdfs) = disp.eval_pdf_wavelengths(wo, s.wi);
+                for i in 0..4 {
+                    assert!(relative_eq(s.f[i], f[i], 1e-4), "{:?} vs {f:?}", s.f);
+                    assert!(relative_eq(s.pdf_wavelengths[i], pdfs[i], 1e-4));
+                    // Wherever a wavelength carries light its density is positive (MIS support).
+                    assert!(f[i] == 0.0 || pdfs[i] > 0.0, "{f:?} {pdfs:?}");
+                }
+            } else if s.transmission {
+                assert_eq!(&s.f.0[1..], &[0.0; 3]);
+            }
             // Directions and the hero slot follow eta[0] exactly.
             assert_eq!(s.wi, h.wi);
             assert!(relative_eq(s.f[0], h.f[0], 1e-5) && relative_eq(s.pdf, h.pdf, 1e-5));

@@ -105,3 +105,26 @@ fn grey_world_scales_linearly() {
         assert!((centre[c] - 0.125).abs() < 0.0025, "sphere {centre}");
     }
 }
+
+/// Strongly dispersive smooth glass: each refraction leaves the hero wavelength alone (the
+/// other wavelengths refract elsewhere) and the hero-MIS weights must then make it an unbiased
+/// estimate on its own; reflections keep all four. Any error in those weights shows as a
+/// coloured or darker sphere.
+#[test]
+fn white_furnace_smooth_dispersive_dielectric() {
+    let glass = material_with(
+        GltfMaterialDesc {
+            name: "flint".into(),
+            ..Default::default()
+        },
+        Some(MaterialOverride::Dielectric(DielectricDesc {
+            ior: IorDesc::Cauchy {
+                a: 1.6,
+                b: 0.04,
+                c: 0.0,
+            },
+            roughness: 0.0,
+        })),
+    );
+    assert_furnace(furnace_scene(glass, Vec3::ONE), 256, 0.01);
+}

@@ -7,10 +7,14 @@
 //! inside the object. Radiance transport: transmission carries `1 / etap^2` with
 //! `etap = n(wi side) / n(wo side)`, and `transmission_tint` multiplies transmitted light.
 //!
-//! Dispersion: when the per-wavelength `eta` differ, directions are decided by the hero
-//! wavelength (`eta[0]`) and every refraction sample sets `terminates_secondary`. `pdf` always
-//! uses `eta[0]`. `eval` gives each wavelength's own BSDF value (`eta[i]` in slot i); a sampled
-//! refraction carries the hero's value in every slot (only slot 0 is meaningful).
+//! Dispersion: when the per-wavelength `eta` differ, directions are sampled with the hero
+//! wavelength's `eta[0]` and `pdf` is the hero's density. `eval` and sampled `f` give each
+//! wavelength its own BSDF value (`eta[i]` in slot i), and `pdf_wavelengths` gives the
+//! density each wavelength would have had as the hero, which the path tracer's hero MIS needs
+//! (Wilkie et al. 2014). On a rough interface every wavelength keeps a non-zero density, so
+//! all stay alive; a smooth refraction is a different Dirac direction per wavelength, so the
+//! secondaries get f = 0 and density 0 there (they terminate, and the MIS weights make the
+//! hero alone an unbiased estimate).
 
 use super::fresnel::{fresnel_dielectric, reflect, refract};
 use super::microfacet::TrowbridgeReitz;
@@ -66,24 +70,46 @@ impl DielectricBsdf {
 
     /// `(eval(wo, wi), pdf(wo, wi))` in one pass.
     pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (SampledSpectrum, f32) {
+        let (f, pdf) = self.eval_pdf_wavelengths(wo, wi);
+        (f, pdf[0])
+    }
+
+    /// Each wavelength's BSDF value and the density each would have given `wi` as the hero.
+    pub fn eval_pdf_wavelengths(&self, wo: Vec3, wi: Vec3) -> (SampledSpectrum, SampledSpectrum) {
         if self.is_specular() {
-            return (SampledSpectrum::ZERO, 0.0);
+            return (SampledSpectrum::ZERO, SampledSpectrum::ZERO);
         }
         let hero = self.eval_with_eta(wo, wi, self.hero_eta());
         if !self.is_dispersive() {
-            return (self.spectral(hero.f, hero.transmission), hero.pdf);
+            return (
+                self.spectral(hero.f, hero.transmission),
+                SampledSpectrum::splat(hero.pdf),
+            );
         }
-        // Each wavelength's own BSDF value; the pdf is the hero's (it decides directions).
+        self.per_wavelength(wo, wi, hero)
+    }
+
+    /// Dispersive rough interface: every wavelength's own f and hero density at (wo, wi).
+    fn per_wavelength(
+        &self,
+        wo: Vec3,
+        wi: Vec3,
+        hero: RoughEval,
+    ) -> (SampledSpectrum, SampledSpectrum) {
         let mut f = SampledSpectrum::ZERO;
+        let mut pdf = SampledSpectrum::ZERO;
         f[0] = hero.f;
+        pdf[0] = hero.pdf;
         for i in 1..N_WAVELENGTHS {
-            f[i] = self.eval_with_eta(wo, wi, self.eta[i]).f;
+            let e = self.eval_with_eta(wo, wi, self.eta[i]);
+            f[i] = e.f;
+            pdf[i] = e.pdf;
         }
         // Transmission is a property of the geometry (wo, wi on opposite sides).
         if wo.z * wi.z < 0.0 {
             f *= self.transmission_tint;
         }
-        (f, hero.pdf)
+        (f, pdf)
     }
 
     pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
@@ -114,12 +140,15 @@ impl DielectricBsdf {
         let fr = fresnel_dielectric(cos_o, eta);
         if uc < fr {
             let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-            // Reflection is wavelength independent in direction, so every slot stays valid.
-            let f = if self.is_dispersive() {
+            // The mirror direction is the same for every wavelength, so every slot stays
+            // valid; each wavelength as the hero would have chosen this branch with its own
+            // probability F(eta_i).
+            let fr_all = if self.is_dispersive() {
                 SampledSpectrum::from_fn(|i| fresnel_dielectric(cos_o, self.eta[i]))
             } else {
                 SampledSpectrum::splat(fr)
-            } / cos_o.abs();
+            };
+            let f = fr_all / cos_o.abs();
             if !f.is_finite() {
                 return None;
             }
@@ -129,7 +158,7 @@ impl DielectricBsdf {
                 pdf: fr,
                 specular: true,
                 transmission: false,
-                terminates_secondary: false,
+                pdf_wavelengths: fr_all,
             })
         } else {
             let (wi, etap) = refract(wo, Vec3::Z, eta)?;
@@ -138,9 +167,18 @@ impl DielectricBsdf {
             if !(t > 0.0) || !(cos_i > 0.0) {
                 return None;
             }
-            let f = self.transmission_tint * (t / (cos_i * sqr(etap)));
+            let mut f = self.transmission_tint * (t / (cos_i * sqr(etap)));
             if !f.is_finite() {
                 return None;
+            }
+            let mut pdf_wavelengths = SampledSpectrum::splat(t);
+            if self.is_dispersive() {
+                // Each other wavelength refracts into its own Dirac direction: along `wi` its
+                // BSDF and its density are both zero.
+                for i in 1..N_WAVELENGTHS {
+                    f[i] = 0.0;
+                    pdf_wavelengths[i] = 0.0;
+                }
             }
             Some(BsdfSample {
                 wi,
@@ -148,7 +186,7 @@ impl DielectricBsdf {
                 pdf: t,
                 specular: true,
                 transmission: true,
-                terminates_secondary: self.is_dispersive(),
+                pdf_wavelengths,
             })
         }
     }
@@ -180,18 +218,13 @@ impl DielectricBsdf {
         if !(hero.pdf > 0.0) {
             return None;
         }
-        let dispersive = self.is_dispersive();
-        let f = if hero.transmission || !dispersive {
-            // Dispersive refraction: the hero's value in every slot (secondaries terminate).
-            self.spectral(hero.f, hero.transmission)
+        let (f, pdf_wavelengths) = if self.is_dispersive() {
+            self.per_wavelength(wo, wi, hero)
         } else {
-            SampledSpectrum::from_fn(|i| {
-                if i == 0 {
-                    hero.f
-                } else {
-                    self.eval_with_eta(wo, wi, self.eta[i]).f
-                }
-            })
+            (
+                self.spectral(hero.f, hero.transmission),
+                SampledSpectrum::splat(hero.pdf),
+            )
         };
         Some(BsdfSample {
             wi,
@@ -199,7 +232,7 @@ impl DielectricBsdf {
             pdf: hero.pdf,
             specular: false,
             transmission: hero.transmission,
-            terminates_secondary: hero.transmission && dispersive,
+            pdf_wavelengths,
         })
     }
 

@@ -40,7 +40,7 @@ impl DiffuseBsdf {
             pdf,
             specular: false,
             transmission: false,
-            terminates_secondary: false,
+            pdf_wavelengths: SampledSpectrum::splat(pdf),
         })
     }
 }

@@ -154,7 +154,7 @@ impl MetallicRoughnessBsdf {
                     pdf: p_spec,
                     specular: true,
                     transmission: false,
-                    terminates_secondary: false,
+                    pdf_wavelengths: SampledSpectrum::splat(p_spec),
                 });
             }
             let wm = distrib.sample_visible(wo, u);
@@ -175,7 +175,7 @@ impl MetallicRoughnessBsdf {
             pdf,
             specular: false,
             transmission: false,
-            terminates_secondary: false,
+            pdf_wavelengths: SampledSpectrum::splat(pdf),
         })
     }
 }

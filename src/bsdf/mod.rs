@@ -30,10 +30,19 @@ pub struct BsdfSample {
     pub specular: bool,
     /// `wi` is on the other side of the surface from `wo`.
     pub transmission: bool,
-    /// `wi` is valid for the hero wavelength only (dispersive specular refraction): the caller
-    /// must call `SampledWavelengths::terminate_secondary`. `f` already holds the hero's value in
-    /// slot 0 (other slots are ignored).
-    pub terminates_secondary: bool,
+    /// The density with which each wavelength, had it been the hero, would have produced `wi`
+    /// (slot 0 equals `pdf`). All slots are equal unless the BSDF is dispersive. A slot is 0
+    /// where `wi` is unreachable for that wavelength (smooth dispersive refraction), and `f`
+    /// is 0 there too. The path tracer's hero-wavelength MIS weights use these
+    /// (`integrator::spectral_mis`).
+    pub pdf_wavelengths: SampledSpectrum,
+}
+
+impl BsdfSample {
+    /// Only the hero wavelength can follow `wi` (the secondaries' path density is zero).
+    pub fn hero_only(&self) -> bool {
+        self.pdf_wavelengths.0[1..].iter().all(|&p| p == 0.0)
+    }
 }
 
 /// The set of surface models. An enum rather than trait objects: a handful of lobes, built per
@@ -105,6 +114,18 @@ impl Bsdf {
             Bsdf::Diffuse(b) => b.eval_pdf(wo, wi),
             Bsdf::MetallicRoughness(b) => b.eval_pdf(wo, wi),
             Bsdf::Dielectric(b) => b.eval_pdf(wo, wi),
+        }
+    }
+
+    /// `eval(wo, wi)` and, per wavelength, the density with which `sample` would produce `wi`
+    /// had that wavelength been the hero (see `BsdfSample::pdf_wavelengths`).
+    pub fn eval_pdf_wavelengths(&self, wo: Vec3, wi: Vec3) -> (SampledSpectrum, SampledSpectrum) {
+        match self {
+            Bsdf::Dielectric(b) => b.eval_pdf_wavelengths(wo, wi),
+            _ => {
+                let (f, pdf) = self.eval_pdf(wo, wi);
+                (f, SampledSpectrum::splat(pdf))
+            }
         }
     }
 

@@ -1,6 +1,7 @@
 //! Light transport: the path tracer and wavelength sampling of camera paths.
 
 pub mod path;
+pub mod spectral_mis;
 pub mod wavelengths;
 
 pub use path::{PathSample, PathTracer};

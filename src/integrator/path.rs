@@ -1,6 +1,8 @@
 //! Unidirectional path tracing with next-event estimation and multiple importance sampling
-//! (Veach 1997, ch. 9; power heuristic), Russian roulette, spectral throughout.
+//! (Veach 1997, ch. 9; power heuristic), Russian roulette, spectral throughout, with
+//! hero-wavelength MIS over the path's wavelengths (`spectral_mis`).
 
+use super::spectral_mis::SpectralMis;
 use crate::bsdf::Bsdf;
 use crate::bssrdf::{active_wavelengths, random_walk, SubsurfaceMethod};
 use crate::geometry::{offset_ray_origin, Ray};
@@ -30,12 +32,12 @@ impl<'a> PathTracer<'a> {
         PathTracer { scene, max_depth }
     }
 
-    /// Radiance arriving along `ray` for the path's wavelengths. May terminate the secondary
-    /// wavelengths (dispersion), which is why `w` is mutable.
+    /// Radiance arriving along `ray` for the path's wavelengths, already weighted by the
+    /// hero-wavelength MIS (the film divides slot i by `w.pdf[i]`).
     pub fn radiance(
         &self,
         mut ray: Ray,
-        w: &mut SampledWavelengths,
+        w: &SampledWavelengths,
         sampler: &mut Sampler,
     ) -> PathSample {
         let scene = self.scene;
@@ -44,8 +46,17 @@ impl<'a> PathTracer<'a> {
         let mut l = SampledSpectrum::ZERO;
         let mut beta = SampledSpectrum::ONE;
         let mut rays = 0u32;
-        // Density of the BSDF sample that produced `ray` (for MIS against light sampling).
-        let mut prev_pdf = 0.0f32;
+        let mut mis = SpectralMis::new(w);
+        // The wavelengths that can still carry light (fewer after a smooth dispersive
+        // refraction): decides how many channels the BSSRDF samples.
+        let mut alive = *w;
+        if mis.hero_only() {
+            alive.terminate_secondary();
+        }
+        // Aggregated density of the BSDF sample that produced `ray` and the MIS denominator
+        // before it (for MIS against light sampling when `ray` hits a light).
+        let mut prev_bsdf_density = 0.0f32;
+        let mut prev_denominator = 1.0f32;
         let mut specular_bounce = true;
         // Absorption coefficient of the dielectric the ray is travelling inside, if any.
         let mut medium: Option<SampledSpectrum> = None;
@@ -63,8 +74,8 @@ impl<'a> PathTracer<'a> {
                     let Some(ss) = scene.materials[id as usize].subsurface() else {
                         break;
                     };
-                    let (sigma_a, sigma_s) = ss.walk_coefficients(w);
-                    let n = active_wavelengths(w);
+                    let (sigma_a, sigma_s) = ss.walk_coefficients(&alive);
+                    let n = active_wavelengths(&alive);
                     match random_walk::walk(
                         geometry, ray, sigma_a, sigma_s, ss.g, n, sampler, &mut beta,
                     ) {
@@ -83,9 +94,10 @@ impl<'a> PathTracer<'a> {
                     let weight = if specular_bounce {
                         1.0
                     } else {
-                        power_heuristic(prev_pdf, lights.environment_pdf(ray.dir))
+                        let light_pdf = lights.environment_pdf(ray.dir);
+                        power_heuristic(prev_bsdf_density, light_pdf * prev_denominator)
                     };
-                    l += beta * le * weight;
+                    l += beta * le * (weight / mis.denominator());
                 }
                 break;
             };
@@ -105,9 +117,9 @@ impl<'a> PathTracer<'a> {
                     } else {
                         let light_pdf =
                             lights.triangle_pdf(hit.instance, hit.prim, sp.area, hit.t, cos_light);
-                        power_heuristic(prev_pdf, light_pdf)
+                        power_heuristic(prev_bsdf_density, light_pdf * prev_denominator)
                     };
-                    l += beta * le * weight;
+                    l += beta * le * (weight / mis.denominator());
                 }
             }
             if depth == self.max_depth {
@@ -140,7 +152,8 @@ impl<'a> PathTracer<'a> {
                     w,
                 ) {
                     let wi = frame.to_local(ls.wi);
-                    let f = bsdf.eval(wo, wi) * wi.z.abs();
+                    let (f, bsdf_pdfs) = bsdf.eval_pdf_wavelengths(wo, wi);
+                    let f = f * wi.z.abs();
                     // A direction on the wrong geometric side would leak light through the surface.
                     let same_side = ls.wi.dot(ng) * wo_world.dot(ng) > 0.0;
                     let side_ok = if transmissive { true } else { same_side };
@@ -151,9 +164,10 @@ impl<'a> PathTracer<'a> {
                             let weight = if ls.delta {
                                 1.0
                             } else {
-                                power_heuristic(ls.pdf, bsdf.pdf(wo, wi))
+                                mis.light_weight(ls.pdf, bsdf_pdfs)
                             };
-                            let mut contrib = beta * f * ls.li * (weight / ls.pdf);
+                            let mut contrib =
+                                beta * f * ls.li * (weight / (ls.pdf * mis.denominator()));
                             if let Some(sigma_a) = medium {
                                 // Only reachable through a transmissive surface of the same object.
                                 if ls.distance.is_finite() {
@@ -173,13 +187,6 @@ impl<'a> PathTracer<'a> {
             if !(bs.pdf > 0.0) || bs.f.is_black() {
                 break;
             }
-            if bs.terminates_secondary && !w.secondary_terminated() {
-                w.terminate_secondary();
-                for i in 1..beta.0.len() {
-                    beta[i] = 0.0;
-                    l[i] = 0.0;
-                }
-            }
             let wi_world = frame.to_world(bs.wi);
             let crosses = wi_world.dot(ng) * wo_world.dot(ng) < 0.0;
             if crosses != bs.transmission {
@@ -188,7 +195,12 @@ impl<'a> PathTracer<'a> {
             }
             beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
             specular_bounce = bs.specular;
-            prev_pdf = bs.pdf;
+            prev_denominator = mis.denominator();
+            prev_bsdf_density = mis.bsdf_density(bs.pdf_wavelengths);
+            mis.scatter(bs.pdf, bs.pdf_wavelengths);
+            if mis.hero_only() && !alive.secondary_terminated() {
+                alive.terminate_secondary();
+            }
             // Where the path continues: point, normal for the ray offset, direction.
             let mut next = (sp.p, ng, wi_world);
             let subsurface = material.subsurface();
@@ -202,7 +214,7 @@ impl<'a> PathTracer<'a> {
                 // in at the exit point and out here), find the exit point and shade it with Sw.
                 let Some(ss) = subsurface else { break };
                 beta *= ss.eta * ss.eta;
-                let bssrdf = ss.bssrdf(w);
+                let bssrdf = ss.bssrdf(&alive);
                 let u_axis = sampler.next_1d();
                 let u_disk = sampler.next_2d();
                 let u_hit = sampler.next_1d();
@@ -240,9 +252,9 @@ impl<'a> PathTracer<'a> {
                             let weight = if ls.delta {
                                 1.0
                             } else {
-                                power_heuristic(ls.pdf, sw.pdf(cos))
+                                mis.light_weight(ls.pdf, SampledSpectrum::splat(sw.pdf(cos)))
                             };
-                            l += beta * ls.li * (f * cos * weight / ls.pdf);
+                            l += beta * ls.li * (f * cos * weight / (ls.pdf * mis.denominator()));
                         }
                     }
                 }
@@ -257,7 +269,8 @@ impl<'a> PathTracer<'a> {
                 }
                 beta *= sw.eval(wi.z) * wi.z / pdf;
                 specular_bounce = false;
-                prev_pdf = pdf;
+                prev_denominator = mis.denominator();
+                prev_bsdf_density = pdf * prev_denominator;
                 next = (pi.p, ng_i, wi_world);
             } else if bs.transmission {
                 if let Bsdf::Dielectric(d) = &bsdf {
@@ -284,7 +297,8 @@ impl<'a> PathTracer<'a> {
                 break;
             }
             if depth + 1 >= RR_MIN_DEPTH {
-                let rr = beta.max_component() * eta_scale;
+                // The path's actual weight is beta / denominator (hero MIS).
+                let rr = beta.max_component() / mis.denominator() * eta_scale;
                 if rr < 1.0 {
                     let q = (1.0 - rr).clamp(0.0, 0.95);
                     if sampler.next_1d() < q {

@@ -150,6 +150,10 @@ impl IndexMut<usize> for SampledSpectrum {
 pub struct SampledWavelengths {
     pub lambda: [f32; N_WAVELENGTHS],
     pub pdf: [f32; N_WAVELENGTHS],
+    /// Density with which each member would have been drawn as the hero, p(lambda_i)
+    /// (0 for slots that are inactive from the start). The hero MIS weights of
+    /// `integrator::spectral_mis` are proportional to these.
+    pub hero_pdf: [f32; N_WAVELENGTHS],
 }
 
 impl SampledWavelengths {
@@ -167,10 +171,12 @@ impl SampledWavelengths {
             let shifted = hero - LAMBDA_MIN + range * k as f32 / N_WAVELENGTHS as f32;
             LAMBDA_MIN + shifted.rem_euclid(range)
         });
-        let mean_pdf = lambda.iter().map(|&l| density.pdf(l)).sum::<f32>() / N_WAVELENGTHS as f32;
+        let hero_pdf = lambda.map(|l| density.pdf(l));
+        let mean_pdf = hero_pdf.iter().sum::<f32>() / N_WAVELENGTHS as f32;
         SampledWavelengths {
             lambda,
             pdf: [mean_pdf; N_WAVELENGTHS],
+            hero_pdf,
         }
     }
 
@@ -180,9 +186,12 @@ impl SampledWavelengths {
         let lambda = density.sample(u);
         let mut pdf = [0.0; N_WAVELENGTHS];
         pdf[0] = density.pdf(lambda) / N_WAVELENGTHS as f32;
+        let mut hero_pdf = [0.0; N_WAVELENGTHS];
+        hero_pdf[0] = density.pdf(lambda);
         SampledWavelengths {
             lambda: [lambda; N_WAVELENGTHS],
             pdf,
+            hero_pdf,
         }
     }
 
@@ -192,6 +201,7 @@ impl SampledWavelengths {
         SampledWavelengths {
             lambda: [lambda; N_WAVELENGTHS],
             pdf: [1.0; N_WAVELENGTHS],
+            hero_pdf: [1.0; N_WAVELENGTHS],
         }
     }
 
