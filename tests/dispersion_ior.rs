@@ -337,3 +337,29 @@ fn gltf_bad_dispersion_is_a_clear_error() {
         assert!(!e.contains('\n'), "{e}");
     }
 }
+
+#[test]
+fn readme_sidecar_example_parses() {
+    // The README's material JSON example shows every IOR form; keep it valid.
+    let readme =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let section = &readme[readme.find("## Material JSON sidecar").unwrap()..];
+    let start = section.find("```json\n").unwrap() + "```json\n".len();
+    let block = &section[start..start + section[start..].find("```").unwrap()];
+    let f = parse_materials_json(block, "README.md", None).unwrap();
+    let get = |n: &str| &f.materials.iter().find(|(m, _)| m == n).unwrap().1;
+    let MaterialOverride::Dielectric(quartz) = get("Quartz") else {
+        panic!()
+    };
+    // Malitson's coefficients with the C_i rounded to 9 digits: the preset within 1e-7.
+    let silica = IorModel::preset("fused_silica").unwrap();
+    for l in [LAMBDA_F_NM, LAMBDA_D_NM, LAMBDA_C_NM] {
+        assert!((quartz.ior.eval(l) - silica.eval(l)).abs() < 1e-6);
+    }
+    let MaterialOverride::Subsurface(jade) = get("Jade") else {
+        panic!()
+    };
+    assert_eq!(jade.eta, 1.66);
+    assert!(jade.ior.unwrap().is_dispersive());
+    assert_eq!(f.render.wavelength_pdf.as_deref(), Some("visible"));
+}
