@@ -60,7 +60,7 @@ struct SceneArgs {
     #[arg(long, value_enum)]
     wavelengths: Option<WavelengthsArg>,
     /// Density wavelengths are drawn from: visible (importance sampling of the visible band)
-    /// or uniform over 360-830 nm (default: visible)
+    /// or uniform over 360-830 nm (default: the JSON's render.wavelength_pdf, else visible)
     #[arg(long, value_enum)]
     wavelength_pdf: Option<WavelengthPdfArg>,
     /// Diagnostic: render every path at this one wavelength (nm, 360-830)
@@ -198,7 +198,11 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
     let pdf = match args.wavelength_pdf {
         Some(WavelengthPdfArg::Visible) => WavelengthPdf::Visible,
         Some(WavelengthPdfArg::Uniform) => WavelengthPdf::Uniform,
-        None => WavelengthPdf::default(),
+        None => defaults
+            .wavelength_pdf
+            .as_deref()
+            .and_then(WavelengthPdf::from_name)
+            .unwrap_or_default(),
     };
     if let Some(l) = args.lambda {
         if !(LAMBDA_MIN..=LAMBDA_MAX).contains(&l) {

@@ -213,7 +213,10 @@ impl<'a> PathTracer<'a> {
                 // (1 - Fr(cos theta_o)); undo the radiance 1/eta^2 it carries (light refracts
                 // in at the exit point and out here), find the exit point and shade it with Sw.
                 let Some(ss) = subsurface else { break };
-                beta *= ss.eta * ss.eta;
+                // Per wavelength: the boundary may be dispersive.
+                if let Bsdf::Dielectric(d) = &bsdf {
+                    beta *= d.eta * d.eta;
+                }
                 let bssrdf = ss.bssrdf(&alive);
                 let u_axis = sampler.next_1d();
                 let u_disk = sampler.next_2d();

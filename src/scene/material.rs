@@ -23,9 +23,10 @@ enum SurfaceModel {
         alpha: f32,
     },
     /// Subsurface scattering: a dielectric boundary over a scattering medium (`crate::bssrdf`).
-    /// `boundary` is the sidecar's spectral IOR; the boundary BSDF still uses the medium's
-    /// scalar eta (= `boundary.n_d()`) because the integrator's subsurface hand-off and the
-    /// BSSRDF profile assume one eta for all wavelengths.
+    /// `boundary` is the sidecar's spectral IOR: the boundary BSDF refracts each wavelength
+    /// with its own IOR (dispersion, with hero MIS like any dielectric); the diffusion profile
+    /// and the exit lobe use the medium's scalar eta (= `boundary.n_d()`), since a profile
+    /// table per wavelength would cost far more than the sub-percent change it makes.
     Subsurface {
         medium: Arc<SubsurfaceMaterial>,
         boundary: IorDesc,
@@ -115,7 +116,7 @@ impl Material {
     }
 
     /// The spectral IOR the sidecar gave a subsurface material's boundary (constant `eta` when
-    /// it gave none). Not used by `bsdf` yet: see `SurfaceModel::Subsurface`.
+    /// it gave none); see `SurfaceModel::Subsurface`.
     pub fn subsurface_boundary_ior(&self) -> Option<&IorDesc> {
         match &self.model {
             SurfaceModel::Subsurface { boundary, .. } => Some(boundary),
@@ -183,8 +184,11 @@ impl Material {
             }),
             // The boundary of a subsurface medium: a (rough) dielectric; a transmission sample
             // hands the path to the BSSRDF (see `integrator::path`).
-            SurfaceModel::Subsurface { medium: s, .. } => Bsdf::Dielectric(DielectricBsdf {
-                eta: SampledSpectrum::splat(s.eta),
+            SurfaceModel::Subsurface {
+                medium: s,
+                boundary,
+            } => Bsdf::Dielectric(DielectricBsdf {
+                eta: SampledSpectrum::from_fn(|i| eval_ior(boundary, w.lambda[i])),
                 alpha: if s.alpha < MIN_ALPHA { 0.0 } else { s.alpha },
                 transmission_tint: SampledSpectrum::ONE,
             }),
