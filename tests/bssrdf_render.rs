@@ -303,7 +303,7 @@ fn non_absorbing_sphere_in_white_furnace() {
     for (method, tol, ior) in [
         ("random_walk", 0.03, None),
         ("table", 0.03, None),
-        ("random_walk", 0.03, dispersive.clone()),
+        ("random_walk", 0.03, dispersive),
         ("table", 0.03, dispersive),
     ] {
         let desc = SubsurfaceDesc {
