@@ -3,7 +3,7 @@
 
 use super::camera::Camera;
 use super::desc::{CameraDesc, MaterialDesc, RenderDefaults, SceneDesc, TextureDesc};
-use super::lights::Lights;
+use super::lights::{Lights, World};
 use super::material::Material;
 use crate::error::{PrismError, Result};
 use crate::geometry::{Geometry, Instance, Mesh};
@@ -108,7 +108,7 @@ impl Scene {
             &runtime_materials,
             &textures,
             &lights,
-            world_radiance,
+            World::Uniform(world_radiance),
         );
         if lights.is_empty() {
             return Err(PrismError::input(

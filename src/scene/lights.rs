@@ -1,8 +1,10 @@
 //! Light sources and their sampling for next-event estimation: emissive triangles (area
-//! lights), KHR_lights_punctual (point, spot, directional) and the uniform world.
+//! lights), KHR_lights_punctual (point, spot, directional) and the world (a uniform colour or
+//! an equirectangular environment map, `super::envmap`).
 //! One light is chosen per sample in proportion to an estimate of its emitted power.
 
 use super::desc::{PunctualKind, PunctualLightDesc, TextureDesc};
+use super::envmap::EnvironmentMap;
 use super::material::Material;
 use crate::geometry::Geometry;
 use crate::math::{sampling, DiscreteDistribution, Frame, PI};
@@ -30,8 +32,22 @@ pub enum Light {
         to_light: Vec3,
         irradiance: RgbIlluminantSpectrum,
     },
-    /// Uniform radiance from every direction (the world colour).
-    Environment { radiance: RgbIlluminantSpectrum },
+    /// The world: its data is `Lights::world`.
+    Environment,
+}
+
+/// What the world emits.
+pub enum World {
+    Black,
+    /// Uniform radiance from every direction (linear RGB, colour x strength).
+    Uniform(Vec3),
+    /// An equirectangular environment map (colour x strength already applied).
+    Map(Box<EnvironmentMap>),
+}
+
+enum WorldLight {
+    Uniform(RgbIlluminantSpectrum),
+    Map(Box<EnvironmentMap>),
 }
 
 /// A sampled light direction as seen from a shading point.
@@ -53,7 +69,8 @@ pub struct Lights {
     distribution: DiscreteDistribution,
     /// First light index of each instance's triangles (u32::MAX: the instance does not emit).
     instance_base: Vec<u32>,
-    environment: Option<usize>,
+    /// Index of the world in `lights` and its emission.
+    environment: Option<(usize, WorldLight)>,
     scene_radius: f32,
 }
 
@@ -87,7 +104,7 @@ impl Lights {
         materials: &[Material],
         textures: &[TextureDesc],
         punctual: &[PunctualLightDesc],
-        world_radiance: glam::Vec3,
+        world: World,
     ) -> Self {
         let mut lights = Vec::new();
         let mut power = Vec::new();
@@ -160,14 +177,25 @@ impl Lights {
                 *p = PI * scene_radius * scene_radius * luminance_of(irradiance);
             }
         }
-        let mut environment = None;
-        if world_radiance.max_element() > 0.0 {
-            environment = Some(lights.len());
-            lights.push(Light::Environment {
-                radiance: RgbIlluminantSpectrum::new(world_radiance),
-            });
-            power.push(4.0 * PI * PI * scene_radius * scene_radius * luminance(world_radiance));
-        }
+        // Power of the world through a disk of the scene's radius: pi r^2 x the integral of
+        // the luminance over the sphere.
+        let world = match world {
+            World::Uniform(rgb) if rgb.max_element() > 0.0 && rgb.is_finite() => Some((
+                WorldLight::Uniform(RgbIlluminantSpectrum::new(rgb)),
+                4.0 * PI * luminance(rgb),
+            )),
+            World::Map(map) if map.luminance_integral() > 0.0 => {
+                let l = map.luminance_integral();
+                Some((WorldLight::Map(map), l))
+            }
+            _ => None,
+        };
+        let environment = world.map(|(light, integral)| {
+            let index = lights.len();
+            lights.push(Light::Environment);
+            power.push(PI * scene_radius * scene_radius * integral);
+            (index, light)
+        });
         let distribution = DiscreteDistribution::new(&power);
         Lights {
             lights,
@@ -191,18 +219,23 @@ impl Lights {
     }
 
     /// Radiance of the world seen along the escaping world-space direction `dir` (unit).
-    pub fn environment_radiance(&self, _dir: Vec3, w: &SampledWavelengths) -> SampledSpectrum {
-        match self.environment.map(|i| &self.lights[i]) {
-            Some(Light::Environment { radiance }) => radiance.sample(w),
-            _ => SampledSpectrum::ZERO,
+    pub fn environment_radiance(&self, dir: Vec3, w: &SampledWavelengths) -> SampledSpectrum {
+        match &self.environment {
+            Some((_, WorldLight::Uniform(radiance))) => radiance.sample(w),
+            Some((_, WorldLight::Map(map))) => map.radiance(dir, w),
+            None => SampledSpectrum::ZERO,
         }
     }
 
     /// Solid-angle density with which `sample` produces the escaping direction `dir`.
-    pub fn environment_pdf(&self, _dir: Vec3) -> f32 {
-        self.environment.map_or(0.0, |i| {
-            self.distribution.pmf(i) * sampling::uniform_sphere_pdf()
-        })
+    pub fn environment_pdf(&self, dir: Vec3) -> f32 {
+        match &self.environment {
+            Some((i, WorldLight::Uniform(_))) => {
+                self.distribution.pmf(*i) * sampling::uniform_sphere_pdf()
+            }
+            Some((i, WorldLight::Map(map))) => self.distribution.pmf(*i) * map.pdf(dir),
+            None => 0.0,
+        }
     }
 
     /// Density with which `sample` produces the direction towards triangle `prim` of
@@ -320,13 +353,27 @@ impl Lights {
                 pdf: p_select,
                 delta: true,
             }),
-            Light::Environment { radiance } => Some(LightSample {
-                wi: sampling::sample_uniform_sphere(u),
-                distance: f32::INFINITY,
-                li: radiance.sample(w),
-                pdf: p_select * sampling::uniform_sphere_pdf(),
-                delta: false,
-            }),
+            Light::Environment => match &self.environment {
+                Some((_, WorldLight::Uniform(radiance))) => Some(LightSample {
+                    wi: sampling::sample_uniform_sphere(u),
+                    distance: f32::INFINITY,
+                    li: radiance.sample(w),
+                    pdf: p_select * sampling::uniform_sphere_pdf(),
+                    delta: false,
+                }),
+                Some((_, WorldLight::Map(map))) => {
+                    let (wi, pdf) = map.sample(u)?;
+                    let li = map.radiance(wi, w);
+                    (!li.is_black()).then_some(LightSample {
+                        wi,
+                        distance: f32::INFINITY,
+                        li,
+                        pdf: p_select * pdf,
+                        delta: false,
+                    })
+                }
+                None => None,
+            },
         }
     }
 }
