@@ -90,6 +90,7 @@ fn slab_scene(desc: &SubsurfaceDesc) -> SceneDesc {
         world: WorldDesc {
             color: Vec3::ONE,
             strength: 1.0,
+            texture: None,
         },
         ..Default::default()
     }

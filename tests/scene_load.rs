@@ -532,13 +532,23 @@ fn camera_selection_by_name() {
 }
 
 #[test]
-fn orthographic_camera_is_rejected() {
+fn orthographic_camera_is_imported_and_validated() {
     let dir = test_dir("ortho");
     let mut b = GltfBuilder::basic();
     b.cameras[0] = json!({ "type": "orthographic",
-        "orthographic": { "xmag": 1.0, "ymag": 1.0, "znear": 0.1, "zfar": 10.0 } });
-    let e = input_error(load_scene(&b.write_gltf(&dir.join("o.gltf")), None, None));
-    assert!(e.contains("orthographic"), "{e}");
+        "orthographic": { "xmag": 2.0, "ymag": 1.5, "znear": 0.1, "zfar": 10.0 } });
+    let s = load(&b.write_gltf(&dir.join("o.gltf")));
+    let cam = s.camera.unwrap();
+    assert_eq!(cam.orthographic, Some(glam::Vec2::new(2.0, 1.5)));
+    assert!(cam.lens.is_none());
+    b.cameras[0] = json!({ "type": "orthographic",
+        "orthographic": { "xmag": 2.0, "ymag": 0.0, "znear": 0.1, "zfar": 10.0 } });
+    let e = input_error(load_scene(&b.write_gltf(&dir.join("z.gltf")), None, None));
+    assert!(
+        e.contains("orthographic ymag must be positive, got 0"),
+        "{e}"
+    );
+    assert!(!e.contains('\n'), "{e}");
 }
 
 #[test]

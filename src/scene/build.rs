@@ -3,6 +3,7 @@
 
 use super::camera::Camera;
 use super::desc::{CameraDesc, MaterialDesc, RenderDefaults, SceneDesc, TextureDesc};
+use super::envmap::EnvironmentMap;
 use super::lights::{Lights, World};
 use super::material::Material;
 use crate::error::{PrismError, Result};
@@ -98,17 +99,39 @@ impl Scene {
             .collect();
         let geometry = Geometry::new(runtime_meshes, runtime_instances);
 
-        let world_radiance = if world.strength > 0.0 {
+        let tint = if world.strength > 0.0 {
             world.color.max(Vec3::ZERO) * world.strength
         } else {
             Vec3::ZERO
+        };
+        let world_light = match &world.texture {
+            Some(tex) if tint.max_element() > 0.0 => {
+                if tex.width == 0
+                    || tex.height == 0
+                    || tex.texels.len() != (tex.width * tex.height) as usize
+                {
+                    return Err(PrismError::input(format!(
+                        "{}: the environment texture's size does not match its data",
+                        tex.name
+                    )));
+                }
+                World::Map(Box::new(EnvironmentMap::new(
+                    tex.width,
+                    tex.height,
+                    &tex.texels,
+                    tint,
+                    tex.rotation_z,
+                )))
+            }
+            Some(_) => World::Black,
+            None => World::Uniform(tint),
         };
         let lights = Lights::build(
             &geometry,
             &runtime_materials,
             &textures,
             &lights,
-            World::Uniform(world_radiance),
+            world_light,
         );
         if lights.is_empty() {
             return Err(PrismError::input(
@@ -128,11 +151,14 @@ impl Scene {
 
     /// The camera for an image of the given size.
     pub fn camera_for(&self, width: u32, height: u32) -> Camera {
-        Camera::new(
-            Affine3A::from_mat4(self.camera.camera_to_world),
-            self.camera.yfov,
-            width,
-            height,
-        )
+        let to_world = Affine3A::from_mat4(self.camera.camera_to_world);
+        let camera = match self.camera.orthographic {
+            Some(mag) => Camera::orthographic(to_world, mag.y, width, height),
+            None => Camera::new(to_world, self.camera.yfov, width, height),
+        };
+        match self.camera.lens {
+            Some(l) => camera.with_thin_lens(l.aperture_radius, l.focus_distance),
+            None => camera,
+        }
     }
 }

@@ -204,17 +204,46 @@ pub struct CameraDesc {
     pub name: String,
     /// Camera looks down its local -Z with +Y up (glTF).
     pub camera_to_world: Mat4,
-    /// Vertical field of view in radians.
+    /// Vertical field of view in radians (perspective cameras; 0 for orthographic ones).
     pub yfov: f32,
     /// From the file; when `None` the image's aspect is used.
     pub aspect: Option<f32>,
+    /// Orthographic camera: glTF (xmag, ymag), half the view's width and height in scene
+    /// units. Only ymag is used; the width follows from the image aspect, as for `yfov`.
+    pub orthographic: Option<Vec2>,
+    /// Thin lens from the material JSON's `camera` block; `None` = pinhole.
+    pub lens: Option<LensDesc>,
+}
+
+/// Thin-lens depth of field (scene units).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LensDesc {
+    /// Radius of the aperture disk (0 = pinhole).
+    pub aperture_radius: f32,
+    /// Distance of the plane in focus along the view axis.
+    pub focus_distance: f32,
+}
+
+/// An equirectangular world texture (see `crate::scene::envmap` for the mapping).
+#[derive(Clone, Debug)]
+pub struct EnvironmentTextureDesc {
+    /// The file, for messages.
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    /// Linear RGB, row 0 = top (up), column 0 = u = 0.
+    pub texels: Vec<Vec3>,
+    /// Z rotation (radians) of Blender's Mapping node on the lookup vector.
+    pub rotation_z: f32,
 }
 
 #[derive(Clone, Debug)]
 pub struct WorldDesc {
-    /// Uniform environment radiance (linear RGB) = color x strength.
+    /// Uniform environment radiance (linear RGB) = color x strength; with a texture, the
+    /// radiance is texture x color x strength.
     pub color: Vec3,
     pub strength: f32,
+    pub texture: Option<EnvironmentTextureDesc>,
 }
 
 impl Default for WorldDesc {
@@ -222,6 +251,7 @@ impl Default for WorldDesc {
         WorldDesc {
             color: Vec3::ZERO,
             strength: 0.0,
+            texture: None,
         }
     }
 }

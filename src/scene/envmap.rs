@@ -62,12 +62,12 @@ pub struct EnvironmentMap {
 }
 
 impl EnvironmentMap {
-    /// `tint` (world colour x strength) multiplies every texel before upsampling.
-    pub fn new(image: &EnvImage, tint: Vec3, rotation_z: f32) -> Self {
-        let (w, h) = (image.width as usize, image.height as usize);
-        assert!(w > 0 && h > 0 && image.texels.len() == w * h);
-        let rgb: Vec<Vec3> = image
-            .texels
+    /// `texels`: `width` x `height` linear RGB, row 0 = top. `tint` (world colour x strength)
+    /// multiplies every texel before upsampling.
+    pub fn new(width: u32, height: u32, texels: &[Vec3], tint: Vec3, rotation_z: f32) -> Self {
+        let (w, h) = (width as usize, height as usize);
+        assert!(w > 0 && h > 0 && texels.len() == w * h);
+        let rgb: Vec<Vec3> = texels
             .iter()
             .map(|&t| {
                 let c = t * tint;
@@ -320,15 +320,8 @@ mod tests {
         let texels = (0..w * h)
             .map(|k| Vec3::splat(1.0 + (k % 7) as f32 + 3.0 * (k / w) as f32))
             .collect();
-        EnvironmentMap::new(
-            &EnvImage {
-                width: w,
-                height: h,
-                texels,
-            },
-            Vec3::ONE,
-            rotation,
-        )
+        let texels: Vec<Vec3> = texels;
+        EnvironmentMap::new(w, h, &texels, Vec3::ONE, rotation)
     }
 
     #[test]

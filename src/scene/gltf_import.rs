@@ -612,15 +612,22 @@ impl Importer<'_> {
             .clone()
             .or_else(|| cand.camera_name.clone())
             .unwrap_or_else(|| format!("camera {}", cand.camera_index));
-        let (yfov, aspect) = match cam.projection() {
-            gltf::camera::Projection::Orthographic(_) => {
-                return Err(format!(
-                    "camera '{name}' is orthographic; only perspective cameras are supported"
-                ))
+        let (yfov, aspect, orthographic) = match cam.projection() {
+            gltf::camera::Projection::Orthographic(o) => {
+                for (what, v) in [("xmag", o.xmag()), ("ymag", o.ymag())] {
+                    if !(v.is_finite() && v > 0.0) {
+                        return Err(format!(
+                            "camera '{name}': orthographic {what} must be positive, got {v}"
+                        ));
+                    }
+                }
+                (0.0, None, Some(Vec2::new(o.xmag(), o.ymag())))
             }
-            gltf::camera::Projection::Perspective(p) => (p.yfov(), p.aspect_ratio()),
+            gltf::camera::Projection::Perspective(p) => (p.yfov(), p.aspect_ratio(), None),
         };
-        if !(yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI) {
+        if orthographic.is_none()
+            && !(yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI)
+        {
             return Err(format!(
                 "camera '{name}': yfov must be in (0, pi) radians, got {yfov}"
             ));
@@ -655,6 +662,8 @@ impl Importer<'_> {
             camera_to_world,
             yfov,
             aspect,
+            orthographic,
+            lens: None,
         })
     }
 

@@ -79,6 +79,9 @@ fn load_scene_inner(
         if let Some(w) = mf.world {
             scene.world = w;
         }
+        if let (Some(lens), Some(cam)) = (mf.camera, scene.camera.as_mut()) {
+            cam.lens = Some(lens);
+        }
         scene.render = mf.render;
     }
 

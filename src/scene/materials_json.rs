@@ -15,6 +15,7 @@
 //!                                                 "c": [0.00467914826, 0.0135120631, 97.9340025] } } },
 //!     "Jade":    { "subsurface": { "preset": "Marble", "ior": { "abbe": { "ior": 1.66, "abbe": 40 } } } } },
 //!   "world": { "color": [0.05, 0.05, 0.05], "strength": 1.0 },
+//!   "camera": { "aperture_radius": 0.0125, "focus_distance": 4.0 },
 //!   "render": { "spp": 64, "width": 512, "height": 512, "max_depth": 16,
 //!               "wavelengths": "hero", "wavelength_pdf": "visible" } }
 //! ```
@@ -35,6 +36,15 @@
 //!   `roughness` in [0,1], default 0.
 //! * `world`: `color` (non-negative RGB, default black), `strength` (>= 0, default 1 when the
 //!   block is present). Without a `world` block the world is black with strength 0.
+//!   Optional `texture`: an equirectangular image (`.exr`, `.hdr` or `.png`; a path relative to
+//!   the sidecar's folder, or absolute), in Blender's Environment Texture mapping (see
+//!   `crate::scene::envmap`); the radiance is then texture x `color` x `strength`, `color`
+//!   defaulting to white. `rotation_z` (radians, any finite number, needs `texture`): the Z
+//!   rotation of a Blender Mapping node on the texture's vector. Example:
+//!   `"world": {"texture": "sky.exr", "strength": 1.5, "rotation_z": 0.5}`.
+//! * `camera`: thin-lens depth of field for the rendered camera (perspective or orthographic):
+//!   `aperture_radius` (scene units, >= 0, 0 = pinhole) and `focus_distance` (scene units along
+//!   the view axis, > 0), both required. Without the block the camera is a pinhole.
 //! * `render`: `spp`, `width`, `height` (positive integers), `max_depth` (integer >= 0),
 //!   `wavelengths` (`"hero"` | `"single"` | `"stratified"`), `wavelength_pdf` (`"visible"` |
 //!   `"uniform"`).
@@ -50,8 +60,8 @@ use serde_json::{Map, Value};
 
 use crate::error::PrismError;
 use crate::scene::desc::{
-    DielectricDesc, IorDesc, MaterialOverride, RenderDefaults, SubsurfaceCoefficients,
-    SubsurfaceDesc, WorldDesc,
+    DielectricDesc, EnvironmentTextureDesc, IorDesc, LensDesc, MaterialOverride, RenderDefaults,
+    SubsurfaceCoefficients, SubsurfaceDesc, WorldDesc,
 };
 use crate::spectrum::dispersion::MAX_SELLMEIER_TERMS;
 
@@ -93,10 +103,26 @@ pub const SUBSURFACE_METHODS: &[&str] = &["table", "random_walk"];
 pub struct MaterialsFile {
     /// Overrides by glTF material name, in the order the file lists them.
     pub materials: Vec<(String, MaterialOverride)>,
-    /// `None` when the file has no `world` block.
+    /// `None` when the file has no `world` block. Its `texture` is decoded by
+    /// [`load_materials_file`] (not by [`parse_materials_json`], which reads no other file).
     pub world: Option<WorldDesc>,
+    /// `world.texture` and `world.rotation_z` as written in the file.
+    pub world_texture: Option<WorldTextureRef>,
+    /// The `camera` block.
+    pub camera: Option<LensDesc>,
     pub render: RenderDefaults,
 }
+
+/// The sidecar's reference to an environment image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WorldTextureRef {
+    /// As written (relative to the sidecar's folder unless absolute).
+    pub path: String,
+    pub rotation_z: f32,
+}
+
+/// Accepted environment image extensions (lower case).
+pub const ENVIRONMENT_IMAGE_TYPES: &[&str] = &["exr", "hdr", "png"];
 
 /// Reads and validates a sidecar file. `gltf_material_names`, when given, are the material names
 /// of the scene: a sidecar entry naming no glTF material is an error.
@@ -109,7 +135,25 @@ pub fn load_materials_file(
         .map_err(|e| PrismError::input(format!("{file}: cannot read: {}", io_msg(&e))))?;
     let text = String::from_utf8(bytes)
         .map_err(|e| PrismError::input(format!("{file}: not valid UTF-8 text: {e}")))?;
-    parse_materials_json(&text, &file, gltf_material_names)
+    let mut parsed = parse_materials_json(&text, &file, gltf_material_names)?;
+    if let (Some(tex), Some(world)) = (&parsed.world_texture, parsed.world.as_mut()) {
+        let dir = path.parent().unwrap_or(Path::new(""));
+        let image_path = dir.join(&tex.path);
+        let image = crate::scene::envmap::load_env_image(&image_path).map_err(|e| {
+            PrismError::input(format!(
+                "{file}: world.texture: {}: {e}",
+                image_path.display()
+            ))
+        })?;
+        world.texture = Some(EnvironmentTextureDesc {
+            name: image_path.display().to_string(),
+            width: image.width,
+            height: image.height,
+            texels: image.texels,
+            rotation_z: tex.rotation_z,
+        });
+    }
+    Ok(parsed)
 }
 
 /// `std::io::Error` text without the trailing " (os error N)".
@@ -216,6 +260,8 @@ enum Range {
     Unit,
     /// (-1, 1)
     OpenSigned,
+    /// any finite number
+    Finite,
 }
 
 struct Validator<'a> {
@@ -266,6 +312,7 @@ impl Validator<'_> {
             Range::Positive => (f > 0.0, "must be positive"),
             Range::Unit => ((0.0..=1.0).contains(&f), "must be in [0, 1]"),
             Range::OpenSigned => (f > -1.0 && f < 1.0, "must be in (-1, 1)"),
+            Range::Finite => (true, ""),
         };
         if !ok {
             return Err(self.err(path, format!("{what}, got {shown}")));
@@ -337,7 +384,11 @@ impl Validator<'_> {
     fn root(&self, root: &Value, names: Option<&[String]>) -> R<MaterialsFile> {
         let top = JPath::root();
         let m = self.object(root, &top)?;
-        self.check_keys(m, &["version", "materials", "world", "render"], &top)?;
+        self.check_keys(
+            m,
+            &["version", "materials", "world", "camera", "render"],
+            &top,
+        )?;
         let vpath = top.key("version");
         match m.get("version") {
             None => {
@@ -382,7 +433,12 @@ impl Validator<'_> {
             }
         }
         if let Some(w) = m.get("world") {
-            out.world = Some(self.world(w, &top.key("world"))?);
+            let (world, texture) = self.world(w, &top.key("world"))?;
+            out.world = Some(world);
+            out.world_texture = texture;
+        }
+        if let Some(c) = m.get("camera") {
+            out.camera = Some(self.camera(c, &top.key("camera"))?);
         }
         if let Some(r) = m.get("render") {
             out.render = self.render(r, &top.key("render"))?;
@@ -658,18 +714,88 @@ impl Validator<'_> {
             .collect()
     }
 
-    fn world(&self, v: &Value, path: &JPath) -> R<WorldDesc> {
+    fn world(&self, v: &Value, path: &JPath) -> R<(WorldDesc, Option<WorldTextureRef>)> {
         let m = self.object(v, path)?;
-        self.check_keys(m, &["color", "strength"], path)?;
+        self.check_keys(m, &["color", "strength", "texture", "rotation_z"], path)?;
+        let texture = match m.get("texture") {
+            None => None,
+            Some(t) => {
+                let tp = path.key("texture");
+                let s = t.as_str().ok_or_else(|| {
+                    self.err(
+                        &tp,
+                        format!("expected a file path string, found {}", kind(t)),
+                    )
+                })?;
+                if s.trim().is_empty() {
+                    return Err(self.err(&tp, "empty file path"));
+                }
+                let ext = Path::new(s)
+                    .extension()
+                    .and_then(|e| e.to_str())
+                    .map(|e| e.to_ascii_lowercase())
+                    .unwrap_or_default();
+                if !ENVIRONMENT_IMAGE_TYPES.contains(&ext.as_str()) {
+                    return Err(self.err(
+                        &tp,
+                        format!(
+                            "unsupported image type '{s}' (valid: .{})",
+                            ENVIRONMENT_IMAGE_TYPES.join(", .")
+                        ),
+                    ));
+                }
+                let rotation_z = match m.get("rotation_z") {
+                    Some(r) => self.number(r, &path.key("rotation_z"), Range::Finite)?,
+                    None => 0.0,
+                };
+                Some(WorldTextureRef {
+                    path: s.to_string(),
+                    rotation_z,
+                })
+            }
+        };
+        if texture.is_none() && m.contains_key("rotation_z") {
+            return Err(self.err(
+                &path.key("rotation_z"),
+                "only applies to a world 'texture', and none is given",
+            ));
+        }
+        let default_color = if texture.is_some() {
+            Vec3::ONE
+        } else {
+            Vec3::ZERO
+        };
         let color = match m.get("color") {
             Some(c) => self.rgb(c, &path.key("color"), Range::NonNeg)?,
-            None => Vec3::ZERO,
+            None => default_color,
         };
         let strength = match m.get("strength") {
             Some(s) => self.number(s, &path.key("strength"), Range::NonNeg)?,
             None => 1.0,
         };
-        Ok(WorldDesc { color, strength })
+        Ok((
+            WorldDesc {
+                color,
+                strength,
+                texture: None,
+            },
+            texture,
+        ))
+    }
+
+    fn camera(&self, v: &Value, path: &JPath) -> R<LensDesc> {
+        let m = self.object(v, path)?;
+        self.check_keys(m, &["aperture_radius", "focus_distance"], path)?;
+        let get = |k: &str, range: Range| -> R<f32> {
+            match m.get(k) {
+                Some(x) => self.number(x, &path.key(k), range),
+                None => Err(self.err(path, format!("missing '{k}'"))),
+            }
+        };
+        Ok(LensDesc {
+            aperture_radius: get("aperture_radius", Range::NonNeg)?,
+            focus_distance: get("focus_distance", Range::Positive)?,
+        })
     }
 
     fn render(&self, v: &Value, path: &JPath) -> R<RenderDefaults> {
@@ -874,6 +1000,50 @@ mod tests {
                 "render.wavelength_pdf: unknown wavelength pdf 'gaussian' (valid: visible, uniform)",
             ),
             (
+                r#"{"version":1,"world":{"texture":"sky.jpg"}}"#,
+                "m.json: world.texture: unsupported image type 'sky.jpg' (valid: .exr, .hdr, .png)",
+            ),
+            (
+                r#"{"version":1,"world":{"texture":7}}"#,
+                "m.json: world.texture: expected a file path string, found a number",
+            ),
+            (
+                r#"{"version":1,"world":{"texture":"  "}}"#,
+                "m.json: world.texture: empty file path",
+            ),
+            (
+                r#"{"version":1,"world":{"color":[1,1,1],"rotation_z":1}}"#,
+                "m.json: world.rotation_z: only applies to a world 'texture'",
+            ),
+            (
+                r#"{"version":1,"world":{"texture":"a.hdr","rotation_z":"90deg"}}"#,
+                "m.json: world.rotation_z: expected a number, found a string",
+            ),
+            (
+                r#"{"version":1,"world":{"texture":"a.hdr","tint":[1,1,1]}}"#,
+                "m.json: world.tint: unknown key 'tint' (expected one of: color, strength, texture, rotation_z)",
+            ),
+            (
+                r#"{"version":1,"camera":{"aperture_radius":0.1}}"#,
+                "m.json: camera: missing 'focus_distance'",
+            ),
+            (
+                r#"{"version":1,"camera":{"aperture_radius":-0.1,"focus_distance":2}}"#,
+                "m.json: camera.aperture_radius: must be non-negative, got -0.1",
+            ),
+            (
+                r#"{"version":1,"camera":{"aperture_radius":0.1,"focus_distance":0}}"#,
+                "m.json: camera.focus_distance: must be positive, got 0",
+            ),
+            (
+                r#"{"version":1,"camera":{"aperture_radius":0.1,"focus_distance":2,"fstop":2}}"#,
+                "m.json: camera.fstop: unknown key 'fstop' (expected one of: aperture_radius, focus_distance)",
+            ),
+            (
+                r#"{"version":1,"camera":[0.1,2]}"#,
+                "m.json: camera: expected an object, found an array",
+            ),
+            (
                 r#"{"version":1,"render":{"spp":0}}"#,
                 "render.spp: must be an integer >= 1, got 0",
             ),
@@ -907,8 +1077,21 @@ mod tests {
         assert_eq!(s.method, "table");
         assert_eq!(f.world.as_ref().unwrap().strength, 1.0);
         assert_eq!(s.ior, None);
+        let f = parse(
+            r#"{"version":1,"world":{"texture":"sky/a.EXR","strength":2,"rotation_z":-1.5},
+                "camera":{"aperture_radius":0.05,"focus_distance":3}}"#,
+        )
+        .unwrap();
+        let w = f.world.as_ref().unwrap();
+        assert_eq!((w.color, w.strength), (Vec3::ONE, 2.0));
+        assert!(w.texture.is_none(), "parse_materials_json decodes no image");
+        let t = f.world_texture.as_ref().unwrap();
+        assert_eq!((t.path.as_str(), t.rotation_z), ("sky/a.EXR", -1.5));
+        let c = f.camera.unwrap();
+        assert_eq!((c.aperture_radius, c.focus_distance), (0.05, 3.0));
         let f = parse(r#"{"version":1}"#).unwrap();
         assert!(f.world.is_none());
+        assert!(f.world_texture.is_none() && f.camera.is_none());
         assert!(f.materials.is_empty());
         assert_eq!(f.render.wavelength_pdf, None);
     }

@@ -45,6 +45,8 @@ pub fn camera(distance: f32, yfov: f32) -> CameraDesc {
         camera_to_world: Mat4::from_translation(Vec3::new(0.0, 0.0, distance)),
         yfov,
         aspect: None,
+        orthographic: None,
+        lens: None,
     }
 }
 
@@ -62,6 +64,7 @@ pub fn furnace_scene(material: MaterialDesc, world: Vec3) -> SceneDesc {
         world: WorldDesc {
             color: world,
             strength: 1.0,
+            texture: None,
         },
         ..Default::default()
     }
