@@ -122,6 +122,11 @@ enum Command {
         /// Also write the image after every progressive pass to this EXR (for live previews)
         #[arg(long)]
         preview: Option<PathBuf>,
+        /// Also write denoising guides and Blender passes as extra EXR channels: Albedo.RGB
+        /// (first non-Dirac surface, under white light), Normal.XYZ (world space, glTF axes),
+        /// Depth.Z (distance along the view axis, 1e10 for the background)
+        #[arg(long)]
+        guides: bool,
     },
     /// Convert an EXR to an sRGB PNG for viewing (clamped, optional exposure in stops).
     ToPng {
@@ -154,7 +159,8 @@ fn main() {
             threads,
             progress,
             preview,
-        } => run_render(&scene, output, threads, progress, preview),
+            guides,
+        } => run_render(&scene, output, threads, progress, preview, guides),
         Command::Compare {
             test,
             reference,
@@ -265,6 +271,7 @@ fn run_render(
     threads: Option<usize>,
     progress: Option<ProgressMode>,
     preview: Option<PathBuf>,
+    guides: bool,
 ) -> Result<()> {
     let mode = progress.unwrap_or(if std::io::stderr().is_terminal() {
         ProgressMode::Bar
@@ -350,8 +357,9 @@ fn run_render(
             }
         }
     };
-    let (film, stats) =
+    let (mut film, stats) =
         pool.install(|| render(&scene, &settings, &CANCEL, &on_progress, &mut on_pass));
+    film.write_guides = guides;
     if let Some(b) = bar {
         b.finish_and_clear();
     }

@@ -8,7 +8,8 @@ use crate::geometry::Ray;
 use crate::integrator::{PathTracer, WavelengthSampling};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
-use crate::spectrum::spectrum_to_xyz;
+use crate::spectrum::cie::d65_normalized;
+use crate::spectrum::{spectrum_to_xyz, SampledSpectrum};
 use glam::Vec2;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -91,6 +92,7 @@ pub fn render(
     let (w, h) = (settings.width as usize, settings.height as usize);
     let mut film = Film::new(settings.width, settings.height);
     let camera = scene.camera_for(settings.width, settings.height);
+    let forward = camera.forward();
     let tracer = PathTracer::new(scene, settings.max_depth);
     let total = (w * h) as u64 * settings.spp as u64;
     let samples_done = AtomicU64::new(0);
@@ -162,6 +164,17 @@ pub fn render(
                             if !px.add(spectrum_to_xyz(&result.radiance, &wavelengths)) {
                                 band_discarded += 1;
                             }
+                            let g = &result.guides;
+                            // The albedo's colour under a white (normalised D65) light.
+                            let lit = g.albedo
+                                * SampledSpectrum::from_fn(|i| {
+                                    d65_normalized(wavelengths.lambda[i])
+                                });
+                            let depth = g
+                                .first_distance
+                                .is_finite()
+                                .then(|| g.first_distance * ray.dir.dot(forward));
+                            px.add_guides(spectrum_to_xyz(&lit, &wavelengths), g.normal, depth);
                         }
                         samples_done.fetch_add((s1 - s0) as u64, Ordering::Relaxed);
                     }

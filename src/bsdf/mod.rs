@@ -157,6 +157,16 @@ impl Bsdf {
         }
     }
 
+    /// The surface colour a denoiser's albedo guide expects (Cycles' "Denoising Albedo"):
+    /// diffuse reflectance, base colour, or the glass tint.
+    pub fn albedo(&self) -> SampledSpectrum {
+        match self {
+            Bsdf::Diffuse(b) => b.reflectance,
+            Bsdf::MetallicRoughness(b) => b.base_color,
+            Bsdf::Dielectric(b) => b.transmission_tint,
+        }
+    }
+
     /// True if the BSDF can scatter to the other side of the surface (the integrator must not
     /// flip the frame to face `wo` for these).
     pub fn has_transmission(&self) -> bool {

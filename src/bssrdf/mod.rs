@@ -98,6 +98,21 @@ impl SubsurfaceMaterial {
         (sigma_t - sigma_s, sigma_s)
     }
 
+    /// Total diffuse reflectance of the medium (rho_eff of the single-scattering albedo) per
+    /// wavelength: the colour the material shows, used as the albedo guide for denoising.
+    pub fn effective_albedo(&self, w: &SampledWavelengths) -> SampledSpectrum {
+        let (sigma_a, sigma_s) = self.coefficients_at(w);
+        SampledSpectrum::from_fn(|i| {
+            let sigma_t = sigma_a[i] + sigma_s[i];
+            let rho = if sigma_t > 0.0 {
+                sigma_s[i] / sigma_t
+            } else {
+                0.0
+            };
+            self.table.rho_eff_at(rho)
+        })
+    }
+
     /// The separable BSSRDF for the path's wavelengths.
     pub fn bssrdf(&self, w: &SampledWavelengths) -> SeparableBssrdf<'_> {
         let (sigma_a, sigma_s) = self.coefficients_at(w);

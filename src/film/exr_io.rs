@@ -11,6 +11,53 @@ pub fn write_exr_rgba(path: &Path, width: u32, height: u32, rgba: &[[f32; 4]]) -
     .map_err(|e| PrismError::internal(format!("{}: cannot write EXR: {e}", path.display())))
 }
 
+/// Writes float32 channels of one layer (names like "R", "Albedo.R", "Depth.Z"; row 0 = top).
+/// Same encoding as `write_exr_rgba` (RLE, 64x64 tiles), so readers of one read the other.
+pub fn write_exr_channels(
+    path: &Path,
+    width: u32,
+    height: u32,
+    channels: Vec<(&str, Vec<f32>)>,
+) -> Result<()> {
+    use exr::prelude::*;
+    let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = channels
+        .into_iter()
+        .map(|(name, data)| AnyChannel::new(name, FlatSamples::F32(data)))
+        .collect();
+    let layer = Layer::new(
+        (width as usize, height as usize),
+        LayerAttributes::default(),
+        Encoding::FAST_LOSSLESS,
+        AnyChannels::sort(list),
+    );
+    Image::from_layer(layer)
+        .write()
+        .to_file(path)
+        .map_err(|e| PrismError::internal(format!("{}: cannot write EXR: {e}", path.display())))
+}
+
+/// Reads one float channel by name from the first layer (row 0 = top): (width, height, data).
+pub fn read_exr_channel(path: &Path, name: &str) -> Result<(u32, u32, Vec<f32>)> {
+    use exr::prelude::*;
+    let image = read_all_flat_layers_from_file(path)
+        .map_err(|e| PrismError::input(format!("{}: cannot read EXR: {e}", path.display())))?;
+    let layer = image
+        .layer_data
+        .first()
+        .ok_or_else(|| PrismError::input(format!("{}: EXR has no layer", path.display())))?;
+    let size = layer.size;
+    let channel = layer
+        .channel_data
+        .list
+        .iter()
+        .find(|c| c.name.to_string() == name)
+        .ok_or_else(|| {
+            PrismError::input(format!("{}: EXR has no channel '{name}'", path.display()))
+        })?;
+    let data = channel.sample_data.values_as_f32().collect();
+    Ok((size.width() as u32, size.height() as u32, data))
+}
+
 /// Reads the first RGBA layer of an EXR as float32 (row 0 = top): (width, height, pixels).
 pub fn read_exr_rgba(path: &Path) -> Result<(u32, u32, Vec<[f32; 4]>)> {
     use exr::prelude::*;

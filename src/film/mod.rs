@@ -4,17 +4,25 @@
 mod exr_io;
 pub mod metrics;
 
-pub use exr_io::{read_exr_rgba, write_exr_rgba};
+pub use exr_io::{read_exr_channel, read_exr_rgba, write_exr_channels, write_exr_rgba};
 
 use crate::spectrum::rgb::xyz_to_linear_srgb;
 use glam::Vec3;
 
-/// Sum of XYZ estimates and their count for one pixel (f64: thousands of samples, no drift).
+/// Sum of XYZ estimates and their count for one pixel (f64: thousands of samples, no drift),
+/// plus the denoising guides (albedo XYZ, world normal, depth along the view axis).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct FilmPixel {
     pub xyz: [f64; 3],
     pub samples: u32,
+    albedo_xyz: [f32; 3],
+    normal: [f32; 3],
+    depth_sum: f32,
+    depth_hits: u32,
 }
+
+/// Depth written where no sample hit a surface (Blender's background Z).
+pub const BACKGROUND_DEPTH: f32 = 1e10;
 
 impl FilmPixel {
     /// Adds one sample; non-finite estimates are rejected so no NaN/Inf reaches the image.
@@ -29,6 +37,53 @@ impl FilmPixel {
         self.xyz[1] += xyz.y as f64;
         self.xyz[2] += xyz.z as f64;
         true
+    }
+
+    /// Adds one sample's guides; `depth` is `None` when the camera ray escaped. Non-finite
+    /// values are ignored.
+    #[inline]
+    pub fn add_guides(&mut self, albedo_xyz: Vec3, normal: Vec3, depth: Option<f32>) {
+        if albedo_xyz.is_finite() {
+            for (s, v) in self.albedo_xyz.iter_mut().zip(albedo_xyz.to_array()) {
+                *s += v;
+            }
+        }
+        if normal.is_finite() {
+            for (s, v) in self.normal.iter_mut().zip(normal.to_array()) {
+                *s += v;
+            }
+        }
+        if let Some(d) = depth.filter(|d| d.is_finite()) {
+            self.depth_sum += d;
+            self.depth_hits += 1;
+        }
+    }
+
+    /// Mean albedo as linear Rec.709.
+    pub fn albedo_rgb(&self) -> Vec3 {
+        if self.samples == 0 {
+            return Vec3::ZERO;
+        }
+        let rgb = xyz_to_linear_srgb(Vec3::from_array(self.albedo_xyz) / self.samples as f32);
+        if rgb.is_finite() {
+            rgb
+        } else {
+            Vec3::ZERO
+        }
+    }
+
+    /// Mean world-space normal (renormalised; 0 where every sample escaped).
+    pub fn normal(&self) -> Vec3 {
+        Vec3::from_array(self.normal).normalize_or_zero()
+    }
+
+    /// Mean depth over the samples that hit something, else `BACKGROUND_DEPTH`.
+    pub fn depth(&self) -> f32 {
+        if self.depth_hits == 0 {
+            BACKGROUND_DEPTH
+        } else {
+            self.depth_sum / self.depth_hits as f32
+        }
     }
 
     pub fn rgb(&self) -> Vec3 {
@@ -54,6 +109,8 @@ pub struct Film {
     pub width: u32,
     pub height: u32,
     pub pixels: Vec<FilmPixel>,
+    /// Write the denoising guides as extra EXR channels (`--guides`).
+    pub write_guides: bool,
 }
 
 impl Film {
@@ -62,6 +119,7 @@ impl Film {
             width,
             height,
             pixels: vec![FilmPixel::default(); width as usize * height as usize],
+            write_guides: false,
         }
     }
 
@@ -77,6 +135,25 @@ impl Film {
     }
 
     pub fn write_exr(&self, path: &std::path::Path) -> crate::error::Result<()> {
-        write_exr_rgba(path, self.width, self.height, &self.to_rgba())
+        if !self.write_guides {
+            return write_exr_rgba(path, self.width, self.height, &self.to_rgba());
+        }
+        let rgba = self.to_rgba();
+        let channel = |f: &dyn Fn(usize) -> f32| -> Vec<f32> { (0..rgba.len()).map(f).collect() };
+        let px = &self.pixels;
+        let channels: Vec<(&str, Vec<f32>)> = vec![
+            ("R", channel(&|i| rgba[i][0])),
+            ("G", channel(&|i| rgba[i][1])),
+            ("B", channel(&|i| rgba[i][2])),
+            ("A", channel(&|i| rgba[i][3])),
+            ("Albedo.R", channel(&|i| px[i].albedo_rgb().x)),
+            ("Albedo.G", channel(&|i| px[i].albedo_rgb().y)),
+            ("Albedo.B", channel(&|i| px[i].albedo_rgb().z)),
+            ("Normal.X", channel(&|i| px[i].normal().x)),
+            ("Normal.Y", channel(&|i| px[i].normal().y)),
+            ("Normal.Z", channel(&|i| px[i].normal().z)),
+            ("Depth.Z", channel(&|i| px[i].depth())),
+        ];
+        write_exr_channels(path, self.width, self.height, channels)
     }
 }

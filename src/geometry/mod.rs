@@ -183,6 +183,9 @@ pub struct Instance {
     pub normal_to_world: Mat3,
     /// Odd-handed transform (negative determinant): winding and geometric normal flip.
     pub flips_handedness: bool,
+    /// Stands for a light (a Blender area light): casts no shadows, and the integrator does
+    /// not show it to camera rays.
+    pub light_only: bool,
 }
 
 impl Instance {
@@ -194,7 +197,13 @@ impl Instance {
             world_to_object: object_to_world.inverse(),
             normal_to_world: m3.inverse().transpose(),
             flips_handedness: m3.determinant() < 0.0,
+            light_only: false,
         }
+    }
+
+    pub fn light_only(mut self, light_only: bool) -> Self {
+        self.light_only = light_only;
+        self
     }
 }
 
@@ -272,6 +281,12 @@ impl Geometry {
         self.instances.is_empty()
     }
 
+    /// The instance stands for a light (see `Instance::light_only`).
+    #[inline]
+    pub fn is_light_only(&self, instance: u32) -> bool {
+        self.instances[instance as usize].light_only
+    }
+
     /// Closest intersection with t in (0, t_max).
     pub fn intersect(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         if self.is_empty() {
@@ -317,6 +332,9 @@ impl Geometry {
         let world = BvhRay::new(ray.origin.into(), ray.dir.into(), 0.0, t_max);
         !self.tlas.ray_traverse_miss(world, |_, id| {
             let inst = &self.instances[self.tlas_order[id] as usize];
+            if inst.light_only {
+                return f32::INFINITY;
+            }
             let local = BvhRay::new(
                 inst.world_to_object.transform_point3(ray.origin).into(),
                 inst.world_to_object.transform_vector3(ray.dir).into(),

@@ -25,7 +25,35 @@ pub struct PathSample {
     pub radiance: SampledSpectrum,
     /// Rays traced (closest-hit and shadow), for throughput statistics.
     pub rays: u32,
+    pub guides: DenoiseGuides,
 }
+
+/// Feature buffers for denoisers (and Blender's Depth/Normal passes), recorded like Cycles'
+/// denoising data: at the first vertex that is not a perfect mirror or glass (Dirac BSDF),
+/// following specular bounces from the camera, so a glass pane shows what is behind it.
+#[derive(Clone, Copy, Debug)]
+pub struct DenoiseGuides {
+    /// Reflectance spectrum there (times the tint of the specular chain before it); 0 when
+    /// the path escapes.
+    pub albedo: SampledSpectrum,
+    /// World-space shading normal there (facing the incoming ray); 0 when the path escapes.
+    pub normal: glam::Vec3,
+    /// Distance along the camera ray to the first surface (INFINITY when it escapes).
+    pub first_distance: f32,
+}
+
+impl Default for DenoiseGuides {
+    fn default() -> Self {
+        DenoiseGuides {
+            albedo: SampledSpectrum::ZERO,
+            normal: glam::Vec3::ZERO,
+            first_distance: f32::INFINITY,
+        }
+    }
+}
+
+/// Specular bounces followed before the guides give up (and record the last hit).
+const GUIDE_MAX_SPECULAR: u32 = 8;
 
 impl<'a> PathTracer<'a> {
     pub fn new(scene: &'a Scene, max_depth: u32) -> Self {
@@ -64,6 +92,10 @@ impl<'a> PathTracer<'a> {
         let mut eta_scale = 1.0f32;
         // Material id of the random-walk subsurface medium the ray travels inside, if any.
         let mut walk_medium: Option<u32> = None;
+        let mut guides = DenoiseGuides::default();
+        let mut guides_done = false;
+        // Tint of the specular chain from the camera, for the albedo guide.
+        let mut guide_tint = SampledSpectrum::ONE;
 
         for depth in 0..=self.max_depth {
             rays += 1;
@@ -101,6 +133,9 @@ impl<'a> PathTracer<'a> {
                 }
                 break;
             };
+            if depth == 0 {
+                guides.first_distance = hit.t;
+            }
             if let Some(sigma_a) = medium {
                 beta *= (sigma_a * -hit.t).exp();
             }
@@ -108,7 +143,10 @@ impl<'a> PathTracer<'a> {
             let material = &scene.materials[sp.material as usize];
             let wo_world = -ray.dir;
 
-            if material.is_emissive() {
+            // Light-only geometry (Blender area lights) is invisible to camera rays, as in
+            // Blender; the path goes on through it (its material is index-matched and clear).
+            let hidden_light = depth == 0 && geometry.is_light_only(hit.instance);
+            if material.is_emissive() && !hidden_light {
                 let cos_light = sp.ng.dot(wo_world);
                 let le = material.emitted(&scene.textures, sp.uv, cos_light > 0.0, w);
                 if !le.is_black() {
@@ -137,6 +175,19 @@ impl<'a> PathTracer<'a> {
             };
             let frame = Frame::from_normal_tangent(ns, sp.dpdu);
             let wo = frame.to_local(wo_world);
+
+            if !guides_done && walk_medium.is_none() {
+                let subsurface = material.subsurface();
+                if subsurface.is_some() || !bsdf.is_specular() || depth >= GUIDE_MAX_SPECULAR {
+                    guides.albedo = guide_tint
+                        * match subsurface {
+                            Some(ss) => ss.effective_albedo(w),
+                            None => bsdf.albedo(),
+                        };
+                    guides.normal = if ns.dot(wo_world) < 0.0 { -ns } else { ns };
+                    guides_done = true;
+                }
+            }
 
             // Next-event estimation.
             let u_light = sampler.next_1d();
@@ -194,6 +245,10 @@ impl<'a> PathTracer<'a> {
                 break;
             }
             beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            if !guides_done {
+                // Only a Dirac BSDF gets here (see above): glass tint or mirror colour.
+                guide_tint *= bsdf.albedo();
+            }
             specular_bounce = bs.specular;
             prev_denominator = mis.denominator();
             prev_bsdf_density = mis.bsdf_density(bs.pdf_wavelengths);
@@ -313,6 +368,10 @@ impl<'a> PathTracer<'a> {
             let (p, n, dir) = next;
             ray = Ray::new(offset_ray_origin(p, n, dir), dir);
         }
-        PathSample { radiance: l, rays }
+        PathSample {
+            radiance: l,
+            rays,
+            guides,
+        }
     }
 }

@@ -81,6 +81,14 @@ impl Camera {
         matches!(self.projection, Projection::Orthographic { .. })
     }
 
+    /// World-space viewing direction (the camera's -Z), unit length: depth along it is what
+    /// Blender's Depth (Z) pass stores.
+    pub fn forward(&self) -> Vec3 {
+        self.camera_to_world
+            .transform_vector3(Vec3::NEG_Z)
+            .normalize_or_zero()
+    }
+
     /// Primary ray through the film position `raster` (pixels, origin at the top-left corner).
     /// `u_lens` in [0,1)^2 picks the point on the lens (unused without a lens).
     pub fn generate_ray(&self, raster: Vec2, u_lens: Vec2) -> Ray {
