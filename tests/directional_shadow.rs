@@ -9,7 +9,9 @@ mod common;
 use common::scenes::{camera, diffuse_material};
 use glam::{Mat4, Vec3};
 use prism::render::{render_quiet, RenderSettings};
-use prism::scene::{InstanceDesc, MeshDesc, PunctualKind, PunctualLightDesc, Scene, SceneDesc};
+use prism::scene::{
+    InstanceDesc, InstanceVisibility, MeshDesc, PunctualKind, PunctualLightDesc, Scene, SceneDesc,
+};
 
 fn quad(name: &str, half: f32) -> MeshDesc {
     MeshDesc {
@@ -27,7 +29,25 @@ fn quad(name: &str, half: f32) -> MeshDesc {
     }
 }
 
+/// Where an extra quad goes and how it is seen.
+#[derive(Clone, Copy)]
+enum Occluder {
+    None,
+    /// Above the camera (y = 5): only shadow rays can meet it.
+    Above(InstanceVisibility),
+    /// Between the camera (y = 3) and the plane, at y = 1.5: camera rays meet it first.
+    InFront(InstanceVisibility),
+}
+
 fn mean_rgb(with_occluder: bool) -> Vec3 {
+    render_mean(if with_occluder {
+        Occluder::Above(InstanceVisibility::default())
+    } else {
+        Occluder::None
+    })
+}
+
+fn render_mean(occluder: Occluder) -> Vec3 {
     let mut cam = camera(0.0, 0.05);
     cam.camera_to_world = Mat4::from_translation(Vec3::new(0.0, 3.0, 0.0))
         * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2);
@@ -36,18 +56,34 @@ fn mean_rgb(with_occluder: bool) -> Vec3 {
         object_to_world: Mat4::IDENTITY,
         name: "plane".into(),
     }];
-    if with_occluder {
-        // above the camera, so the camera does not see it
+    let mut instance_visibility = Vec::new();
+    if let Occluder::Above(vis) | Occluder::InFront(vis) = occluder {
+        let y = if matches!(occluder, Occluder::Above(_)) {
+            5.0
+        } else {
+            1.5
+        };
         instances.push(InstanceDesc {
             mesh: 1,
-            object_to_world: Mat4::from_translation(Vec3::new(0.0, 5.0, 0.0)),
+            object_to_world: Mat4::from_translation(Vec3::new(0.0, y, 0.0)),
             name: "occluder".into(),
         });
+        instance_visibility = vec![InstanceVisibility::default(), vis];
     }
     let desc = SceneDesc {
-        meshes: vec![quad("plane", 10.0), quad("occluder", 20.0)],
+        meshes: vec![
+            quad("plane", 10.0),
+            MeshDesc {
+                material: Some(1),
+                ..quad("occluder", 20.0)
+            },
+        ],
         instances,
-        materials: vec![diffuse_material("grey", Vec3::splat(0.5))],
+        // The occluder is black so that it changes the plane only through visibility.
+        materials: vec![
+            diffuse_material("grey", Vec3::splat(0.5)),
+            diffuse_material("black", Vec3::ZERO),
+        ],
         lights: vec![PunctualLightDesc {
             name: "sun".into(),
             kind: PunctualKind::Directional,
@@ -57,6 +93,7 @@ fn mean_rgb(with_occluder: bool) -> Vec3 {
             direction: -Vec3::Y,
         }],
         camera: Some(cam),
+        instance_visibility,
         ..Default::default()
     };
     let scene = Scene::build(desc).expect("scene builds");
@@ -81,5 +118,29 @@ fn directional_light_is_blocked_by_another_instance() {
     assert!(
         shadowed.max_element() < 1e-3 * lit.max_element(),
         "plane under the occluder is in shadow: {shadowed} (lit {lit})"
+    );
+}
+
+/// A mesh standing for a Blender area light (glTF node extras `prism_area_light`) is not
+/// geometry in Blender: it casts no shadow and camera rays pass through it.
+#[test]
+fn light_only_meshes_cast_no_shadow_and_hide_from_the_camera() {
+    let lit = render_mean(Occluder::None);
+    let light_only = InstanceVisibility {
+        casts_shadows: false,
+        camera_visible: false,
+    };
+    let above = render_mean(Occluder::Above(light_only));
+    assert!(
+        (above - lit).abs().max_element() < 0.02 * lit.max_element(),
+        "a shadowless quad above must not shadow the plane: {above} vs {lit}"
+    );
+    // In front of the camera the black quad fills the image when it is visible.
+    let seen = render_mean(Occluder::InFront(InstanceVisibility::default()));
+    assert!(seen.max_element() < 1e-3, "visible quad {seen}");
+    let hidden = render_mean(Occluder::InFront(light_only));
+    assert!(
+        (hidden - lit).abs().max_element() < 0.02 * lit.max_element(),
+        "camera rays pass a hidden quad: {hidden} vs {lit}"
     );
 }

@@ -13,7 +13,8 @@ use glam::{Mat3, Mat4, Quat, Vec2, Vec3, Vec4};
 use gltf_builder::*;
 use prism::scene::materials_json::{parse_materials_json, SUBSURFACE_PRESETS};
 use prism::scene::{
-    load_scene, IorDesc, MaterialOverride, PunctualKind, SceneDesc, SubsurfaceCoefficients,
+    load_scene, InstanceVisibility, IorDesc, MaterialOverride, PunctualKind, SceneDesc,
+    SubsurfaceCoefficients,
 };
 use prism::PrismError;
 use serde_json::json;
@@ -67,6 +68,38 @@ fn instancing_one_mesh_two_nodes() {
     ));
     assert_eq!(s.meshes[0].indices.len(), 6);
     assert_eq!(s.meshes[0].positions.len(), 4);
+}
+
+#[test]
+fn area_light_node_extras_set_ray_visibility() {
+    let dir = test_dir("area_light_extras");
+    let mut b = GltfBuilder::basic();
+    b.root(json!({ "name": "Hidden", "mesh": 0, "extras": { "prism_area_light": true } }));
+    b.root(json!({ "name": "Shown", "mesh": 0,
+                   "extras": { "prism_area_light": true, "prism_visible_camera": true } }));
+    b.root(json!({ "name": "Other", "mesh": 0, "extras": { "something": 1 } }));
+    let s = load(&b.write_gltf(&dir.join("extras.gltf")));
+    let vis = |n: &str| {
+        let i = s.instances.iter().position(|i| i.name == n).unwrap();
+        s.instance_visibility.get(i).copied().unwrap_or_default()
+    };
+    let default = InstanceVisibility::default();
+    assert_eq!(vis("Light"), default);
+    assert_eq!(vis("Other"), default);
+    assert_eq!(
+        vis("Hidden"),
+        InstanceVisibility {
+            casts_shadows: false,
+            camera_visible: false
+        }
+    );
+    assert_eq!(
+        vis("Shown"),
+        InstanceVisibility {
+            casts_shadows: false,
+            camera_visible: true
+        }
+    );
 }
 
 #[test]

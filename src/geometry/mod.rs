@@ -183,9 +183,11 @@ pub struct Instance {
     pub normal_to_world: Mat3,
     /// Odd-handed transform (negative determinant): winding and geometric normal flip.
     pub flips_handedness: bool,
-    /// Stands for a light (a Blender area light): casts no shadows, and the integrator does
-    /// not show it to camera rays.
-    pub light_only: bool,
+    /// False for meshes that stand for lights (Blender area lights are not geometry): shadow
+    /// rays pass through them.
+    pub casts_shadows: bool,
+    /// False hides the instance from camera rays (the integrator looks through it).
+    pub camera_visible: bool,
 }
 
 impl Instance {
@@ -197,12 +199,14 @@ impl Instance {
             world_to_object: object_to_world.inverse(),
             normal_to_world: m3.inverse().transpose(),
             flips_handedness: m3.determinant() < 0.0,
-            light_only: false,
+            casts_shadows: true,
+            camera_visible: true,
         }
     }
 
-    pub fn light_only(mut self, light_only: bool) -> Self {
-        self.light_only = light_only;
+    pub fn with_visibility(mut self, casts_shadows: bool, camera_visible: bool) -> Self {
+        self.casts_shadows = casts_shadows;
+        self.camera_visible = camera_visible;
         self
     }
 }
@@ -281,10 +285,10 @@ impl Geometry {
         self.instances.is_empty()
     }
 
-    /// The instance stands for a light (see `Instance::light_only`).
+    /// Camera rays see this instance (see `Instance::camera_visible`).
     #[inline]
-    pub fn is_light_only(&self, instance: u32) -> bool {
-        self.instances[instance as usize].light_only
+    pub fn camera_visible(&self, instance: u32) -> bool {
+        self.instances[instance as usize].camera_visible
     }
 
     /// Closest intersection with t in (0, t_max).
@@ -332,7 +336,7 @@ impl Geometry {
         let world = BvhRay::new(ray.origin.into(), ray.dir.into(), 0.0, t_max);
         !self.tlas.ray_traverse_miss(world, |_, id| {
             let inst = &self.instances[self.tlas_order[id] as usize];
-            if inst.light_only {
+            if !inst.casts_shadows {
                 return f32::INFINITY;
             }
             let local = BvhRay::new(

@@ -120,6 +120,24 @@ impl<'a> PathTracer<'a> {
                 }
                 None => geometry.intersect(&ray, f32::INFINITY),
             };
+            // Camera rays pass through instances hidden from the camera (meshes standing for
+            // Blender area lights), as Blender's ray visibility does.
+            let mut next_hit = next_hit;
+            if depth == 0 {
+                let mut skipped = 0;
+                while let Some(h) = next_hit.filter(|h| !geometry.camera_visible(h.instance)) {
+                    skipped += 1;
+                    if skipped > 64 {
+                        // Degenerate stack of hidden surfaces: give up on this path.
+                        next_hit = None;
+                        break;
+                    }
+                    rays += 1;
+                    let sp = geometry.surface_point(&h);
+                    ray = Ray::new(offset_ray_origin(sp.p, sp.ng, ray.dir), ray.dir);
+                    next_hit = geometry.intersect(&ray, f32::INFINITY);
+                }
+            }
             let Some(hit) = next_hit else {
                 let le = lights.environment_radiance(ray.dir, w);
                 if !le.is_black() {
@@ -143,10 +161,7 @@ impl<'a> PathTracer<'a> {
             let material = &scene.materials[sp.material as usize];
             let wo_world = -ray.dir;
 
-            // Light-only geometry (Blender area lights) is invisible to camera rays, as in
-            // Blender; the path goes on through it (its material is index-matched and clear).
-            let hidden_light = depth == 0 && geometry.is_light_only(hit.instance);
-            if material.is_emissive() && !hidden_light {
+            if material.is_emissive() {
                 let cos_light = sp.ng.dot(wo_world);
                 let le = material.emitted(&scene.textures, sp.uv, cos_light > 0.0, w);
                 if !le.is_black() {

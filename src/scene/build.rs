@@ -34,6 +34,7 @@ impl Scene {
             world,
             render,
             warnings,
+            instance_visibility,
         } = desc;
         let camera = camera.ok_or_else(|| PrismError::input("the scene has no camera"))?;
 
@@ -87,14 +88,19 @@ impl Scene {
         }
         let runtime_instances: Vec<Instance> = instances
             .iter()
-            .filter_map(|inst| {
+            .enumerate()
+            .filter_map(|(i, inst)| {
                 let mesh = *mesh_map.get(inst.mesh)?;
                 if mesh == u32::MAX {
                     return None;
                 }
                 let affine = Affine3A::from_mat4(inst.object_to_world);
                 let det = glam::Mat3::from(affine.matrix3).determinant();
-                (det.is_finite() && det.abs() > 1e-30).then(|| Instance::new(mesh, affine))
+                let vis = instance_visibility.get(i).copied().unwrap_or_default();
+                (det.is_finite() && det.abs() > 1e-30).then(|| {
+                    Instance::new(mesh, affine)
+                        .with_visibility(vis.casts_shadows, vis.camera_visible)
+                })
             })
             .collect();
         let geometry = Geometry::new(runtime_meshes, runtime_instances);

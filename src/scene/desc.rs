@@ -280,4 +280,24 @@ pub struct SceneDesc {
     pub render: RenderDefaults,
     /// Warnings the loader wants the user to see once (skipped primitives, ...).
     pub warnings: Vec<String>,
+    /// Ray visibility of `instances[i]` (shorter than `instances`: the rest are default).
+    pub instance_visibility: Vec<InstanceVisibility>,
+}
+
+/// Ray visibility of an instance, from glTF node extras (the Blender add-on writes them for
+/// area lights, which in Blender are not geometry): `"prism_area_light": true` makes the mesh
+/// cast no shadows and hides it from camera rays unless `"prism_visible_camera": true`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct InstanceVisibility {
+    pub casts_shadows: bool,
+    pub camera_visible: bool,
+}
+
+impl Default for InstanceVisibility {
+    fn default() -> Self {
+        InstanceVisibility {
+            casts_shadows: true,
+            camera_visible: true,
+        }
+    }
 }

@@ -474,8 +474,27 @@ impl Importer<'_> {
             .unwrap_or_else(|| format!("node {index}"));
 
         if let Some(mesh) = node.mesh() {
+            let extras = node
+                .extras()
+                .as_ref()
+                .and_then(|raw| serde_json::from_str::<serde_json::Value>(raw.get()).ok());
+            let flag = |key: &str| extras.as_ref().and_then(|v| v.get(key)?.as_bool());
+            let visibility = if flag("prism_area_light") == Some(true) {
+                InstanceVisibility {
+                    casts_shadows: false,
+                    camera_visible: flag("prism_visible_camera").unwrap_or(false),
+                }
+            } else {
+                InstanceVisibility::default()
+            };
             for prim in mesh.primitives() {
                 if let Some(m) = self.mesh_for(&mesh, &prim)? {
+                    if visibility != InstanceVisibility::default() {
+                        let i = self.scene.instances.len();
+                        let vis = &mut self.scene.instance_visibility;
+                        vis.resize(i + 1, InstanceVisibility::default());
+                        vis[i] = visibility;
+                    }
                     self.scene.instances.push(InstanceDesc {
                         mesh: m,
                         object_to_world: world,
