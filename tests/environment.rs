@@ -387,7 +387,7 @@ fn bad_environment_references_are_one_line_errors() {
         ("neg.exr", "negative values"),
     ] {
         let gltf = scene_with_sidecar(&dir, json!({"version": 1, "world": {"texture": file}}));
-        let e = load_scene(&gltf, None, None).err().expect(file).to_string();
+        let e = load_scene(&gltf, None, None).expect_err(file).to_string();
         assert!(e.contains(want), "{file}: {e}");
         assert!(
             e.contains("s.materials.json: world.texture: "),
