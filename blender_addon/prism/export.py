@@ -12,7 +12,11 @@ Units (so that Prism renders what Cycles renders; Prism's README "Units"):
 - area light of P W and world-space area A: a one-sided emissive mesh facing the light's -Z
   with radiance P / (pi A) (Cycles' Lambertian area light; checked by the parity test);
 - emission colour x strength is radiance (emissiveFactor x KHR_materials_emissive_strength);
-- world colour x strength -> material JSON "world".
+- world colour x strength -> material JSON "world"; an equirectangular Environment Texture on the
+  Background -> "world.texture" (a float EXR written next to the glTF) + a Mapping node's Z
+  rotation -> "world.rotation_z";
+- orthographic camera: xmag/ymag from ortho_scale and the sensor fit; depth of field -> material
+  JSON "camera" {aperture_radius, focus_distance} (Cycles' thin lens).
 Blender is Z-up and glTF Y-up: every node hangs below one root node that rotates Z-up to Y-up,
 so object matrices are written unchanged.
 """
@@ -312,6 +316,42 @@ def write_png(path, rgba):
         f.write(chunk(b"IEND", b""))
 
 
+def write_exr_rgb(path, rgb):
+    """Minimal OpenEXR writer: float32 RGB, uncompressed scanlines, rows top first (H, W, 3)."""
+    h, w = rgb.shape[:2]
+
+    def attr(name, kind, data):
+        return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(data)) + data
+
+    chlist = b"".join(c + b"\0" + struct.pack("<iB3xii", 2, 0, 1, 1) for c in (b"B", b"G", b"R")) + b"\0"
+    box = struct.pack("<iiii", 0, 0, w - 1, h - 1)
+    header = (
+        struct.pack("<ii", 20000630, 2)
+        + attr("channels", "chlist", chlist)
+        + attr("compression", "compression", b"\0")
+        + attr("dataWindow", "box2i", box)
+        + attr("displayWindow", "box2i", box)
+        + attr("lineOrder", "lineOrder", b"\0")
+        + attr("pixelAspectRatio", "float", struct.pack("<f", 1.0))
+        + attr("screenWindowCenter", "v2f", struct.pack("<ff", 0.0, 0.0))
+        + attr("screenWindowWidth", "float", struct.pack("<f", 1.0))
+        + b"\0"
+    )
+    line_bytes = w * 3 * 4
+    first = len(header) + 8 * h
+    offsets = np.arange(h, dtype="<u8") * (8 + line_bytes) + first
+    # Each scanline: y, byte count, then the B, G and R planes.
+    planes = np.ascontiguousarray(rgb[:, :, ::-1].transpose(0, 2, 1), dtype="<f4").reshape(h, -1)
+    lines = np.empty((h, 2 + 3 * w), dtype="<i4")
+    lines[:, 0] = np.arange(h)
+    lines[:, 1] = line_bytes
+    lines[:, 2:] = planes.view("<i4")
+    with open(path, "wb") as f:
+        f.write(header)
+        f.write(offsets.tobytes())
+        f.write(lines.tobytes())
+
+
 # ----------------------------------------------------------------------------- mesh data
 
 
@@ -377,6 +417,7 @@ class Exporter:
         self.cameras = []
         self.warnings = []
         self.n_triangles = 0
+        self.camera_lens = None
 
     # -- helpers
     def _child(self, node):
@@ -584,44 +625,153 @@ class Exporter:
             raise ExportError("the scene has no active camera")
         cam_ob = cam_ob.evaluated_get(self.dg)
         c = cam_ob.data
-        if c.type != "PERSP":
-            self.warnings.append("camera '%s': only perspective cameras are supported; rendering as perspective" % cam_ob.name)
-        if getattr(c, "dof", None) is not None and c.dof.use_dof:
-            self.warnings.append("camera '%s': depth of field is not supported yet; rendering in focus" % cam_ob.name)
+        if c.type not in {"PERSP", "ORTHO"}:
+            self.warnings.append("camera '%s': %s cameras are not supported; rendering as perspective" % (cam_ob.name, c.type.lower()))
         r = self.scene.render
+        # Cycles' view plane: the sensor (or ortho_scale) spans the fitted dimension.
         w = self.width * r.pixel_aspect_x
         h = self.height * r.pixel_aspect_y
         fit = c.sensor_fit
         if fit == "AUTO":
-            fit = "HORIZONTAL" if w >= h else "VERTICAL"
+            fit = "HORIZONTAL" if w > h else "VERTICAL"
             sensor = c.sensor_width
         else:
             sensor = c.sensor_width if fit == "HORIZONTAL" else c.sensor_height
-        half = 0.5 * sensor / c.lens
-        tan_y = half * h / w if fit == "HORIZONTAL" else half
-        yfov = 2.0 * math.atan(tan_y)
-        self.cameras.append({"name": cam_ob.name, "type": "perspective", "perspective": {"yfov": yfov, "znear": max(c.clip_start, 1e-4)}})
+        if c.type == "ORTHO":
+            half = 0.5 * c.ortho_scale
+            ymag = half * h / w if fit == "HORIZONTAL" else half
+            xmag = ymag * w / h
+            proj = {"type": "orthographic", "orthographic": {"xmag": xmag, "ymag": ymag, "znear": max(c.clip_start, 0.0), "zfar": max(c.clip_end, c.clip_start + 1e-3)}}
+        else:
+            half = 0.5 * sensor / c.lens
+            tan_y = half * h / w if fit == "HORIZONTAL" else half
+            proj = {"type": "perspective", "perspective": {"yfov": 2.0 * math.atan(tan_y), "znear": max(c.clip_start, 1e-4)}}
+        self.cameras.append(dict(name=cam_ob.name, **proj))
         self._child({"name": cam_ob.name, "camera": 0, "matrix": _matrix(_unscaled(cam_ob.matrix_world))})
+        self.camera_lens = self._depth_of_field(cam_ob)
+
+    def _depth_of_field(self, cam_ob):
+        """Cycles' thin lens: radius = focal length [mm] * 1e-3 / (2 f-stop) (1 / (2 f-stop) for
+        orthographic cameras), in Blender units like Cycles (which does not apply the unit scale);
+        focus distance along the view axis (to the focus object's origin if one is set)."""
+        c = cam_ob.data
+        dof = getattr(c, "dof", None)
+        if dof is None or not dof.use_dof:
+            return None
+        fstop = max(dof.aperture_fstop, 1e-5)
+        radius = (1.0 if c.type == "ORTHO" else c.lens * 1e-3) / (2.0 * fstop)
+        distance = dof.focus_distance
+        target = dof.focus_object
+        if target is not None:
+            target = target.evaluated_get(self.dg)
+            pos = target.matrix_world.translation
+            sub = getattr(dof, "focus_subtarget", "")
+            if sub and target.pose is not None and sub in target.pose.bones:
+                pos = (target.matrix_world @ target.pose.bones[sub].matrix).translation
+            m = cam_ob.matrix_world
+            view = m.col[2].xyz.normalized()
+            distance = abs(view.dot(m.translation - pos))
+        if dof.aperture_blades >= 3 or dof.aperture_ratio != 1.0:
+            self.warnings.append("camera '%s': aperture blades/rotation/ratio are not supported; the aperture is a round disk" % cam_ob.name)
+        if radius <= 0.0 or not distance > 0.0:
+            return None
+        return {"aperture_radius": float(radius), "focus_distance": float(max(distance, 1e-6))}
 
     def world(self):
+        """The material JSON "world": Background colour x strength, or an equirectangular
+        Environment Texture (optionally through a Mapping node rotating about Z) written next to
+        the glTF as a float EXR."""
         w = self.scene.world
+        black = {"color": [0.0, 0.0, 0.0], "strength": 0.0}
         if w is None:
-            return {"color": [0.0, 0.0, 0.0], "strength": 0.0}
+            return black
         nt = w.node_tree if getattr(w, "use_nodes", True) else None
-        if nt is not None:
-            out = next((n for n in nt.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output), None)
-            out = out or next((n for n in nt.nodes if n.type == "OUTPUT_WORLD"), None)
-            s = out.inputs.get("Surface") if out else None
-            if s is not None and s.is_linked:
-                bg = s.links[0].from_node
-                if bg.type == "BACKGROUND":
-                    cs = bg.inputs["Color"]
-                    if cs.is_linked:
-                        self.warnings.append("world: only a uniform colour is supported; the linked colour is ignored")
-                    return {"color": _rgb(cs.default_value), "strength": float(bg.inputs["Strength"].default_value)}
-                self.warnings.append("world: unsupported node '%s'; world is black" % bg.name)
-            return {"color": [0.0, 0.0, 0.0], "strength": 0.0}
-        return {"color": _rgb(w.color), "strength": 1.0}
+        if nt is None:
+            return {"color": _rgb(w.color), "strength": 1.0}
+        out = next((n for n in nt.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output), None)
+        out = out or next((n for n in nt.nodes if n.type == "OUTPUT_WORLD"), None)
+        s = out.inputs.get("Surface") if out else None
+        if s is None or not s.is_linked:
+            return black
+        bg = s.links[0].from_node
+        if bg.type != "BACKGROUND":
+            self.warnings.append("world: unsupported node '%s'; world is black" % bg.name)
+            return black
+        strength_sock = bg.inputs["Strength"]
+        if strength_sock.is_linked:
+            self.warnings.append("world: a linked Strength is not supported; using its value %g" % strength_sock.default_value)
+        result = {"color": _rgb(bg.inputs["Color"].default_value), "strength": float(strength_sock.default_value)}
+        cs = bg.inputs["Color"]
+        if not cs.is_linked:
+            return result
+        tex = cs.links[0].from_node
+        if tex.type != "TEX_ENVIRONMENT" or tex.image is None:
+            self.warnings.append("world: only a colour or an Environment Texture is supported on the Background; '%s' is ignored" % tex.name)
+            return result
+        if tex.projection != "EQUIRECTANGULAR":
+            self.warnings.append("world: environment projection %s is not supported; using equirectangular" % tex.projection)
+        fname = self._environment_image(tex.image)
+        if fname is None:
+            return result
+        result.update(color=[1.0, 1.0, 1.0], texture=fname)
+        rz = self._mapping_rotation_z(tex)
+        if rz:
+            result["rotation_z"] = rz
+        return result
+
+    def _mapping_rotation_z(self, tex):
+        """Z rotation of a Mapping node feeding the environment texture's Vector (0 if none)."""
+        vs = tex.inputs.get("Vector")
+        if vs is None or not vs.is_linked:
+            return 0.0
+        node = vs.links[0].from_node
+        if node.type == "TEX_COORD":
+            return 0.0
+        if node.type != "MAPPING":
+            self.warnings.append("world: '%s' on the environment texture's Vector is not supported; ignored" % node.name)
+            return 0.0
+        vt = getattr(node, "vector_type", "POINT")
+        loc = node.inputs["Location"].default_value if "Location" in node.inputs else (0, 0, 0)
+        rot = node.inputs["Rotation"].default_value
+        scale = node.inputs["Scale"].default_value if "Scale" in node.inputs else (1, 1, 1)
+        linked = [k for k in ("Location", "Rotation", "Scale") if k in node.inputs and node.inputs[k].is_linked]
+        ignored = []
+        if linked:
+            ignored.append("linked " + "/".join(linked))
+        if abs(rot[0]) > 1e-6 or abs(rot[1]) > 1e-6:
+            ignored.append("X/Y rotation")
+        if vt in {"POINT", "TEXTURE"} and max(abs(v) for v in loc) > 1e-6:
+            ignored.append("location")
+        if not (abs(scale[0] - scale[1]) < 1e-6 and abs(scale[1] - scale[2]) < 1e-6 and scale[0] > 0):
+            ignored.append("non-uniform scale")
+        if ignored:
+            self.warnings.append("world: the Mapping node's %s is not supported; only its Z rotation is used" % ", ".join(ignored))
+        # POINT/VECTOR/NORMAL rotate the lookup vector by +rz; TEXTURE applies the inverse.
+        return float(-rot[2] if vt == "TEXTURE" else rot[2])
+
+    def _environment_image(self, img):
+        """Writes the image's pixels (linear, top row first) as a float EXR; returns its file name."""
+        try:
+            w, h = img.size
+            if w == 0 or h == 0:
+                raise RuntimeError("no pixel data (missing file?)")
+            px = np.empty(w * h * 4, np.float32)
+            img.pixels.foreach_get(px)
+        except Exception as e:  # a missing or unreadable image
+            self.warnings.append("world: environment image '%s' cannot be read (%s); using the background colour" % (img.name, e))
+            return None
+        rgb = px.reshape(h, w, 4)[::-1, :, :3]
+        # Float buffers are scene linear; byte buffers keep the file's colour space.
+        space = img.colorspace_settings.name
+        if not img.is_float:
+            if space == "sRGB":
+                rgb = np.where(rgb <= 0.04045, rgb / 12.92, np.power((np.maximum(rgb, 0.0) + 0.055) / 1.055, 2.4))
+            elif not (space.startswith("Linear") or space in {"Non-Color", "Raw"}):
+                self.warnings.append("world: environment image colour space '%s' is read as linear" % space)
+        rgb = np.nan_to_num(np.maximum(rgb, 0.0), nan=0.0, posinf=65504.0)
+        fname = self.name + "_world.exr"
+        write_exr_rgb(os.path.join(self.out_dir, fname), rgb.astype(np.float32))
+        return fname
 
     def run(self, render_settings=None):
         self._textures = []
@@ -671,6 +821,8 @@ class Exporter:
         with open(gltf_path, "w") as f:
             json.dump(gltf, f, separators=(",", ":"))
         mj = {"version": 1, "materials": self.material_json, "world": self.world()}
+        if self.camera_lens:
+            mj["camera"] = self.camera_lens
         if render_settings:
             mj["render"] = render_settings
         json_path = os.path.join(self.out_dir, self.name + ".materials.json")

@@ -116,9 +116,12 @@ impl Camera {
         } else {
             (origin, dir)
         };
+        // `+ 0.0` turns -0.0 components into +0.0: the BVH traversal (obvhs) misses flat
+        // geometry with rays that have a -0.0 direction component, which an orthographic
+        // camera's axis-aligned rays often have.
         Ray::new(
             self.camera_to_world.transform_point3(origin),
-            self.camera_to_world.transform_vector3(dir).normalize(),
+            self.camera_to_world.transform_vector3(dir).normalize() + Vec3::ZERO,
         )
     }
 }
@@ -169,6 +172,7 @@ mod tests {
             for u in grid(4) {
                 let r = c.generate_ray(raster, u);
                 assert!((r.dir - axis).length() < 1e-6, "not parallel: {:?}", r.dir);
+                assert!(r.dir.to_array().iter().all(|v| *v != 0.0 || v.is_sign_positive()));
                 let d = r.origin - centre;
                 assert!(d.dot(axis).abs() < 1e-5, "origin off the camera plane");
                 assert!(

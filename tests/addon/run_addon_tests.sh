@@ -46,6 +46,9 @@ if [ "$WHICH" = all ] || [ "$WHICH" = bpy ]; then
     echo "== add-on tests in the bpy wheel (Blender 5.0.1)"
     .venv-bpy/bin/python tests/addon/test_bpy.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== camera and world parity with Cycles in the bpy wheel"
+    .venv-bpy/bin/python tests/addon/test_camera_world.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
 fi
 if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
     echo "== add-on tests through blender -b ($(blender --version 2>/dev/null | head -1))"
