@@ -172,7 +172,11 @@ mod tests {
             for u in grid(4) {
                 let r = c.generate_ray(raster, u);
                 assert!((r.dir - axis).length() < 1e-6, "not parallel: {:?}", r.dir);
-                assert!(r.dir.to_array().iter().all(|v| *v != 0.0 || v.is_sign_positive()));
+                assert!(r
+                    .dir
+                    .to_array()
+                    .iter()
+                    .all(|v| *v != 0.0 || v.is_sign_positive()));
                 let d = r.origin - centre;
                 assert!(d.dot(axis).abs() < 1e-5, "origin off the camera plane");
                 assert!(
