@@ -370,8 +370,9 @@ impl<'a> PathTracer<'a> {
                 break;
             }
             if depth + 1 >= RR_MIN_DEPTH {
-                // The path's actual weight is beta / denominator (hero MIS).
-                let rr = beta.max_component() / mis.denominator() * eta_scale;
+                // The path's expected contribution: beta / denominator (hero MIS), averaged
+                // over the wavelengths the film counts.
+                let rr = mis.mean_weight(beta) * eta_scale;
                 if rr < 1.0 {
                     let q = (1.0 - rr).clamp(0.0, 0.95);
                     if sampler.next_1d() < q {

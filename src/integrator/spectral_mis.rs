@@ -100,6 +100,25 @@ impl SpectralMis {
         (1..N_WAVELENGTHS).all(|k| self.hero_share[k] * self.ratio[k] == 0.0)
     }
 
+    /// Mean of `beta` over the members that still count (nonzero hero share and path
+    /// density), divided by `denominator()`: the path's expected contribution scale, which
+    /// Russian roulette uses. (The maximum over members would keep hero paths alive longer
+    /// than single-wavelength ones for the same expected contribution.)
+    pub fn mean_weight(&self, beta: SampledSpectrum) -> f32 {
+        let (mut sum, mut n) = (0.0f32, 0u32);
+        for k in 0..N_WAVELENGTHS {
+            if self.hero_share[k] * self.ratio[k] > 0.0 {
+                sum += beta[k];
+                n += 1;
+            }
+        }
+        if n == 0 {
+            0.0
+        } else {
+            sum / (n as f32 * self.denominator())
+        }
+    }
+
     /// MIS weight of light sampling for a light sample with density `light_pdf` towards a
     /// direction the BSDF samples with per-member densities `bsdf_pdfs` (already multiplied
     /// by its contribution's `1 / denominator()` by the caller).
