@@ -1,0 +1,110 @@
+#!/usr/bin/env bash
+# Equal-time error of the wavelength strategies (issue 5): for each scene, a high-spp hero
+# reference, then hero / single / stratified (visible-range wavelength pdf) and hero with the
+# uniform pdf at the same spp, all with the same thread count in the same run. Reports seconds,
+# microseconds per sample, relative MSE against the reference (per pixel, `prism compare`), and
+# the equal-time relative MSE = relMSE x seconds / hero's seconds (relMSE of an unbiased
+# estimator falls as 1/time), plus single/hero ratios. Also relMSE with both images clamped to
+# [0, 1] (`prism compare --clamp 1`): one firefly can dominate a single run's per-pixel relMSE.
+#   (a) scenes/diamond            smooth dispersive glass (secondaries end at the first refraction)
+#   (b) scenes/rough_dispersive   rough SF11-like glass, roughness 0.2 (all 4 wavelengths live on)
+#   (c) scenes/cornell            coloured walls, no dispersion
+# Usage: bench/wavelengths.sh [--append]   (env: RES=128 SPP=32 REF_SPP=1024 THREADS=2 SEED=7
+#        PRISM=path/to/prism; --append adds the table, date and commands to bench/README.md)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+RES=${RES:-128}; SPP=${SPP:-32}; REF_SPP=${REF_SPP:-1024}; THREADS=${THREADS:-2}; SEED=${SEED:-7}
+OUT=${OUT:-/tmp/prism_wavelengths}
+append=0
+for a in "$@"; do
+  case "$a" in
+    --append) append=1 ;;
+    *) echo "unknown option $a" >&2; exit 2 ;;
+  esac
+done
+mkdir -p "$OUT"
+if [ -z "${PRISM:-}" ]; then
+  cargo build --release -q
+  PRISM=./target/release/prism
+fi
+
+# render SCENE OUT SPP SEED [extra flags...] -> prints the render's seconds
+r() {
+  local scene=$1 out=$2 spp=$3 seed=$4
+  shift 4
+  "$PRISM" render "$scene" -o "$out" --spp "$spp" --seed "$seed" --width "$RES" --height "$RES" \
+    --threads "$THREADS" --progress none "$@" 2>&1 | sed -n 's/.* in \([0-9.]*\) s.*/\1/p'
+}
+relmse() { "$PRISM" compare "$@" | sed -n 's/.*"rel_mse":\([0-9.eE+-]*\).*/\1/p'; }
+
+rows="$OUT/rows.tsv"
+: > "$rows"
+for name in diamond rough_dispersive cornell; do
+  scene="scenes/$name/$name.gltf"
+  echo "== $name: reference hero, $REF_SPP spp" >&2
+  t_ref=$(r "$scene" "$OUT/${name}_ref.exr" "$REF_SPP" 1000)
+  echo "   reference: $t_ref s" >&2
+  for cfg in hero single stratified hero-uniform; do
+    case $cfg in
+      hero-uniform) flags=(--wavelengths hero --wavelength-pdf uniform) ;;
+      *) flags=(--wavelengths "$cfg" --wavelength-pdf visible) ;;
+    esac
+    img="$OUT/${name}_${cfg}.exr"
+    t=$(r "$scene" "$img" "$SPP" "$SEED" "${flags[@]}")
+    e=$(relmse "$img" "$OUT/${name}_ref.exr")
+    ec=$(relmse "$img" "$OUT/${name}_ref.exr" --clamp 1)
+    echo "   $cfg: $t s, relMSE $e (clamped to 1: $ec)" >&2
+    printf '%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$cfg" "$t" "$e" "$t_ref" "$ec" >> "$rows"
+  done
+done
+
+table=$(python3 - "$rows" "$RES" "$SPP" <<'PY'
+import sys
+rows = [l.rstrip("\n").split("\t") for l in open(sys.argv[1]) if l.strip()]
+res, spp = int(sys.argv[2]), int(sys.argv[3])
+samples = res * res * spp
+by = {}
+clamped = {}
+for scene, cfg, t, e, tref, ec in rows:
+    by.setdefault(scene, {})[cfg] = (float(t), float(e), float(tref))
+    clamped[scene, cfg] = float(ec)
+print("| scene | strategy | seconds | µs/sample | relMSE | equal-time relMSE | vs hero (equal time) "
+      "| equal-time relMSE, clamped to 1 | vs hero |")
+print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+summary = []
+for scene, cfgs in by.items():
+    th, eh, _ = cfgs["hero"]
+    ech = clamped[scene, "hero"]
+    for cfg, (t, e, _) in cfgs.items():
+        eq = e * t / th
+        eqc = clamped[scene, cfg] * t / th
+        print(f"| {scene} | {cfg} | {t:.2f} | {t / samples * 1e6:.2f} | {e:.4g} | {eq:.4g} | "
+              f"{eq / eh:.2f}x | {eqc:.4g} | {eqc / ech:.2f}x |")
+    ts, es, _ = cfgs["single"]
+    summary.append(f"{scene}: single/hero equal-time relMSE {es * ts / th / eh:.2f}x, "
+                   f"time per sample {ts / th:.2f}x; uniform/visible pdf (hero) "
+                   f"{cfgs['hero-uniform'][1] * cfgs['hero-uniform'][0] / th / eh:.2f}x")
+print()
+for s in summary:
+    print("- " + s)
+PY
+)
+echo "$table"
+
+if [ $append = 1 ]; then
+  rev=$(git rev-parse --short HEAD)
+  dirty=$(git diff --quiet -- src && echo "" || echo " (+ uncommitted src changes of the shared tree)")
+  {
+    echo
+    echo "### Wavelength strategies, equal time ($(date -u '+%Y-%m-%d %H:%M UTC'), commit $rev$dirty)"
+    echo
+    echo "\`RES=$RES SPP=$SPP REF_SPP=$REF_SPP THREADS=$THREADS SEED=$SEED bench/wavelengths.sh --append\`:"
+    echo "each scene rendered at ${RES}x${RES} with \`prism render SCENE --spp $SPP --seed $SEED --threads $THREADS"
+    echo "--wavelengths S --wavelength-pdf P\`, against a hero reference at $REF_SPP spp (seed 1000, same threads);"
+    echo "relMSE per pixel (\`prism compare\`), equal-time relMSE = relMSE x seconds / hero's seconds."
+    echo "Load average during the run: $(cut -d' ' -f1-3 /proc/loadavg) (2-core VM shared with other sessions)."
+    echo
+    echo "$table"
+  } >> bench/README.md
+  echo "appended to bench/README.md" >&2
+fi
