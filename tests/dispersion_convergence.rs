@@ -303,3 +303,25 @@ fn hero_has_lower_variance_than_single_on_a_coloured_scene() {
 /// Measured (8 seeds of 16 spp at 32x32): relative variance hero 0.114, single 0.451, ratio
 /// 3.9. A hero whose companions did not contribute would sit near 1; bound 2.
 const RATIO_MIN: f64 = 2.0;
+
+#[test]
+fn dispersion_scenes_load_and_render_finite() {
+    // scenes/prism and scenes/rough_dispersive (scenes/make_dispersion_scenes.py): the sidecar
+    // forms they use parse, and a few samples come out finite and not black.
+    for name in ["prism", "rough_dispersive"] {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("scenes/{name}/{name}.gltf"));
+        let desc = load_scene(&path, None, None).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let scene = Scene::build(desc).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(scene.warnings.is_empty(), "{name}: {:?}", scene.warnings);
+        let img = render(
+            &scene,
+            WavelengthStrategy::Hero,
+            WavelengthPdf::Visible,
+            4,
+            1,
+        );
+        assert!(img.iter().flatten().all(|v| v.is_finite()), "{name}");
+        let mean = channel_means(&img).iter().sum::<f64>();
+        assert!(mean > 1e-4, "{name}: black image");
+    }
+}
