@@ -1,7 +1,8 @@
 """Camera and world parity with Cycles in the bpy wheel (Blender 5.0.1): orthographic framing for
 every sensor fit, an equirectangular environment texture (generated float image, Mapping node Z
 rotation) lighting a diffuse sphere, and depth of field (thin lens, focus object, unit scale).
-Run by run_addon_tests.sh:
+The scene builders are also used by make_camera_world.py for the same checks in Blender 3.4
+(test_background.py). Run by run_addon_tests.sh:
 
     .venv-bpy/bin/python tests/addon/test_camera_world.py [TEST_NAME ...]
 """
@@ -20,8 +21,6 @@ import numpy as np  # noqa: E402
 import common as C  # noqa: E402
 
 OUT = tempfile.mkdtemp(prefix="prism_addon_test_")
-prism = C.enable_addon()
-C.prefs().binary_path = C.BINARY
 
 
 def render(sc, engine, spp, name, bounces=4):
@@ -268,4 +267,6 @@ def test_depth_of_field_parity():
 if __name__ == "__main__":
     from runner_util import run_tests
 
+    C.enable_addon()
+    C.prefs().binary_path = C.BINARY
     run_tests("bpy camera/world tests", globals())
