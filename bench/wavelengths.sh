@@ -9,11 +9,12 @@
 #   (a) scenes/diamond            smooth dispersive glass (secondaries end at the first refraction)
 #   (b) scenes/rough_dispersive   rough SF11-like glass, roughness 0.2 (all 4 wavelengths live on)
 #   (c) scenes/cornell            coloured walls, no dispersion
-# Usage: bench/wavelengths.sh [--append]   (env: RES=128 SPP=32 REF_SPP=1024 THREADS=2 SEED=7
+# Usage: bench/wavelengths.sh [--append]   (env: RES=128 SPP=64 REF_SPP=2048 THREADS=2 SEED=7 REPEAT=3
 #        PRISM=path/to/prism; --append adds the table, date and commands to bench/README.md)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-RES=${RES:-128}; SPP=${SPP:-32}; REF_SPP=${REF_SPP:-1024}; THREADS=${THREADS:-2}; SEED=${SEED:-7}
+RES=${RES:-128}; SPP=${SPP:-64}; REF_SPP=${REF_SPP:-2048}; THREADS=${THREADS:-2}; SEED=${SEED:-7}
+REPEAT=${REPEAT:-3}
 OUT=${OUT:-/tmp/prism_wavelengths}
 append=0
 for a in "$@"; do
@@ -49,11 +50,17 @@ for name in diamond rough_dispersive cornell; do
       hero-uniform) flags=(--wavelengths hero --wavelength-pdf uniform) ;;
       *) flags=(--wavelengths "$cfg" --wavelength-pdf visible) ;;
     esac
-    img="$OUT/${name}_${cfg}.exr"
-    t=$(r "$scene" "$img" "$SPP" "$SEED" "${flags[@]}")
-    e=$(relmse "$img" "$OUT/${name}_ref.exr")
-    ec=$(relmse "$img" "$OUT/${name}_ref.exr" --clamp 1)
-    echo "   $cfg: $t s, relMSE $e (clamped to 1: $ec)" >&2
+    # REPEAT runs with seeds SEED, SEED+1, ...: mean seconds and mean relMSE.
+    ts=(); es=(); ecs=()
+    for k in $(seq 0 $((REPEAT - 1))); do
+      img="$OUT/${name}_${cfg}_$k.exr"
+      ts+=("$(r "$scene" "$img" "$SPP" $((SEED + k)) "${flags[@]}")")
+      es+=("$(relmse "$img" "$OUT/${name}_ref.exr")")
+      ecs+=("$(relmse "$img" "$OUT/${name}_ref.exr" --clamp 1)")
+    done
+    mean() { python3 -c 'import sys; v=[float(x) for x in sys.argv[1:]]; print(sum(v)/len(v))' "$@"; }
+    t=$(mean "${ts[@]}"); e=$(mean "${es[@]}"); ec=$(mean "${ecs[@]}")
+    echo "   $cfg: ${ts[*]} s, relMSE ${es[*]} (clamped to 1: ${ecs[*]})" >&2
     printf '%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$cfg" "$t" "$e" "$t_ref" "$ec" >> "$rows"
   done
 done
@@ -74,7 +81,8 @@ print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
 summary = []
 for scene, cfgs in by.items():
     th, eh, _ = cfgs["hero"]
-    ech = clamped[scene, "hero"]
+    th, eh = max(th, 1e-6), max(eh, 1e-12)  # tiny trial runs report 0.00 s
+    ech = max(clamped[scene, "hero"], 1e-12)
     for cfg, (t, e, _) in cfgs.items():
         eq = e * t / th
         eqc = clamped[scene, cfg] * t / th
@@ -98,9 +106,10 @@ if [ $append = 1 ]; then
     echo
     echo "### Wavelength strategies, equal time ($(date -u '+%Y-%m-%d %H:%M UTC'), commit $rev$dirty)"
     echo
-    echo "\`RES=$RES SPP=$SPP REF_SPP=$REF_SPP THREADS=$THREADS SEED=$SEED bench/wavelengths.sh --append\`:"
-    echo "each scene rendered at ${RES}x${RES} with \`prism render SCENE --spp $SPP --seed $SEED --threads $THREADS"
+    echo "\`RES=$RES SPP=$SPP REF_SPP=$REF_SPP THREADS=$THREADS SEED=$SEED REPEAT=$REPEAT bench/wavelengths.sh --append\`:"
+    echo "each scene rendered at ${RES}x${RES} with \`prism render SCENE --spp $SPP --seed S --threads $THREADS"
     echo "--wavelengths S --wavelength-pdf P\`, against a hero reference at $REF_SPP spp (seed 1000, same threads);"
+    echo "for S = $SEED..$((SEED + REPEAT - 1)) (seconds and relMSE are means over the $REPEAT runs);"
     echo "relMSE per pixel (\`prism compare\`), equal-time relMSE = relMSE x seconds / hero's seconds."
     echo "Load average during the run: $(cut -d' ' -f1-3 /proc/loadavg) (2-core VM shared with other sessions)."
     echo
