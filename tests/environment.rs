@@ -1,7 +1,8 @@
 //! The world environment map and the camera's new projections, end to end:
 //!
 //! - chi-square goodness of fit of `Lights::sample` for an environment map against
-//!   `Lights::environment_pdf` (bins = the map's texels, where the pdf is exactly known), the
+//!   `Lights::environment_pdf` (bins = quarters of the map's texels, where the pdf is exactly
+//!   known), the
 //!   pdf's integral over the sphere, and sample-by-sample agreement of the returned pdf and
 //!   radiance with `environment_pdf` / `environment_radiance`;
 //! - a furnace-style check: a constant-colour environment texture renders the same image as the
@@ -80,8 +81,9 @@ fn dir(cos_theta: f64, phi: f64) -> Vec3 {
     )
 }
 
-/// The sampled directions, binned by the map's own texels (the pdf is constant in (u, t) on each
-/// texel cell, so a cell's expected probability is exactly pdf x 2π² sin θ / (W H) at its centre),
+/// The sampled directions, binned by quarters of the map's texels (the pdf is constant in (u, t)
+/// on each texel cell, so a bin's expected probability is exactly pdf x 2π² sin θ x its (u, t)
+/// area, evaluated at its centre),
 /// against `Lights::environment_pdf`. The pdf is also integrated over the sphere (midpoint rule in
 /// (θ, φ) about the world's up axis) and compared with `Lights::sample`'s pdf sample by sample.
 #[test]
@@ -96,12 +98,14 @@ fn environment_sampling_matches_its_pdf_chi_square() {
         Vec3::new(1.5, 1.35, 1.2),
         tex.rotation_z,
     );
-    let (w_cells, h_cells) = (tex.width as usize, tex.height as usize);
+    // Bins: every texel cell split SUB x SUB (so the placement inside a cell is tested too).
+    const SUB: usize = 2;
+    let (w_bins, h_bins) = (SUB * tex.width as usize, SUB * tex.height as usize);
     let scene = env_scene(tex);
     let lights = &scene.lights;
     let w = SampledWavelengths::sample_hero(0.3, Default::default());
     let mut rng = Pcg32::new(17, 3);
-    let mut observed = vec![0.0f64; w_cells * h_cells];
+    let mut observed = vec![0.0f64; w_bins * h_bins];
     let mut failures = 0usize;
     for k in 0..SAMPLES {
         let u = Vec2::new(rng.next_f32(), rng.next_f32());
@@ -132,21 +136,21 @@ fn environment_sampling_matches_its_pdf_chi_square() {
             assert!(ls.distance.is_infinite() && !ls.delta);
         }
         let uv = map.direction_to_uv(ls.wi);
-        let i = ((uv.x * w_cells as f32) as usize).min(w_cells - 1);
-        let j = ((uv.y * h_cells as f32) as usize).min(h_cells - 1);
-        observed[j * w_cells + i] += 1.0;
+        let i = ((uv.x * w_bins as f32) as usize).min(w_bins - 1);
+        let j = ((uv.y * h_bins as f32) as usize).min(h_bins - 1);
+        observed[j * w_bins + i] += 1.0;
     }
-    let mut expected = Vec::with_capacity(w_cells * h_cells);
-    for j in 0..h_cells {
-        for i in 0..w_cells {
+    let mut expected = Vec::with_capacity(w_bins * h_bins);
+    for j in 0..h_bins {
+        for i in 0..w_bins {
             let uv = Vec2::new(
-                (i as f32 + 0.5) / w_cells as f32,
-                (j as f32 + 0.5) / h_cells as f32,
+                (i as f32 + 0.5) / w_bins as f32,
+                (j as f32 + 0.5) / h_bins as f32,
             );
             let d = map.uv_to_direction(uv);
             let sin_theta = (PI * uv.y as f64).sin();
             let prob = lights.environment_pdf(d) as f64 * 2.0 * PI * PI * sin_theta
-                / (w_cells * h_cells) as f64;
+                / (w_bins * h_bins) as f64;
             expected.push(prob * SAMPLES as f64);
         }
     }
