@@ -3,7 +3,8 @@
 #   - a venv .venv-bpy/ with the bpy wheel (Blender 5.0.1 as a Python module) and numpy,
 #   - Debian's blender (3.4, for `blender -b`) and python3-numpy via apt-get (as root, if missing),
 #   - the release binary (cargo build --release).
-# Usage: tests/addon/run_addon_tests.sh [bpy|background|package|all]
+#   - Xvfb (Debian's xvfb) for the interactive test: Blender with a window, F12 render.
+# Usage: tests/addon/run_addon_tests.sh [bpy|background|interactive|package|all]
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 REPO=$(pwd)
@@ -31,6 +32,13 @@ if ! blender_ok; then
     DEBIAN_FRONTEND=noninteractive apt-get install -y -qq blender python3-numpy >/dev/null
 fi
 
+if { [ "$WHICH" = all ] || [ "$WHICH" = interactive ]; } && ! command -v xvfb-run >/dev/null; then
+    echo "== installing Debian's xvfb (apt-get) for the interactive test"
+    if [ "$(id -u)" != 0 ]; then echo "need root for apt-get install xvfb xauth" >&2; exit 1; fi
+    apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq xvfb xauth >/dev/null
+fi
+
 cargo build --release -q
 
 WORK=$(mktemp -d /tmp/prism_addon_tests.XXXXXX)
@@ -55,11 +63,16 @@ if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
     .venv-bpy/bin/python tests/addon/test_background.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
 fi
+if [ "$WHICH" = all ] || [ "$WHICH" = interactive ]; then
+    echo "== interactive Blender ($(blender --version 2>/dev/null | head -1)) under Xvfb: engine list, panels, F12"
+    .venv-bpy/bin/python tests/addon/test_interactive.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
+fi
 if [ "$WHICH" = all ] || [ "$WHICH" = package ]; then
     echo "== packaged zips: extension in bpy 5.0.1, legacy add-on in blender -b 3.4"
     .venv-bpy/bin/python tests/addon/test_package.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
 fi
-leftover=$(find "$TMPDIR" -maxdepth 1 -name 'prism_*' -type d | grep -v -E 'prism_(addon|bg|pkg)_test_' || true)
+leftover=$(find "$TMPDIR" -maxdepth 1 -name 'prism_*' -type d | grep -v -E 'prism_(addon|bg|pkg)_test_|prism_interactive_' || true)
 if [ -n "$leftover" ]; then echo "temporary render folders left behind: $leftover" >&2; exit 1; fi
 echo "== add-on tests passed"

@@ -1,0 +1,68 @@
+"""The interactive path: Debian's blender (3.4) with a window, under Xvfb.
+
+    .venv-bpy/bin/python tests/addon/test_interactive.py
+Starts `xvfb-run blender --factory-startup -P interactive_blender.py` (BLENDER_USER_SCRIPTS must
+point at a folder with addons/prism, as run_addon_tests.sh sets up), which picks Prism in the
+engine list and presses F12 on the factory scene; then checks what the user would see: Prism in
+the engine list, its panels, the render window's image editor showing the Render Result, and
+the pixels (the lit cube brighter than the grey world around it).
+"""
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+BLENDER = os.environ.get("BLENDER", "blender")
+
+
+def check(cond, msg):
+    if not cond:
+        raise AssertionError(msg)
+    print("  ok: " + msg, flush=True)
+
+
+def test_interactive_f12_render():
+    out = tempfile.mkdtemp(prefix="prism_interactive_")
+    report_path = os.path.join(out, "report.json")
+    exr_path = os.path.join(out, "render.exr")
+    env = dict(os.environ, PRISM_INTERACTIVE_REPORT=report_path, PRISM_INTERACTIVE_EXR=exr_path)
+    cmd = ["xvfb-run", "-a", "-s", "-screen 0 1280x800x24",
+           BLENDER, "--factory-startup", "-P", os.path.join(HERE, "interactive_blender.py")]
+    try:
+        p = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=150)
+    except subprocess.TimeoutExpired as e:
+        raise AssertionError("interactive Blender did not finish in 150 s: %s" % (e.stderr or b"")[-600:])
+    log = p.stdout + p.stderr
+    check(os.path.exists(report_path), "the interactive session wrote its report (log tail: %s)" % log[-400:])
+    with open(report_path) as f:
+        report = json.load(f)
+    print("  report:", report, flush=True)
+    check(not report["errors"], "no Python errors in the session: %s" % report["errors"])
+    check("PRISM" in report["engines"], "Prism is in the render-engine list")
+    check(len(report["prism_panels"]) >= 2, "Prism panels registered: %s" % report["prism_panels"])
+    check(report["invoke"] == ["RUNNING_MODAL"], "F12 (render.render INVOKE_DEFAULT) runs as a modal job")
+    check(report["complete"] and not report["cancelled"], "the render completed in %.1f s" % report["seconds"])
+    check("Prism: error" not in log, "no Prism error reported")
+    check("Render Result" in report["image_editor_shows"], "the image editor shows the Render Result")
+    import common  # bpy wheel: EXR reader
+
+    px = common.read_exr(exr_path)
+    check(px.shape[:2] == (60, 80), "80x60 result, got %s" % (px.shape,))
+    import numpy as np
+
+    rgb = px[..., :3]
+    check(np.isfinite(rgb).all(), "finite pixels")
+    centre = rgb[25:35, 35:45].mean()
+    corner = rgb[:6, :6].mean()
+    # Factory scene: grey world 0.05, a 1000 W point light on the grey cube.
+    check(abs(corner - 0.05) < 0.01, "corner shows the grey world (%.4f vs 0.05)" % corner)
+    check(centre > 2.0 * corner, "the lit cube is brighter than the world (%.3f vs %.3f)" % (centre, corner))
+
+
+if __name__ == "__main__":
+    test_interactive_f12_render()
+    print("interactive test passed")
