@@ -28,11 +28,20 @@ class PrismRenderSettings(bpy.types.PropertyGroup):
         name="Wavelengths",
         description="How each path's wavelengths are chosen",
         items=[
-            ("HERO", "Hero", "Four wavelengths per path, hero-wavelength rotation (default)"),
-            ("SINGLE", "Single", "One wavelength per path"),
-            ("STRATIFIED", "Stratified", "Hero wavelength stratified over a pixel's samples"),
+            ("HERO", "Hero", "Four wavelengths per path, hero-wavelength rotation with spectral MIS (default)"),
+            ("SINGLE", "Single", "One wavelength per path, drawn independently"),
+            ("STRATIFIED", "Stratified", "One wavelength per path, stratified over a pixel's samples"),
         ],
         default="HERO",
+    )
+    wavelength_pdf: EnumProperty(
+        name="Wavelength Density",
+        description="Density the wavelengths are drawn from",
+        items=[
+            ("VISIBLE", "Visible", "Importance sampling of the visible band (default)"),
+            ("UNIFORM", "Uniform", "Uniform over 360-830 nm"),
+        ],
+        default="VISIBLE",
     )
     threads: IntProperty(name="Threads", description="Worker threads (0 = all cores)", default=0, min=0, max=1024)
     seed: IntProperty(name="Seed", description="Random seed", default=0, min=0)

@@ -26,6 +26,7 @@ class RENDER_PT_prism_sampling(PrismPanel, bpy.types.Panel):
         col.prop(p, "samples")
         col.prop(p, "max_depth")
         col.prop(p, "wavelengths")
+        col.prop(p, "wavelength_pdf")
         col.prop(p, "threads")
         col.prop(p, "seed")
 
