@@ -23,6 +23,7 @@
 use std::path::Path;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use crate::math::{DiscreteDistribution, PI};
 use crate::spectrum::{cie, RgbUnboundedSpectrum, SampledSpectrum, SampledWavelengths};
@@ -78,7 +79,10 @@ impl EnvironmentMap {
                 }
             })
             .collect();
-        let texels = rgb.iter().map(|&c| RgbUnboundedSpectrum::new(c)).collect();
+        let texels = rgb
+            .par_iter()
+            .map(|&c| RgbUnboundedSpectrum::new(c))
+            .collect();
         // Cell-averaged luminance of the bilinear reconstruction: separable (1/8, 3/4, 1/8)
         // over neighbours (wrapping in u, clamped in t).
         let lum: Vec<f32> = rgb.iter().map(|&c| luminance(c)).collect();
