@@ -435,3 +435,43 @@ fn orthographic_camera_and_lens_render_from_files() {
     );
     assert!((r0.dir - r1.dir).length() < 1e-6);
 }
+
+/// Through the CLI: a bad world texture or camera block is exit code 2 with one line on stderr.
+#[test]
+fn cli_reports_bad_world_and_camera_blocks() {
+    let dir = test_dir("envmap_cli");
+    for (sidecar, want) in [
+        (
+            json!({"version": 1, "world": {"texture": "nowhere.hdr"}}),
+            "s.materials.json: world.texture: ",
+        ),
+        (
+            json!({"version": 1, "camera": {"aperture_radius": 0.1, "focus_distance": -1}}),
+            "s.materials.json: camera.focus_distance: must be positive, got -1",
+        ),
+    ] {
+        let gltf = scene_with_sidecar(&dir, sidecar);
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_prism"))
+            .args(["render", gltf.to_str().unwrap(), "-o"])
+            .arg(dir.join("out.exr"))
+            .args([
+                "--spp",
+                "1",
+                "--width",
+                "4",
+                "--height",
+                "4",
+                "--progress",
+                "none",
+            ])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(
+            err.starts_with("prism: error: ") && err.contains(want),
+            "{err}"
+        );
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    }
+}
