@@ -194,6 +194,41 @@ def test_environment_texture_parity():
     C.check(not warnings, "no warnings (%s)" % warnings)
 
 
+def test_environment_byte_image_export():
+    """An 8-bit sRGB environment image (a PNG saved and reloaded, so Blender holds bytes) is
+    written to the world EXR decoded to linear with the sRGB curve, rows top first; the same
+    image tagged Non-Color is written unchanged. Export only."""
+    from prism import export
+
+    w, h = 8, 4
+    ramp = np.zeros((h, w, 4), np.float32)
+    ramp[..., 0] = np.linspace(0.0, 1.0, w)[None, :]
+    ramp[..., 1] = np.linspace(0.0, 1.0, h)[:, None]  # Blender row 0 = bottom
+    ramp[..., 2] = 0.5
+    ramp[..., 3] = 1.0
+    gen = bpy.data.images.new("Ramp", w, h, alpha=True, float_buffer=False)
+    gen.pixels.foreach_set(ramp.ravel())
+    path = os.path.join(OUT, "ramp.png")
+    gen.filepath_raw = path
+    gen.file_format = "PNG"
+    gen.save()
+    for space in ("sRGB", "Non-Color"):
+        sc = env_scene(0.0)
+        img = bpy.data.images.load(path, check_existing=False)
+        img.colorspace_settings.name = space
+        tex = next(n for n in sc.world.node_tree.nodes if n.type == "TEX_ENVIRONMENT")
+        tex.image = img
+        sc.render.engine = "PRISM"
+        d = tempfile.mkdtemp(dir=OUT)
+        _, json_path, warnings, _ = export.export_scene(bpy.context.evaluated_depsgraph_get(), d)
+        back = C.read_exr(os.path.join(d, json.load(open(json_path))["world"]["texture"]))[..., :3]
+        byte = np.round(ramp[..., :3] * 255.0) / 255.0
+        want = np.where(byte <= 0.04045, byte / 12.92, ((byte + 0.055) / 1.055) ** 2.4) if space == "sRGB" else byte
+        err = np.abs(back - want).max()
+        C.check(not img.is_float and err < 1e-5, "%s byte image written as linear float (max error %.1e)" % (space, err))
+        C.check(not warnings, "no warnings (%s)" % warnings)
+
+
 # ------------------------------------------------------------------ (c) depth of field
 
 
