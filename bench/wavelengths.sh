@@ -29,12 +29,19 @@ if [ -z "${PRISM:-}" ]; then
   PRISM=./target/release/prism
 fi
 
-# render SCENE OUT SPP SEED [extra flags...] -> prints the render's seconds
+# render SCENE OUT SPP SEED [extra flags...] -> prints the render's seconds; the rays traced
+# (seconds x Mrays/s, a load-independent measure of the work) go to $OUT/last_rays.
 r() {
   local scene=$1 out=$2 spp=$3 seed=$4
   shift 4
-  "$PRISM" render "$scene" -o "$out" --spp "$spp" --seed "$seed" --width "$RES" --height "$RES" \
-    --threads "$THREADS" --progress none "$@" 2>&1 | sed -n 's/.* in \([0-9.]*\) s.*/\1/p'
+  local line
+  line=$("$PRISM" render "$scene" -o "$out" --spp "$spp" --seed "$seed" --width "$RES" \
+    --height "$RES" --threads "$THREADS" --progress none "$@" 2>&1)
+  local t m
+  t=$(echo "$line" | sed -n 's/.* in \([0-9.]*\) s.*/\1/p')
+  m=$(echo "$line" | sed -n 's/.* \([0-9.]*\) Mrays\/s.*/\1/p')
+  python3 -c "print(float('$t') * float('$m') * 1e6)" > "$OUT/last_rays"
+  echo "$t"
 }
 relmse() { "$PRISM" compare "$@" | sed -n 's/.*"rel_mse":\([0-9.eE+-]*\).*/\1/p'; }
 
@@ -51,17 +58,18 @@ for name in diamond rough_dispersive cornell; do
       *) flags=(--wavelengths "$cfg" --wavelength-pdf visible) ;;
     esac
     # REPEAT runs with seeds SEED, SEED+1, ...: mean seconds and mean relMSE.
-    ts=(); es=(); ecs=()
+    ts=(); es=(); ecs=(); rs=()
     for k in $(seq 0 $((REPEAT - 1))); do
       img="$OUT/${name}_${cfg}_$k.exr"
       ts+=("$(r "$scene" "$img" "$SPP" $((SEED + k)) "${flags[@]}")")
+      rs+=("$(cat "$OUT/last_rays")")
       es+=("$(relmse "$img" "$OUT/${name}_ref.exr")")
       ecs+=("$(relmse "$img" "$OUT/${name}_ref.exr" --clamp 1)")
     done
     mean() { python3 -c 'import sys; v=[float(x) for x in sys.argv[1:]]; print(sum(v)/len(v))' "$@"; }
-    t=$(mean "${ts[@]}"); e=$(mean "${es[@]}"); ec=$(mean "${ecs[@]}")
+    t=$(mean "${ts[@]}"); e=$(mean "${es[@]}"); ec=$(mean "${ecs[@]}"); rays=$(mean "${rs[@]}")
     echo "   $cfg: ${ts[*]} s, relMSE ${es[*]} (clamped to 1: ${ecs[*]})" >&2
-    printf '%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$cfg" "$t" "$e" "$t_ref" "$ec" >> "$rows"
+    printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$cfg" "$t" "$e" "$t_ref" "$ec" "$rays" >> "$rows"
   done
 done
 
@@ -71,13 +79,14 @@ rows = [l.rstrip("\n").split("\t") for l in open(sys.argv[1]) if l.strip()]
 res, spp = int(sys.argv[2]), int(sys.argv[3])
 samples = res * res * spp
 by = {}
-clamped = {}
-for scene, cfg, t, e, tref, ec in rows:
+clamped, rays = {}, {}
+for scene, cfg, t, e, tref, ec, nr in rows:
     by.setdefault(scene, {})[cfg] = (float(t), float(e), float(tref))
     clamped[scene, cfg] = float(ec)
-print("| scene | strategy | seconds | µs/sample | relMSE | equal-time relMSE | vs hero (equal time) "
-      "| equal-time relMSE, clamped to 1 | vs hero |")
-print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    rays[scene, cfg] = float(nr) / samples
+print("| scene | strategy | seconds | µs/sample | rays/sample | relMSE | equal-time relMSE "
+      "| vs hero (equal time) | equal-time relMSE, clamped to 1 | vs hero |")
+print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
 summary = []
 for scene, cfgs in by.items():
     th, eh, _ = cfgs["hero"]
@@ -86,11 +95,12 @@ for scene, cfgs in by.items():
     for cfg, (t, e, _) in cfgs.items():
         eq = e * t / th
         eqc = clamped[scene, cfg] * t / th
-        print(f"| {scene} | {cfg} | {t:.2f} | {t / samples * 1e6:.2f} | {e:.4g} | {eq:.4g} | "
-              f"{eq / eh:.2f}x | {eqc:.4g} | {eqc / ech:.2f}x |")
+        print(f"| {scene} | {cfg} | {t:.2f} | {t / samples * 1e6:.2f} | {rays[scene, cfg]:.2f} | "
+              f"{e:.4g} | {eq:.4g} | {eq / eh:.2f}x | {eqc:.4g} | {eqc / ech:.2f}x |")
     ts, es, _ = cfgs["single"]
     summary.append(f"{scene}: single/hero equal-time relMSE {es * ts / th / eh:.2f}x, "
-                   f"time per sample {ts / th:.2f}x; uniform/visible pdf (hero) "
+                   f"hero/single time per sample {th / ts:.2f}x (rays per sample "
+                   f"{rays[scene, 'hero'] / rays[scene, 'single']:.2f}x); uniform/visible pdf (hero) "
                    f"{cfgs['hero-uniform'][1] * cfgs['hero-uniform'][0] / th / eh:.2f}x")
 print()
 for s in summary:
