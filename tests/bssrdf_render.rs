@@ -68,6 +68,7 @@ fn subsurface(sigma_a: Vec3, sigma_s: Vec3, method: &str) -> SubsurfaceDesc {
         g: 0.0,
         roughness: 0.0,
         method: method.into(),
+        weight: 1.0,
     }
 }
 
@@ -345,4 +346,31 @@ fn reflectance_and_mfp_slab_reflects_the_requested_colour() {
             "channel {ch}: render {mean} vs Fr + (1 - Fr) reflectance = {expected}"
         );
     }
+}
+
+/// `weight` < 1 (Blender's Principled "Subsurface Weight"): the surface is the mixture
+/// weight * subsurface + (1 - weight) * glTF model, chosen per shading point. On the slab in
+/// a white world each pure part has its own mean, and the half mixture must land halfway.
+#[test]
+fn subsurface_weight_mixes_with_the_gltf_surface() {
+    let with_weight = |weight: f32| {
+        let desc = SubsurfaceDesc {
+            weight,
+            ..subsurface(Vec3::splat(0.01), Vec3::splat(0.99), "table")
+        };
+        let (mean, discarded) = render_mean(slab_scene(&desc), 128, 9);
+        assert_eq!(discarded, 0);
+        mean.element_sum() / 3.0
+    };
+    let (sss, surface, half) = (with_weight(1.0), with_weight(0.0), with_weight(0.5));
+    eprintln!("weight 1: {sss}, 0: {surface}, 0.5: {half}");
+    assert!(
+        (sss - surface).abs() > 0.1,
+        "the two parts differ: {sss} vs {surface}"
+    );
+    let expected = 0.5 * (sss + surface);
+    assert!(
+        (half / expected - 1.0).abs() < 0.02,
+        "half mixture {half} vs {expected}"
+    );
 }

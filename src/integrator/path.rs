@@ -179,7 +179,13 @@ impl<'a> PathTracer<'a> {
                 break;
             }
 
-            let bsdf = material.bsdf(&scene.textures, sp.uv, w, sampler.next_1d());
+            let (bsdf, subsurface) = material.scattering(
+                &scene.textures,
+                sp.uv,
+                w,
+                sampler.next_1d(),
+                walk_medium.is_some(),
+            );
             let transmissive = matches!(bsdf, Bsdf::Dielectric(_));
             // Reflective models shade both faces alike: turn the normals towards the viewer.
             // Dielectrics keep the outward normal so that inside/outside (eta) stays meaningful.
@@ -192,7 +198,6 @@ impl<'a> PathTracer<'a> {
             let wo = frame.to_local(wo_world);
 
             if !guides_done && walk_medium.is_none() {
-                let subsurface = material.subsurface();
                 if subsurface.is_some() || !bsdf.is_specular() || depth >= GUIDE_MAX_SPECULAR {
                     guides.albedo = guide_tint
                         * match subsurface {
@@ -273,7 +278,6 @@ impl<'a> PathTracer<'a> {
             }
             // Where the path continues: point, normal for the ray offset, direction.
             let mut next = (sp.p, ng, wi_world);
-            let subsurface = material.subsurface();
             let entering = wi_world.dot(sp.ng) < 0.0;
             let sss_table = bs.transmission
                 && entering

@@ -30,6 +30,8 @@ enum SurfaceModel {
     Subsurface {
         medium: Arc<SubsurfaceMaterial>,
         boundary: IorDesc,
+        /// Probability of the subsurface component at a shading point (else the glTF model).
+        weight: f32,
     },
 }
 
@@ -75,6 +77,7 @@ impl Material {
             Some(MaterialOverride::Subsurface(s)) => SurfaceModel::Subsurface {
                 medium: Arc::new(SubsurfaceMaterial::new(s)),
                 boundary: s.boundary_ior(),
+                weight: s.weight.clamp(0.0, 1.0),
             },
         };
         let emission =
@@ -167,8 +170,38 @@ impl Material {
         }
     }
 
-    /// The BSDF at a surface point. `u_select` picks one component of stochastic mixtures
-    /// (partial transmission), which keeps the estimator unbiased without evaluating both.
+    /// What scatters at a surface point: the BSDF and, when it is the boundary of a
+    /// subsurface medium, that medium. A partly subsurface material (`weight` < 1) picks the
+    /// subsurface component with probability `weight`, else its glTF model, using `u_select`
+    /// (stochastic selection of one component of a mixture keeps the estimator unbiased
+    /// without evaluating both). `inside_medium`: the path arrives from inside this material's
+    /// medium (random walk), where only the medium's boundary makes sense.
+    pub fn scattering(
+        &self,
+        textures: &[TextureDesc],
+        uv: Vec2,
+        w: &SampledWavelengths,
+        u_select: f32,
+        inside_medium: bool,
+    ) -> (Bsdf, Option<&SubsurfaceMaterial>) {
+        if let SurfaceModel::Subsurface { medium, weight, .. } = &self.model {
+            if inside_medium || u_select < *weight {
+                let u = if inside_medium {
+                    u_select
+                } else {
+                    u_select / weight
+                };
+                return (self.bsdf(textures, uv, w, u), Some(medium));
+            }
+            // The glTF part: reuse the leftover of `u_select` for its own choices.
+            let u = ((u_select - weight) / (1.0 - weight)).clamp(0.0, 1.0);
+            return (self.gltf_bsdf(textures, uv, w, u), None);
+        }
+        (self.bsdf(textures, uv, w, u_select), None)
+    }
+
+    /// The BSDF at a surface point (for a subsurface material, always its boundary). `u_select`
+    /// picks one component of stochastic mixtures (partial transmission).
     pub fn bsdf(
         &self,
         textures: &[TextureDesc],
@@ -187,6 +220,7 @@ impl Material {
             SurfaceModel::Subsurface {
                 medium: s,
                 boundary,
+                ..
             } => Bsdf::Dielectric(DielectricBsdf {
                 eta: SampledSpectrum::from_fn(|i| eval_ior(boundary, w.lambda[i])),
                 alpha: if s.alpha < MIN_ALPHA { 0.0 } else { s.alpha },

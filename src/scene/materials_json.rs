@@ -25,7 +25,8 @@
 //!   optional `scale` (> 0, default 1), `eta` (> 0, default 1.33) or `ior` (a number >= 1 or an
 //!   object with exactly one of the dielectric IOR forms below; the BSSRDF then uses its n_d as
 //!   the scalar eta), `g` (in (-1,1), default 0), `roughness` (in [0,1], default 0), `method`
-//!   (`"table"` default | `"random_walk"`).
+//!   (`"table"` default | `"random_walk"`), `weight` (in [0,1], default 1: the fraction of the
+//!   surface that is subsurface, the rest being the glTF material; chosen per shading point).
 //!   Coefficients are non-negative RGB triples, `mfp` positive, `reflectance` in [0,1].
 //! * `dielectric`: exactly one IOR form (models in `crate::spectrum::dispersion`, lambda in
 //!   micrometres): `ior` (number >= 1) | `cauchy` `{a > 0, b >= 0, c >= 0 (default 0)}` for
@@ -483,6 +484,7 @@ impl Validator<'_> {
                 "g",
                 "roughness",
                 "method",
+                "weight",
             ],
             path,
         )?;
@@ -570,6 +572,7 @@ impl Validator<'_> {
             g: opt("g", Range::OpenSigned, 0.0)?,
             roughness: opt("roughness", Range::Unit, 0.0)?,
             method,
+            weight: opt("weight", Range::Unit, 1.0)?,
         })
     }
 
@@ -990,6 +993,10 @@ mod tests {
             (
                 r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","ior":{"roughness":0}}}}}"#,
                 "materials.Skin.subsurface.ior.roughness: unknown key 'roughness'",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","weight":1.5}}}}"#,
+                "materials.Skin.subsurface.weight: must be in [0, 1], got 1.5",
             ),
             (
                 r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","ior":"water"}}}}"#,
