@@ -197,16 +197,16 @@ impl<'a> PathTracer<'a> {
             let frame = Frame::from_normal_tangent(ns, sp.dpdu);
             let wo = frame.to_local(wo_world);
 
-            if !guides_done && walk_medium.is_none() {
-                if subsurface.is_some() || !bsdf.is_specular() || depth >= GUIDE_MAX_SPECULAR {
-                    guides.albedo = guide_tint
-                        * match subsurface {
-                            Some(ss) => ss.effective_albedo(w),
-                            None => bsdf.albedo(),
-                        };
-                    guides.normal = if ns.dot(wo_world) < 0.0 { -ns } else { ns };
-                    guides_done = true;
-                }
+            let guide_here =
+                subsurface.is_some() || !bsdf.is_specular() || depth >= GUIDE_MAX_SPECULAR;
+            if !guides_done && walk_medium.is_none() && guide_here {
+                guides.albedo = guide_tint
+                    * match subsurface {
+                        Some(ss) => ss.effective_albedo(w),
+                        None => bsdf.albedo(),
+                    };
+                guides.normal = if ns.dot(wo_world) < 0.0 { -ns } else { ns };
+                guides_done = true;
             }
 
             // Next-event estimation.
