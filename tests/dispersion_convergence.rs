@@ -188,13 +188,13 @@ fn render(
         width: SIZE,
         height: SIZE,
         spp,
-        max_depth: 16,
         seed,
         wavelengths: WavelengthSampling {
             strategy,
             pdf,
-            fixed: None,
+            ..Default::default()
         },
+        ..Default::default() // max_depth 16
     };
     let (film, stats) = render_quiet(scene, &settings);
     assert_eq!(stats.discarded, 0);
