@@ -57,6 +57,15 @@ impl obvhs::Boundable for TriangleEdges {
     }
 }
 
+/// A traversal ray for obvhs. Negative zeros in the direction become +0: obvhs gives -0.0 a
+/// negative inverse (-inf) while its node-order logic treats the component as positive, and
+/// such rays (exact axis-aligned directions: orthographic cameras, mirror reflections off
+/// axis-aligned faces) then miss geometry. Adding +0.0 maps -0.0 to +0.0 and nothing else.
+#[inline]
+fn bvh_ray(origin: Vec3, dir: Vec3, t_max: f32) -> BvhRay {
+    BvhRay::new(origin.into(), (dir + Vec3::ZERO).into(), 0.0, t_max)
+}
+
 fn build_params() -> BvhBuildParams {
     BvhBuildParams::medium_build()
 }
@@ -296,7 +305,7 @@ impl Geometry {
         if self.is_empty() {
             return None;
         }
-        let world = BvhRay::new(ray.origin.into(), ray.dir.into(), 0.0, t_max);
+        let world = bvh_ray(ray.origin, ray.dir, t_max);
         let mut best = BlasHit {
             t: t_max,
             ..Default::default()
@@ -305,10 +314,9 @@ impl Geometry {
         self.tlas.ray_traverse(world, &mut rh, |r, id| {
             let inst_id = self.tlas_order[id];
             let inst = &self.instances[inst_id as usize];
-            let local = BvhRay::new(
-                inst.world_to_object.transform_point3(ray.origin).into(),
-                inst.world_to_object.transform_vector3(ray.dir).into(),
-                0.0,
+            let local = bvh_ray(
+                inst.world_to_object.transform_point3(ray.origin),
+                inst.world_to_object.transform_vector3(ray.dir),
                 r.tmax,
             );
             let before = best;
@@ -333,16 +341,15 @@ impl Geometry {
         if self.is_empty() {
             return false;
         }
-        let world = BvhRay::new(ray.origin.into(), ray.dir.into(), 0.0, t_max);
+        let world = bvh_ray(ray.origin, ray.dir, t_max);
         !self.tlas.ray_traverse_miss(world, |_, id| {
             let inst = &self.instances[self.tlas_order[id] as usize];
             if !inst.casts_shadows {
                 return f32::INFINITY;
             }
-            let local = BvhRay::new(
-                inst.world_to_object.transform_point3(ray.origin).into(),
-                inst.world_to_object.transform_vector3(ray.dir).into(),
-                0.0,
+            let local = bvh_ray(
+                inst.world_to_object.transform_point3(ray.origin),
+                inst.world_to_object.transform_vector3(ray.dir),
                 t_max,
             );
             if self.meshes[inst.mesh as usize].occluded(&local) {
