@@ -33,22 +33,16 @@ import numpy as np
 WATTS_TO_LUMENS = 683.0
 GREY = (0.8, 0.8, 0.8)
 
-# Abbe-number form of Cauchy's law: n(lambda) = A + B / lambda^2, lambda in micrometres.
-LAMBDA_D, LAMBDA_F, LAMBDA_C = 0.5876, 0.4861, 0.6563
+# Material panel glass preset -> the renderer's preset name (Sellmeier coefficients live in
+# src/spectrum/dispersion.rs).
 GLASS_PRESETS = {
-    # name: (n_d, Abbe number V_d)
-    "BK7": (1.5168, 64.17),
-    "FUSED_SILICA": (1.4585, 67.82),
-    "F2": (1.62004, 36.37),
-    "SF11": (1.78472, 25.68),
-    "DIAMOND": (2.4175, 55.3),
+    "BK7": "BK7",
+    "FUSED_SILICA": "fused_silica",
+    "F2": "F2",
+    "SF11": "SF11",
+    "DIAMOND": "diamond",
+    "WATER": "water",
 }
-
-
-def cauchy_from_abbe(n_d, abbe):
-    """Cauchy A, B (lambda in um) with n(587.6 nm) = n_d and Abbe number V_d = abbe."""
-    b = (n_d - 1.0) / abbe / (1.0 / LAMBDA_F**2 - 1.0 / LAMBDA_C**2)
-    return n_d - b / LAMBDA_D**2, b
 
 
 class ExportError(Exception):
@@ -255,6 +249,9 @@ def _principled_subsurface(node, m):
         "mfp": [max(float(r), 1e-6) for r in mfp],
         "eta": max(float(eta), 1.0),
         "g": min(max(float(g), -0.99), 0.99),
+        # The rest of the surface is the Principled base (the glTF material), as in Cycles'
+        # mix of subsurface and diffuse by the weight.
+        "weight": min(max(float(weight), 0.0), 1.0),
     }
 
 
@@ -276,13 +273,14 @@ def prism_override(mat):
             }
         }
     if p.dispersion_mode != "NONE":
+        roughness = float(p.dispersion_roughness)
         if p.dispersion_mode == "CAUCHY":
-            a, b = p.cauchy_a, p.cauchy_b
+            ior = {"cauchy": {"a": float(p.cauchy_a), "b": float(p.cauchy_b)}}
         elif p.dispersion_mode == "ABBE":
-            a, b = cauchy_from_abbe(p.abbe_nd, p.abbe_number)
-        else:
-            a, b = cauchy_from_abbe(*GLASS_PRESETS[p.glass_preset])
-        return {"dielectric": {"cauchy": {"a": float(a), "b": float(b)}, "roughness": float(p.dispersion_roughness)}}
+            ior = {"abbe": {"ior": float(p.abbe_nd), "abbe": float(p.abbe_number)}}
+        else:  # the renderer's glass presets: published Sellmeier coefficients
+            ior = {"preset": GLASS_PRESETS[p.glass_preset]}
+        return {"dielectric": dict(ior, roughness=roughness)}
     return None
 
 
@@ -617,7 +615,13 @@ class Exporter:
             "material": len(self.materials) - 1,
         }
         self.meshes.append({"name": "AreaLight_%s" % ob.name, "primitives": [prim]})
-        self._child({"name": ob.name, "mesh": len(self.meshes) - 1, "matrix": _matrix(matrix)})
+        # A Blender light is not geometry: it casts no shadow, and camera rays see it only
+        # with the object's Camera ray visibility on (off by default for lights, 3.x and 5.x).
+        extras = {
+            "prism_area_light": True,
+            "prism_visible_camera": bool(getattr(ob, "visible_camera", False)),
+        }
+        self._child({"name": ob.name, "mesh": len(self.meshes) - 1, "matrix": _matrix(matrix), "extras": extras})
 
     def _add_camera(self):
         cam_ob = self.scene.camera
@@ -843,6 +847,8 @@ def render_settings(scene):
     p = getattr(scene, "prism", None)
     if p is not None:
         out.update(spp=int(p.samples), max_depth=int(p.max_depth), wavelengths=p.wavelengths.lower())
+        if hasattr(p, "wavelength_pdf"):
+            out["wavelength_pdf"] = p.wavelength_pdf.lower()
     return out
 
 

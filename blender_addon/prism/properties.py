@@ -18,6 +18,7 @@ GLASS_PRESET_ITEMS = [
     ("F2", "F2 flint", "n_d 1.6200, V_d 36.37"),
     ("SF11", "SF11 dense flint", "n_d 1.7847, V_d 25.68"),
     ("DIAMOND", "Diamond", "n_d 2.4175, V_d 55.3"),
+    ("WATER", "Water", "20 degrees C, n_d 1.3330, V_d 55.8"),
 ]
 
 

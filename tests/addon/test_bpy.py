@@ -315,8 +315,14 @@ def test_export_content():
     area = next(m for m in g["materials"] if m["name"].startswith("PrismAreaLight_Disk"))
     L = area["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"]
     C.check(abs(L - 100 / (math.pi * math.pi)) / L < 0.01, "disk light radiance P/(pi A) = %.3f" % L)
-    C.check(mj["materials"]["Prismatic"]["dielectric"]["cauchy"]["a"] > 2.3, "diamond preset -> Cauchy")
-    C.check("subsurface" in mj["materials"]["Skin"], "Principled subsurface -> subsurface block")
+    C.check(mj["materials"]["Prismatic"]["dielectric"]["preset"] == "diamond", "diamond glass preset -> renderer preset")
+    C.check(mj["materials"]["Skin"]["subsurface"]["weight"] == 1.0, "Principled subsurface -> subsurface block, weight 1")
+    disk = next(n for n in g["nodes"] if n.get("name") == "Disk")
+    C.check(
+        disk["extras"] == {"prism_area_light": True, "prism_visible_camera": False},
+        "area light node: no shadows, hidden from the camera (Blender's default)",
+    )
+    C.check(mj["render"]["wavelength_pdf"] == "visible", "wavelength density in the render block")
     C.check(abs(mj["world"]["color"][0] - 0.05) < 1e-6, "world colour")
     yfov = g["cameras"][0]["perspective"]["yfov"]
     exp = 2 * math.atan(36.0 / 2 / 50.0 * 100 / 160)
