@@ -49,6 +49,39 @@ def read_exr(path, width, height):
     return px.reshape(-1, 4)
 
 
+def guide_passes(scene, view_layer):
+    """Extra passes this render produces, as (pass name, channels, chan_id, type), in the order
+    Blender expects them: Blender's Depth/Normal passes when the view layer asks for them, and
+    Cycles-style denoising data (for the Denoise compositor node) when Prism's setting is on."""
+    out = []
+    if view_layer is not None and getattr(view_layer, "use_pass_z", False):
+        out.append(("Depth", 1, "Z", "VALUE"))
+    if view_layer is not None and getattr(view_layer, "use_pass_normal", False):
+        out.append(("Normal", 3, "XYZ", "VECTOR"))
+    p = getattr(scene, "prism", None)
+    if p is not None and getattr(p, "denoising_data", False):
+        out.append(("Denoising Normal", 3, "XYZ", "VECTOR"))
+        out.append(("Denoising Albedo", 3, "RGB", "COLOR"))
+    return out
+
+
+def guide_pixels(planes, name, width, height):
+    """A pass's pixels (bottom row first, channels last) from the binary's EXR planes. Normals
+    come in glTF world axes (Y up) and go out in Blender's (Z up): (x, y, z) -> (x, -z, y)."""
+    def flat(*channels):
+        stack = np.stack([planes[c] for c in channels], axis=-1)
+        return np.ascontiguousarray(stack[::-1]).reshape(width * height, len(channels))
+
+    if name == "Depth":
+        return flat("Depth.Z")
+    if name in ("Normal", "Denoising Normal"):
+        n = flat("Normal.X", "Normal.Y", "Normal.Z")
+        return np.stack([n[:, 0], -n[:, 2], n[:, 1]], axis=-1)
+    if name == "Denoising Albedo":
+        return flat("Albedo.R", "Albedo.G", "Albedo.B")
+    raise KeyError(name)
+
+
 def _log(msg):
     print("Prism: " + msg, file=sys.stderr, flush=True)
 
@@ -93,6 +126,27 @@ class PrismRenderEngine(bpy.types.RenderEngine):
     def _set_pixels(self, result, px):
         result.layers[0].passes["Combined"].rect = px
 
+    def _set_all_passes(self, result, path, passes, width, height):
+        planes = exr.read_planes(path)
+        rgba = exr.rgba_of(planes)
+        if rgba.shape[:2] != (height, width):
+            raise runner.RunnerError("%s is %dx%d, expected %dx%d" % (os.path.basename(path), rgba.shape[1], rgba.shape[0], width, height))
+        self._set_pixels(result, np.ascontiguousarray(rgba[::-1]).reshape(-1, 4))
+        layer_passes = result.layers[0].passes
+        for name, _channels, _chan_id, _kind in passes:
+            target = layer_passes.get(name) if hasattr(layer_passes, "get") else None
+            if target is None:
+                self._warn("the render result has no '%s' pass" % name)
+                continue
+            target.rect = guide_pixels(planes, name, width, height)
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        """Declares the passes of a render (Blender calls this when it builds render results and
+        the compositor's Render Layers node)."""
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        for name, channels, chan_id, kind in guide_passes(scene, renderlayer):
+            self.register_pass(scene, renderlayer, name, channels, chan_id, kind)
+
     def _render(self, depsgraph, scene, result, tmp, width, height):
         prefs = addon_preferences()
         binary = runner.find_binary(prefs.binary_path if prefs is not None else "")
@@ -113,6 +167,10 @@ class PrismRenderEngine(bpy.types.RenderEngine):
             binary, gltf, mjson, output, preview, settings.samples, width, height,
             settings.max_depth, settings.seed, settings.threads,
         )
+        passes = guide_passes(scene, depsgraph.view_layer)
+        if passes:
+            args.append("--guides")
+        LAST["passes"] = [p[0] for p in passes]
         t_start = time.perf_counter()
         proc = runner.PrismProcess(args, cwd=tmp)
         LAST["pid"] = proc.proc.pid
@@ -164,7 +222,10 @@ class PrismRenderEngine(bpy.types.RenderEngine):
         if rc != 0:
             raise runner.RunnerError(proc.error_message(rc))
         t0 = time.perf_counter()
-        self._set_pixels(result, read_exr(output, width, height))
+        if passes:
+            self._set_all_passes(result, output, passes, width, height)
+        else:
+            self._set_pixels(result, read_exr(output, width, height))
         timings["load"] = time.perf_counter() - t0
         self.update_progress(1.0)
         done = LAST.get("done") or {}

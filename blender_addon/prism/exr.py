@@ -22,20 +22,15 @@ _COMPRESSION = {0: "NONE", 1: "RLE", 2: "ZIPS", 3: "ZIP"}
 _LINES_PER_BLOCK = {"NONE": 1, "RLE": 1, "ZIPS": 1, "ZIP": 16}
 
 
-def _header(buf):
-    if buf[:4] != b"\x76\x2f\x31\x01":
-        raise ExrError("not an OpenEXR file")
-    flags = struct.unpack_from("<I", buf, 4)[0]
-    if flags & 0x1000 or flags & 0x800:  # multi-part or deep
-        raise ExrError("multi-part/deep EXR not supported")
-    pos = 8
+def _attributes(buf, pos):
+    """One header's attributes from `pos` to its terminating null byte: (attrs, next pos)."""
     attrs = {}
     while True:
         end = buf.index(b"\0", pos)
         name = buf[pos:end].decode()
         pos = end + 1
         if not name:
-            break
+            return attrs, pos
         end = buf.index(b"\0", pos)
         kind = buf[pos:end].decode()
         pos = end + 1
@@ -43,7 +38,25 @@ def _header(buf):
         pos += 4
         attrs[name] = (kind, buf[pos:pos + size])
         pos += size
-    return flags, attrs, pos
+
+
+def _headers(buf):
+    """(flags, [attrs per part], position of the first offset table). Single-part files have one
+    header; multi-part files (Blender 5's multilayer EXR) a list ended by an empty header."""
+    if buf[:4] != b"\x76\x2f\x31\x01":
+        raise ExrError("not an OpenEXR file")
+    flags = struct.unpack_from("<I", buf, 4)[0]
+    if flags & 0x800:
+        raise ExrError("deep EXR not supported")
+    pos = 8
+    if not flags & 0x1000:
+        attrs, pos = _attributes(buf, pos)
+        return flags, [attrs], pos
+    parts = []
+    while buf[pos] != 0:
+        attrs, pos = _attributes(buf, pos)
+        parts.append(attrs)
+    return flags, parts, pos + 1
 
 
 def _channels(data):
@@ -103,9 +116,58 @@ def _decompress(comp, data, expected):
 
 def read_rgba(path):
     """(height, width, 4) float32 array, top row first; missing A is 1, missing G/B copy R."""
+    return rgba_of(read_planes(path))
+
+
+def rgba_of(planes):
+    """RGBA (height, width, 4) from the planes of `read_planes`."""
+
+    def plane(*names, default=None):
+        for n in names:
+            if n in planes:
+                return planes[n]
+        return default
+
+    r = plane("R", "Combined.R", "ViewLayer.Combined.R")
+    if r is None:
+        raise ExrError("no R channel (channels: %s)" % ", ".join(planes))
+    g = plane("G", "Combined.G", "ViewLayer.Combined.G", default=r)
+    b = plane("B", "Combined.B", "ViewLayer.Combined.B", default=r)
+    a = plane("A", "Combined.A", "ViewLayer.Combined.A", default=np.ones_like(r))
+    return np.stack([r, g, b, a], axis=-1)
+
+
+def read_planes(path):
+    """Every channel as a (height, width) float32 array, top row first, keyed by name (all
+    parts of a multi-part file; a name repeated in several parts gets its part's name in
+    front)."""
     with open(path, "rb") as f:
         buf = f.read()
-    flags, attrs, pos = _header(buf)
+    flags, parts, pos = _headers(buf)
+    multi = bool(flags & 0x1000)
+    decoded = []
+    for index, attrs in enumerate(parts):
+        if multi:
+            kind = attrs.get("type", ("", b""))[1].rstrip(b"\0").decode()
+            tiled = kind == "tiledimage"
+            if kind not in ("scanlineimage", "tiledimage"):
+                raise ExrError("part type %r not supported" % kind)
+        else:
+            tiled = bool(flags & 0x200)
+        planes, pos = _read_part(buf, attrs, pos, tiled, index if multi else None)
+        name = attrs.get("name", ("", b""))[1].rstrip(b"\0").decode()
+        decoded.append((name, planes))
+    out = {}
+    for name, planes in decoded:
+        for channel, plane in planes.items():
+            key = channel if channel not in out else "%s.%s" % (name, channel)
+            out[key] = plane
+    return out
+
+
+def _read_part(buf, attrs, pos, tiled, part):
+    """Decodes one part whose offset table starts at `pos`: (planes, end of the table).
+    `part` is the part number that prefixes every chunk of a multi-part file (else None)."""
     comp_code = attrs["compression"][1][0]
     comp = _COMPRESSION.get(comp_code)
     if comp is None:
@@ -115,6 +177,7 @@ def read_rgba(path):
     chans = _channels(attrs["channels"][1])  # sorted by name in the file
     sizes = [2 if t == 1 else 4 for _n, t in chans]  # 0 UINT, 1 HALF, 2 FLOAT
     planes = {n: np.zeros((h, w), np.float32) for n, _t in chans}
+    skip = 0 if part is None else 4  # the part number before each chunk
 
     def put(rows, xa, width, y_start, block):
         p = 0
@@ -131,7 +194,6 @@ def read_rgba(path):
                     v = np.frombuffer(seg, "<u4").astype(np.float32)
                 planes[name][y_start + r, xa:xa + width] = v
 
-    tiled = bool(flags & 0x200)
     if tiled:
         tx, ty, mode = struct.unpack("<IIB", attrs["tiles"][1])
         if mode & 0xF != 0:
@@ -140,6 +202,7 @@ def read_rgba(path):
         count = nx * ny
         offsets = struct.unpack_from("<%dQ" % count, buf, pos)
         for off in offsets:
+            off += skip
             cx, cy, _lx, _ly, size = struct.unpack_from("<iiiii", buf, off)
             xa, ya = cx * tx, cy * ty
             tw, th = min(tx, w - xa), min(ty, h - ya)
@@ -151,23 +214,11 @@ def read_rgba(path):
         count = (h + lines - 1) // lines
         offsets = struct.unpack_from("<%dQ" % count, buf, pos)
         for off in offsets:
+            off += skip
             y, size = struct.unpack_from("<ii", buf, off)
             ya = y - y0
             th = min(lines, h - ya)
             expected = th * w * sum(sizes)
             block = _decompress(comp, buf[off + 8:off + 8 + size], expected)
             put(th, 0, w, ya, block)
-
-    def plane(*names, default=None):
-        for n in names:
-            if n in planes:
-                return planes[n]
-        return default
-
-    r = plane("R", "Combined.R", "ViewLayer.Combined.R")
-    if r is None:
-        raise ExrError("no R channel (channels: %s)" % ", ".join(planes))
-    g = plane("G", "Combined.G", "ViewLayer.Combined.G", default=r)
-    b = plane("B", "Combined.B", "ViewLayer.Combined.B", default=r)
-    a = plane("A", "Combined.A", "ViewLayer.Combined.A", default=np.ones_like(r))
-    return np.stack([r, g, b, a], axis=-1)
+    return planes, pos + 8 * count

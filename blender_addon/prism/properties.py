@@ -2,7 +2,7 @@
 """Prism settings stored in .blend files: Scene.prism (render) and Material.prism (overrides)."""
 
 import bpy
-from bpy.props import EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, PointerProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, PointerProperty
 
 SSS_PRESETS = [
     (n, n, "Measured medium (Jensen et al. 2001)")
@@ -45,6 +45,12 @@ class PrismRenderSettings(bpy.types.PropertyGroup):
         default="VISIBLE",
     )
     threads: IntProperty(name="Threads", description="Worker threads (0 = all cores)", default=0, min=0, max=1024)
+    denoising_data: BoolProperty(
+        name="Denoising Data",
+        description="Write Denoising Normal and Denoising Albedo passes (first non-mirror surface) "
+        "for the compositor's Denoise node",
+        default=False,
+    )
     seed: IntProperty(name="Seed", description="Random seed", default=0, min=0)
 
 

@@ -31,6 +31,24 @@ class RENDER_PT_prism_sampling(PrismPanel, bpy.types.Panel):
         col.prop(p, "seed")
 
 
+class VIEWLAYER_PT_prism_passes(PrismPanel, bpy.types.Panel):
+    """Blender's own pass panel is Cycles/EEVEE specific; these are the passes Prism writes."""
+
+    bl_label = "Passes"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "view_layer"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        col = layout.column(heading="Data")
+        col.prop(context.view_layer, "use_pass_combined")
+        col.prop(context.view_layer, "use_pass_z")
+        col.prop(context.view_layer, "use_pass_normal")
+        layout.column(heading="Denoising").prop(context.scene.prism, "denoising_data")
+
+
 class MATERIAL_PT_prism(PrismPanel, bpy.types.Panel):
     bl_label = "Prism"
     bl_space_type = "PROPERTIES"
@@ -90,7 +108,7 @@ class MATERIAL_PT_prism_surface(PrismPanel, bpy.types.Panel):
         self.layout.template_node_view(mat.node_tree, out, out.inputs["Surface"])
 
 
-classes = (RENDER_PT_prism_sampling, MATERIAL_PT_prism, MATERIAL_PT_prism_surface)
+classes = (RENDER_PT_prism_sampling, VIEWLAYER_PT_prism_passes, MATERIAL_PT_prism, MATERIAL_PT_prism_surface)
 
 
 def register():

@@ -330,6 +330,67 @@ def test_export_content():
 
 
 
+def test_passes_depth_normal_denoising():
+    """Depth, Normal and the denoising passes reach the render result (multilayer EXR), with
+    Blender's conventions: Z along the view axis in scene units, world normals with Z up."""
+    import math
+
+    sc = C.simple_scene()
+    C.use_prism(sc, spp=16)
+    vl = sc.view_layers[0]
+    vl.use_pass_z = True
+    vl.use_pass_normal = True
+    sc.prism.denoising_data = True
+    sc.render.resolution_x, sc.render.resolution_y = 80, 50
+    im = sc.render.image_settings
+    if hasattr(im, "media_type"):  # Blender 5: multilayer EXR is a media type
+        im.media_type = "MULTI_LAYER_IMAGE"
+    im.file_format = "OPEN_EXR_MULTILAYER"
+    im.color_depth = "32"
+    res = bpy.ops.render.render(write_still=False)
+    C.check("FINISHED" in res, "render finished")
+    from prism import engine, exr
+
+    C.check(engine.LAST["error"] is None, "no error: %s" % engine.LAST["error"])
+    C.check(engine.LAST["passes"] == ["Depth", "Normal", "Denoising Normal", "Denoising Albedo"],
+            "passes requested: %s" % engine.LAST["passes"])
+    path = os.path.join(OUT, "passes.exr")
+    bpy.data.images["Render Result"].save_render(filepath=path, scene=sc)
+    planes = exr.read_planes(path)
+
+    def plane(name):
+        key = next((k for k in planes if k.endswith(name)), None)
+        C.check(key is not None, "pass channel %s in the file" % name)
+        return planes[key]
+
+    depth = plane("Depth.Z")
+    nz = plane("Normal.Z")
+    ny = plane("Normal.Y")
+    alb_r, alb_g = plane("Denoising Albedo.R"), plane("Denoising Albedo.G")
+    dnz = plane("Denoising Normal.Z")
+    # Camera at (0, -8, 3) aimed at (0, 0, 0.8): the floor (z = 0) below the sphere. Pixel
+    # (row 45 of 50 from the top, centre column) sees the floor: normal +Z in Blender axes.
+    floor = (45, 40)
+    C.check(nz[floor] > 0.99 and abs(ny[floor]) < 0.05, "floor normal is +Z (%.3f, %.3f)" % (ny[floor], nz[floor]))
+    C.check(dnz[floor] > 0.99, "denoising normal matches")
+    # The sphere's silhouette centre: red albedo 0.8/0.1 (Diffuse BSDF colour).
+    ball = (int(50 * 0.45), 40)
+    C.check(abs(alb_r[ball] - 0.8) < 0.05 and abs(alb_g[ball] - 0.1) < 0.03,
+            "sphere albedo (%.3f, %.3f) vs (0.8, 0.1)" % (alb_r[ball], alb_g[ball]))
+    # Depth along the view axis at the image centre: the camera looks at (0, 0, 0.8) from
+    # (0, -8, 3); the ray through the centre hits the unit sphere at (0, 0, 1) + r * dir.
+    cam = np.array([0.0, -8.0, 3.0])
+    d = np.array([0.0, 8.0, -2.2]) / math.sqrt(64 + 2.2 ** 2)
+    oc = cam - np.array([0.0, 0.0, 1.0])
+    b = oc.dot(d)
+    t = -b - math.sqrt(b * b - (oc.dot(oc) - 1.0))
+    centre = depth[24:26, 39:41].mean()
+    C.check(abs(centre - t) < 0.05, "centre depth %.3f vs ray-sphere %.3f (view axis = centre ray)" % (centre, t))
+    C.check(depth[0, 0] > 1e9, "background depth is Blender's 1e10 (%.3g)" % depth[0, 0])
+    sc.prism.denoising_data = False
+    vl.use_pass_z = vl.use_pass_normal = False
+
+
 if __name__ == "__main__":
     from runner_util import run_tests
 
