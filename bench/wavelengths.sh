@@ -45,6 +45,15 @@ r() {
 }
 relmse() { "$PRISM" compare "$@" | sed -n 's/.*"rel_mse":\([0-9.eE+-]*\).*/\1/p'; }
 
+CFGS=(hero single stratified hero-uniform)
+flags_for() {
+  case $1 in
+    hero-uniform) echo "--wavelengths hero --wavelength-pdf uniform" ;;
+    *) echo "--wavelengths $1 --wavelength-pdf visible" ;;
+  esac
+}
+mean() { python3 -c 'import sys; v=[float(x) for x in sys.argv[1:]]; print(sum(v)/len(v))' "$@"; }
+
 rows="$OUT/rows.tsv"
 : > "$rows"
 for name in diamond rough_dispersive cornell; do
@@ -52,25 +61,26 @@ for name in diamond rough_dispersive cornell; do
   echo "== $name: reference hero, $REF_SPP spp" >&2
   t_ref=$(r "$scene" "$OUT/${name}_ref.exr" "$REF_SPP" 1000)
   echo "   reference: $t_ref s" >&2
-  for cfg in hero single stratified hero-uniform; do
-    case $cfg in
-      hero-uniform) flags=(--wavelengths hero --wavelength-pdf uniform) ;;
-      *) flags=(--wavelengths "$cfg" --wavelength-pdf visible) ;;
-    esac
-    # REPEAT runs with seeds SEED, SEED+1, ...: mean seconds and mean relMSE.
-    ts=(); es=(); ecs=(); rs=()
-    for k in $(seq 0 $((REPEAT - 1))); do
+  # REPEAT rounds with seeds SEED, SEED+1, ...; the strategies alternate within a round so
+  # that changes of the machine's load hit them alike. Mean seconds, rays and relMSE.
+  declare -A ts=() es=() ecs=() rs=()
+  for k in $(seq 0 $((REPEAT - 1))); do
+    for cfg in "${CFGS[@]}"; do
       img="$OUT/${name}_${cfg}_$k.exr"
-      ts+=("$(r "$scene" "$img" "$SPP" $((SEED + k)) "${flags[@]}")")
-      rs+=("$(cat "$OUT/last_rays")")
-      es+=("$(relmse "$img" "$OUT/${name}_ref.exr")")
-      ecs+=("$(relmse "$img" "$OUT/${name}_ref.exr" --clamp 1)")
+      # shellcheck disable=SC2046
+      ts[$cfg]+=" $(r "$scene" "$img" "$SPP" $((SEED + k)) $(flags_for "$cfg"))"
+      rs[$cfg]+=" $(cat "$OUT/last_rays")"
+      es[$cfg]+=" $(relmse "$img" "$OUT/${name}_ref.exr")"
+      ecs[$cfg]+=" $(relmse "$img" "$OUT/${name}_ref.exr" --clamp 1)"
     done
-    mean() { python3 -c 'import sys; v=[float(x) for x in sys.argv[1:]]; print(sum(v)/len(v))' "$@"; }
-    t=$(mean "${ts[@]}"); e=$(mean "${es[@]}"); ec=$(mean "${ecs[@]}"); rays=$(mean "${rs[@]}")
-    echo "   $cfg: ${ts[*]} s, relMSE ${es[*]} (clamped to 1: ${ecs[*]})" >&2
+  done
+  for cfg in "${CFGS[@]}"; do
+    # shellcheck disable=SC2086
+    t=$(mean ${ts[$cfg]}); e=$(mean ${es[$cfg]}); ec=$(mean ${ecs[$cfg]}); rays=$(mean ${rs[$cfg]})
+    echo "   $cfg:${ts[$cfg]} s, relMSE${es[$cfg]} (clamped to 1:${ecs[$cfg]})" >&2
     printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$cfg" "$t" "$e" "$t_ref" "$ec" "$rays" >> "$rows"
   done
+  unset ts es ecs rs
 done
 
 table=$(python3 - "$rows" "$RES" "$SPP" <<'PY'
