@@ -108,6 +108,7 @@ for scene, cfgs in by.items():
         print(f"| {scene} | {cfg} | {t:.2f} | {t / samples * 1e6:.2f} | {rays[scene, cfg]:.2f} | "
               f"{e:.4g} | {eq:.4g} | {eq / eh:.2f}x | {eqc:.4g} | {eqc / ech:.2f}x |")
     ts, es, _ = cfgs["single"]
+    ts = max(ts, 1e-6)
     summary.append(f"{scene}: single/hero equal-time relMSE {es * ts / th / eh:.2f}x, "
                    f"hero/single time per sample {th / ts:.2f}x (rays per sample "
                    f"{rays[scene, 'hero'] / rays[scene, 'single']:.2f}x); uniform/visible pdf (hero) "
