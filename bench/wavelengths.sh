@@ -109,9 +109,10 @@ for scene, cfgs in by.items():
               f"{e:.4g} | {eq:.4g} | {eq / eh:.2f}x | {eqc:.4g} | {eqc / ech:.2f}x |")
     ts, es, _ = cfgs["single"]
     ts = max(ts, 1e-6)
-    summary.append(f"{scene}: single/hero equal-time relMSE {es * ts / th / eh:.2f}x, "
+    summary.append(f"{scene}: single/hero relMSE {es / eh:.2f}x at equal spp, "
+                   f"{es * ts / th / eh:.2f}x at equal time; "
                    f"hero/single time per sample {th / ts:.2f}x (rays per sample "
-                   f"{rays[scene, 'hero'] / rays[scene, 'single']:.2f}x); uniform/visible pdf (hero) "
+                   f"{rays[scene, 'hero'] / max(rays[scene, 'single'], 1e-9):.2f}x); uniform/visible pdf (hero) "
                    f"{cfgs['hero-uniform'][1] * cfgs['hero-uniform'][0] / th / eh:.2f}x")
 print()
 for s in summary:
