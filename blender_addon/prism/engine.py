@@ -185,7 +185,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
                     timings["cancel"] = time.perf_counter() - t_cancel
                     _log("cancelled; process %d stopped in %.2f s" % (proc.proc.pid, timings["cancel"]))
                     return
-                for ev in proc.poll(0.02):
+                for ev in proc.poll(0.01):
                     kind = ev.get("event")
                     if kind == "progress":
                         frac = float(ev.get("fraction", 0.0))
