@@ -395,9 +395,12 @@ fn report_done(mode: ProgressMode, stats: &RenderStats, output: &Path) {
             json_escape(&output.to_string_lossy())
         ),
         _ => eprintln!(
-            "prism: {} {} in {:.2} s: {} samples, {:.2} Mrays/s, {} non-finite samples discarded -> {}",
-            if stats.cancelled { "interrupted" } else { "rendered" },
-            if stats.cancelled { "after" } else { "" },
+            "prism: {} {:.2} s: {} samples, {:.2} Mrays/s, {} non-finite samples discarded -> {}",
+            if stats.cancelled {
+                "interrupted after"
+            } else {
+                "rendered in"
+            },
             stats.seconds,
             stats.samples,
             stats.rays as f64 / stats.seconds.max(1e-9) / 1e6,
