@@ -29,19 +29,19 @@ if [ -z "${PRISM:-}" ]; then
   PRISM=./target/release/prism
 fi
 
-# render SCENE OUT SPP SEED [extra flags...] -> prints the render's seconds; the rays traced
-# (seconds x Mrays/s, a load-independent measure of the work) go to $OUT/last_rays.
+# render SCENE OUT SPP SEED [extra flags...] -> prints the render's wall-clock seconds; the rays
+# traced (a load-independent measure of the work; both from the final `--progress json` event)
+# go to $OUT/last_rays, the process's user + system CPU seconds (less sensitive than wall time
+# to other processes on a shared machine) to $OUT/last_cpu.
 r() {
   local scene=$1 out=$2 spp=$3 seed=$4
   shift 4
-  local line
-  line=$("$PRISM" render "$scene" -o "$out" --spp "$spp" --seed "$seed" --width "$RES" \
-    --height "$RES" --threads "$THREADS" --progress none "$@" 2>&1)
-  local t m
-  t=$(echo "$line" | sed -n 's/.* in \([0-9.]*\) s.*/\1/p')
-  m=$(echo "$line" | sed -n 's/.* \([0-9.]*\) Mrays\/s.*/\1/p')
-  python3 -c "print(float('$t') * float('$m') * 1e6)" > "$OUT/last_rays"
-  echo "$t"
+  local done_line
+  done_line=$(/usr/bin/time -o "$OUT/last_cpu" -f "%U %S" "$PRISM" render "$scene" -o "$out" \
+    --spp "$spp" --seed "$seed" --width "$RES" --height "$RES" --threads "$THREADS" \
+    --progress json "$@" 2>&1 | grep '"event":"done"')
+  python3 -c 'import json,sys; d=json.loads(sys.argv[1]); print(d["rays"], file=open(sys.argv[2], "w")); print(d["seconds"])' \
+    "$done_line" "$OUT/last_rays"
 }
 relmse() { "$PRISM" compare "$@" | sed -n 's/.*"rel_mse":\([0-9.eE+-]*\).*/\1/p'; }
 
@@ -63,13 +63,14 @@ for name in diamond rough_dispersive cornell; do
   echo "   reference: $t_ref s" >&2
   # REPEAT rounds with seeds SEED, SEED+1, ...; the strategies alternate within a round so
   # that changes of the machine's load hit them alike. Mean seconds, rays and relMSE.
-  declare -A ts=() es=() ecs=() rs=()
+  declare -A ts=() es=() ecs=() rs=() cs=()
   for k in $(seq 0 $((REPEAT - 1))); do
     for cfg in "${CFGS[@]}"; do
       img="$OUT/${name}_${cfg}_$k.exr"
       # shellcheck disable=SC2046
       ts[$cfg]+=" $(r "$scene" "$img" "$SPP" $((SEED + k)) $(flags_for "$cfg"))"
       rs[$cfg]+=" $(cat "$OUT/last_rays")"
+      cs[$cfg]+=" $(python3 -c 'import sys; print(sum(map(float, sys.argv[1:])))' $(cat "$OUT/last_cpu"))"
       es[$cfg]+=" $(relmse "$img" "$OUT/${name}_ref.exr")"
       ecs[$cfg]+=" $(relmse "$img" "$OUT/${name}_ref.exr" --clamp 1)"
     done
@@ -77,10 +78,11 @@ for name in diamond rough_dispersive cornell; do
   for cfg in "${CFGS[@]}"; do
     # shellcheck disable=SC2086
     t=$(mean ${ts[$cfg]}); e=$(mean ${es[$cfg]}); ec=$(mean ${ecs[$cfg]}); rays=$(mean ${rs[$cfg]})
-    echo "   $cfg:${ts[$cfg]} s, relMSE${es[$cfg]} (clamped to 1:${ecs[$cfg]})" >&2
-    printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$cfg" "$t" "$e" "$t_ref" "$ec" "$rays" >> "$rows"
+    cpu=$(mean ${cs[$cfg]})
+    echo "   $cfg:${ts[$cfg]} s (CPU${cs[$cfg]} s), relMSE${es[$cfg]} (clamped to 1:${ecs[$cfg]})" >&2
+    printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\n' "$name" "$cfg" "$t" "$e" "$t_ref" "$ec" "$rays" "$cpu" >> "$rows"
   done
-  unset ts es ecs rs
+  unset ts es ecs rs cs
 done
 
 table=$(python3 - "$rows" "$RES" "$SPP" <<'PY'
@@ -89,14 +91,15 @@ rows = [l.rstrip("\n").split("\t") for l in open(sys.argv[1]) if l.strip()]
 res, spp = int(sys.argv[2]), int(sys.argv[3])
 samples = res * res * spp
 by = {}
-clamped, rays = {}, {}
-for scene, cfg, t, e, tref, ec, nr in rows:
+clamped, rays, cpu = {}, {}, {}
+for scene, cfg, t, e, tref, ec, nr, c in rows:
     by.setdefault(scene, {})[cfg] = (float(t), float(e), float(tref))
     clamped[scene, cfg] = float(ec)
     rays[scene, cfg] = float(nr) / samples
-print("| scene | strategy | seconds | µs/sample | rays/sample | relMSE | equal-time relMSE "
+    cpu[scene, cfg] = float(c)
+print("| scene | strategy | seconds | CPU s | µs/sample | rays/sample | relMSE | equal-time relMSE "
       "| vs hero (equal time) | equal-time relMSE, clamped to 1 | vs hero |")
-print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
 summary = []
 for scene, cfgs in by.items():
     th, eh, _ = cfgs["hero"]
@@ -105,13 +108,15 @@ for scene, cfgs in by.items():
     for cfg, (t, e, _) in cfgs.items():
         eq = e * t / th
         eqc = clamped[scene, cfg] * t / th
-        print(f"| {scene} | {cfg} | {t:.2f} | {t / samples * 1e6:.2f} | {rays[scene, cfg]:.2f} | "
+        print(f"| {scene} | {cfg} | {t:.2f} | {cpu[scene, cfg]:.2f} | {t / samples * 1e6:.2f} | "
+              f"{rays[scene, cfg]:.2f} | "
               f"{e:.4g} | {eq:.4g} | {eq / eh:.2f}x | {eqc:.4g} | {eqc / ech:.2f}x |")
     ts, es, _ = cfgs["single"]
     ts = max(ts, 1e-6)
     summary.append(f"{scene}: single/hero relMSE {es / eh:.2f}x at equal spp, "
                    f"{es * ts / th / eh:.2f}x at equal time; "
-                   f"hero/single time per sample {th / ts:.2f}x (rays per sample "
+                   f"hero/single time per sample {th / ts:.2f}x (CPU time "
+                   f"{cpu[scene, 'hero'] / max(cpu[scene, 'single'], 1e-9):.2f}x, rays per sample "
                    f"{rays[scene, 'hero'] / max(rays[scene, 'single'], 1e-9):.2f}x); uniform/visible pdf (hero) "
                    f"{cfgs['hero-uniform'][1] * cfgs['hero-uniform'][0] / th / eh:.2f}x")
 print()
