@@ -75,8 +75,10 @@ impl<'a> PathTracer<'a> {
         let mut beta = SampledSpectrum::ONE;
         let mut rays = 0u32;
         let mut mis = SpectralMis::new(w);
-        // The wavelengths that can still carry light (fewer after a smooth dispersive
-        // refraction): decides how many channels the BSSRDF samples.
+        // The wavelengths the path evaluates materials and lights at. After a smooth
+        // dispersive refraction only the hero carries light: the secondaries are collapsed onto
+        // it (their throughput is 0), so later dispersive interfaces cost what a
+        // single-wavelength path costs, and the BSSRDF samples one channel. The film keeps `w`.
         let mut alive = *w;
         if mis.hero_only() {
             alive.terminate_secondary();
@@ -139,7 +141,7 @@ impl<'a> PathTracer<'a> {
                 }
             }
             let Some(hit) = next_hit else {
-                let le = lights.environment_radiance(ray.dir, w);
+                let le = lights.environment_radiance(ray.dir, &alive);
                 if !le.is_black() {
                     let weight = if specular_bounce {
                         1.0
@@ -163,7 +165,7 @@ impl<'a> PathTracer<'a> {
 
             if material.is_emissive() {
                 let cos_light = sp.ng.dot(wo_world);
-                let le = material.emitted(&scene.textures, sp.uv, cos_light > 0.0, w);
+                let le = material.emitted(&scene.textures, sp.uv, cos_light > 0.0, &alive);
                 if !le.is_black() {
                     let weight = if specular_bounce {
                         1.0
@@ -182,7 +184,7 @@ impl<'a> PathTracer<'a> {
             let (bsdf, subsurface) = material.scattering(
                 &scene.textures,
                 sp.uv,
-                w,
+                &alive,
                 sampler.next_1d(),
                 walk_medium.is_some(),
             );
@@ -202,7 +204,7 @@ impl<'a> PathTracer<'a> {
             if !guides_done && walk_medium.is_none() && guide_here {
                 guides.albedo = guide_tint
                     * match subsurface {
-                        Some(ss) => ss.effective_albedo(w),
+                        Some(ss) => ss.effective_albedo(&alive),
                         None => bsdf.albedo(),
                     };
                 guides.normal = if ns.dot(wo_world) < 0.0 { -ns } else { ns };
@@ -220,7 +222,7 @@ impl<'a> PathTracer<'a> {
                     sp.p,
                     u_light,
                     u_light2,
-                    w,
+                    &alive,
                 ) {
                     let wi = frame.to_local(ls.wi);
                     let (f, bsdf_pdfs) = bsdf.eval_pdf_wavelengths(wo, wi);
@@ -318,7 +320,7 @@ impl<'a> PathTracer<'a> {
                     pi.p,
                     u_light,
                     u_light2,
-                    w,
+                    &alive,
                 ) {
                     let cos = frame_i.to_local(ls.wi).z;
                     let f = sw.eval(cos);
@@ -359,7 +361,7 @@ impl<'a> PathTracer<'a> {
                     };
                 }
                 medium = if entering {
-                    material.absorption(w)
+                    material.absorption(&alive)
                 } else {
                     None
                 };

@@ -205,13 +205,15 @@ impl SampledWavelengths {
         }
     }
 
-    /// Marks the secondary slots inactive (a direction valid only for the hero was chosen,
-    /// e.g. a smooth dispersive refraction). The path tracer uses this on its own copy to
-    /// tell later stages (the BSSRDF) how many wavelengths are still alive; the film keeps
-    /// the densities the wavelengths were drawn with.
+    /// Marks the secondary slots inactive and moves them onto the hero's wavelength (a
+    /// direction valid only for the hero was chosen, e.g. a smooth dispersive refraction). The
+    /// path tracer does this on its own copy: later stages see one wavelength (the BSSRDF
+    /// samples one channel, interfaces are no longer dispersive); the film keeps the
+    /// wavelengths and densities the path was drawn with.
     pub fn terminate_secondary(&mut self) {
-        for p in self.pdf.iter_mut().skip(1) {
-            *p = 0.0;
+        for k in 1..N_WAVELENGTHS {
+            self.pdf[k] = 0.0;
+            self.lambda[k] = self.lambda[0];
         }
     }
 
