@@ -761,6 +761,23 @@ fn dispersion_terminates_secondaries_on_smooth_refraction_only() {
             assert!(!h.hero_only());
             if alpha > 0.0 {
                 let (f, pdfs) = disp.eval_pdf_wavelengths(wo, s.wi);
+                // Each slot is exactly that wavelength's own non-dispersive BSDF and density.
+                for i in 0..4 {
+                    let own = Bsdf::Dielectric(DielectricBsdf {
+                        eta: SampledSpectrum::splat(eta[i]),
+                        alpha,
+                        transmission_tint: SampledSpectrum::ONE,
+                    });
+                    let (fi, pi) = own.eval_pdf(wo, s.wi);
+                    assert!(
+                        relative_eq(f[i], fi[0], 1e-4) && relative_eq(pdfs[i], pi, 1e-4),
+                        "slot {i}: {} {} vs own {} {pi} (wo {wo:?} wi {:?})",
+                        f[i],
+                        pdfs[i],
+                        fi[0],
+                        s.wi
+                    );
+                }
                 for i in 0..4 {
                     assert!(relative_eq(s.f[i], f[i], 1e-4), "{:?} vs {f:?}", s.f);
                     assert!(relative_eq(s.pdf_wavelengths[i], pdfs[i], 1e-4));

@@ -100,6 +100,20 @@ impl DielectricBsdf {
         let mut pdf = SampledSpectrum::ZERO;
         f[0] = hero.f;
         pdf[0] = hero.pdf;
+        // Oriented to the upper hemisphere as in `eval_with_eta` (the side decides Fresnel).
+        let wm = (wo + wi).normalize_or_zero();
+        let wm = if wm.z < 0.0 { -wm } else { wm };
+        let fr_hero = fresnel_dielectric(wo.dot(wm), self.eta[0]);
+        if wo.z * wi.z > 0.0 && hero.pdf > 0.0 && fr_hero > 0.0 {
+            // Reflection: the half vector, D, G and the visible-normal density do not depend
+            // on the IOR; f and pdf both scale with each wavelength's Fresnel term.
+            for i in 1..N_WAVELENGTHS {
+                let ratio = fresnel_dielectric(wo.dot(wm), self.eta[i]) / fr_hero;
+                f[i] = hero.f * ratio;
+                pdf[i] = hero.pdf * ratio;
+            }
+            return (f, pdf);
+        }
         for i in 1..N_WAVELENGTHS {
             let e = self.eval_with_eta(wo, wi, self.eta[i]);
             f[i] = e.f;
