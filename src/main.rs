@@ -228,6 +228,7 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
             pdf,
             fixed: args.lambda,
         },
+        guides: false,
     };
     if settings.width == 0
         || settings.height == 0
@@ -287,7 +288,8 @@ fn run_render(
         PathBuf::from(format!("{stem}.exr"))
     });
     let load_start = Instant::now();
-    let (scene, settings) = load(args)?;
+    let (scene, mut settings) = load(args)?;
+    settings.guides = guides;
     let pool = thread_pool(threads)?;
     for w in &scene.warnings {
         match mode {
@@ -357,9 +359,8 @@ fn run_render(
             }
         }
     };
-    let (mut film, stats) =
+    let (film, stats) =
         pool.install(|| render(&scene, &settings, &CANCEL, &on_progress, &mut on_pass));
-    film.write_guides = guides;
     if let Some(b) = bar {
         b.finish_and_clear();
     }

@@ -24,6 +24,8 @@ pub struct RenderSettings {
     pub seed: u64,
     /// Wavelength strategy, density and optional fixed wavelength.
     pub wavelengths: WavelengthSampling,
+    /// Accumulate the denoising guides (albedo, normal, depth) and write them with the film.
+    pub guides: bool,
 }
 
 impl Default for RenderSettings {
@@ -35,6 +37,7 @@ impl Default for RenderSettings {
             max_depth: 16,
             seed: 0,
             wavelengths: WavelengthSampling::default(),
+            guides: false,
         }
     }
 }
@@ -91,6 +94,7 @@ pub fn render(
 ) -> (Film, RenderStats) {
     let (w, h) = (settings.width as usize, settings.height as usize);
     let mut film = Film::new(settings.width, settings.height);
+    film.write_guides = settings.guides;
     let camera = scene.camera_for(settings.width, settings.height);
     let forward = camera.forward();
     let tracer = PathTracer::new(scene, settings.max_depth);
@@ -163,6 +167,9 @@ pub fn render(
                             band_rays += result.rays as u64;
                             if !px.add(spectrum_to_xyz(&result.radiance, &wavelengths)) {
                                 band_discarded += 1;
+                            }
+                            if !settings.guides {
+                                continue;
                             }
                             let g = &result.guides;
                             // The albedo's colour under a white (normalised D65) light.

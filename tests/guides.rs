@@ -20,10 +20,10 @@ fn render_guides(desc: SceneDesc, name: &str) -> std::path::PathBuf {
         spp: 64,
         max_depth: 8,
         seed: 1,
+        guides: true,
         ..Default::default()
     };
-    let (mut film, _) = render_quiet(&scene, &settings);
-    film.write_guides = true;
+    let (film, _) = render_quiet(&scene, &settings);
     let path = std::env::temp_dir().join(format!("prism_guides_{}_{name}.exr", std::process::id()));
     film.write_exr(&path).expect("EXR written");
     path

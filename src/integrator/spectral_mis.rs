@@ -100,22 +100,25 @@ impl SpectralMis {
         (1..N_WAVELENGTHS).all(|k| self.hero_share[k] * self.ratio[k] == 0.0)
     }
 
-    /// Mean of `beta` over the members that still count (nonzero hero share and path
-    /// density), divided by `denominator()`: the path's expected contribution scale, which
-    /// Russian roulette uses. (The maximum over members would keep hero paths alive longer
-    /// than single-wavelength ones for the same expected contribution.)
+    /// The path's contribution scale for Russian roulette: the film weighs every slot the
+    /// path was drawn with (nonzero hero share) by beta / denominator, so this is their mean,
+    /// 1 at the camera. (The maximum over members would keep hero paths alive longer than
+    /// single-wavelength ones for the same expected contribution; averaging only over the
+    /// members still alive would overstate a hero left alone after a smooth dispersive
+    /// refraction, whose film weight is beta / (N w_hero), by N.)
     pub fn mean_weight(&self, beta: SampledSpectrum) -> f32 {
         let (mut sum, mut n) = (0.0f32, 0u32);
         for k in 0..N_WAVELENGTHS {
-            if self.hero_share[k] * self.ratio[k] > 0.0 {
+            if self.hero_share[k] > 0.0 {
                 sum += beta[k];
                 n += 1;
             }
         }
-        if n == 0 {
+        let d = self.denominator();
+        if n == 0 || !(d > 0.0) {
             0.0
         } else {
-            sum / (n as f32 * self.denominator())
+            sum / (n as f32 * d)
         }
     }
 
