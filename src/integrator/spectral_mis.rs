@@ -100,16 +100,16 @@ impl SpectralMis {
         (1..N_WAVELENGTHS).all(|k| self.hero_share[k] * self.ratio[k] == 0.0)
     }
 
-    /// The path's contribution scale for Russian roulette: the film weighs every slot the
-    /// path was drawn with (nonzero hero share) by beta / denominator, so this is their mean,
-    /// 1 at the camera. (The maximum over members would keep hero paths alive longer than
-    /// single-wavelength ones for the same expected contribution; averaging only over the
-    /// members still alive would overstate a hero left alone after a smooth dispersive
-    /// refraction, whose film weight is beta / (N w_hero), by N.)
+    /// The path's contribution scale for Russian roulette: the mean of beta / denominator over
+    /// the members still alive (nonzero hero share and path density), 1 at the camera. (The
+    /// maximum over members would keep hero paths alive longer than single-wavelength ones for
+    /// the same expected contribution. After a smooth dispersive refraction the hero alone
+    /// counts; normalising by all N members instead made hero paths through the diamond scene
+    /// 3% shorter than single-wavelength ones and raised its relMSE 1.7x through fireflies.)
     pub fn mean_weight(&self, beta: SampledSpectrum) -> f32 {
         let (mut sum, mut n) = (0.0f32, 0u32);
         for k in 0..N_WAVELENGTHS {
-            if self.hero_share[k] > 0.0 {
+            if self.hero_share[k] * self.ratio[k] > 0.0 {
                 sum += beta[k];
                 n += 1;
             }
