@@ -4,10 +4,10 @@
 
 mod common;
 
-use common::scenes::{diffuse_material, furnace_scene, material_with};
+use common::scenes::{diffuse_material, furnace_scene, glass_material};
 use glam::Vec3;
 use prism::render::{render_quiet, RenderSettings};
-use prism::scene::{DielectricDesc, GltfMaterialDesc, IorDesc, MaterialOverride, Scene, SceneDesc};
+use prism::scene::{IorDesc, Scene, SceneDesc};
 
 fn render_mean(desc: SceneDesc, spp: u32) -> (Vec3, Vec<[f32; 4]>) {
     let scene = Scene::build(desc).expect("scene builds");
@@ -74,16 +74,7 @@ fn white_furnace_diffuse_albedo_one() {
 
 #[test]
 fn white_furnace_smooth_dielectric() {
-    let glass = material_with(
-        GltfMaterialDesc {
-            name: "glass".into(),
-            ..Default::default()
-        },
-        Some(MaterialOverride::Dielectric(DielectricDesc {
-            ior: IorDesc::Constant(1.5),
-            roughness: 0.0,
-        })),
-    );
+    let glass = glass_material("glass", IorDesc::Constant(1.5), 0.0);
     assert_furnace(furnace_scene(glass, Vec3::ONE), 64, 0.01);
 }
 
@@ -112,19 +103,11 @@ fn grey_world_scales_linearly() {
 /// coloured or darker sphere.
 #[test]
 fn white_furnace_smooth_dispersive_dielectric() {
-    let glass = material_with(
-        GltfMaterialDesc {
-            name: "flint".into(),
-            ..Default::default()
-        },
-        Some(MaterialOverride::Dielectric(DielectricDesc {
-            ior: IorDesc::Cauchy {
-                a: 1.6,
-                b: 0.04,
-                c: 0.0,
-            },
-            roughness: 0.0,
-        })),
-    );
+    let flint = IorDesc::Cauchy {
+        a: 1.6,
+        b: 0.04,
+        c: 0.0,
+    };
+    let glass = glass_material("flint", flint, 0.0);
     assert_furnace(furnace_scene(glass, Vec3::ONE), 256, 0.01);
 }

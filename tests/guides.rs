@@ -4,11 +4,11 @@
 
 mod common;
 
-use common::scenes::{diffuse_material, furnace_scene, material_with};
+use common::scenes::{diffuse_material, furnace_scene, glass_material};
 use glam::Vec3;
 use prism::film::{read_exr_channel, read_exr_rgba, BACKGROUND_DEPTH};
 use prism::render::{render_quiet, RenderSettings};
-use prism::scene::{DielectricDesc, GltfMaterialDesc, IorDesc, MaterialOverride, Scene, SceneDesc};
+use prism::scene::{IorDesc, Scene, SceneDesc};
 
 const SIZE: u32 = 32;
 
@@ -126,16 +126,7 @@ fn sphere_guides_match_geometry() {
 fn glass_guides_see_through_to_the_next_surface() {
     // A smooth glass sphere: the guides follow the Dirac refraction and find nothing behind
     // (the world), so the albedo is 0 and the normal 0, while the depth is the glass itself.
-    let glass = material_with(
-        GltfMaterialDesc {
-            name: "glass".into(),
-            ..Default::default()
-        },
-        Some(MaterialOverride::Dielectric(DielectricDesc {
-            ior: IorDesc::Constant(1.5),
-            roughness: 0.0,
-        })),
-    );
+    let glass = glass_material("glass", IorDesc::Constant(1.5), 0.0);
     let path = render_guides(furnace_scene(glass, Vec3::ONE), "glass");
     let c = SIZE / 2;
     assert!((at(&channel(&path, "Depth.Z"), c, c) - 2.0).abs() < 0.01);

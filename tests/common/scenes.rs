@@ -3,8 +3,8 @@
 
 use glam::{Mat4, Vec3};
 use prism::scene::{
-    CameraDesc, GltfMaterialDesc, InstanceDesc, MaterialDesc, MaterialOverride, MeshDesc,
-    SceneDesc, WorldDesc,
+    CameraDesc, DielectricDesc, GltfMaterialDesc, InstanceDesc, IorDesc, MaterialDesc,
+    MaterialOverride, MeshDesc, SceneDesc, WorldDesc,
 };
 
 /// UV sphere with smooth normals, radius 1 at the origin.
@@ -36,6 +36,20 @@ pub fn diffuse_material(name: &str, albedo: Vec3) -> MaterialDesc {
 
 pub fn material_with(gltf: GltfMaterialDesc, sidecar: Option<MaterialOverride>) -> MaterialDesc {
     MaterialDesc { gltf, sidecar }
+}
+
+/// A sidecar dielectric (glass) of the given IOR model and roughness.
+pub fn glass_material(name: &str, ior: IorDesc, roughness: f32) -> MaterialDesc {
+    material_with(
+        GltfMaterialDesc {
+            name: name.into(),
+            ..Default::default()
+        },
+        Some(MaterialOverride::Dielectric(DielectricDesc {
+            ior,
+            roughness,
+        })),
+    )
 }
 
 /// Camera at (0, 0, distance) looking at the origin.
