@@ -82,6 +82,17 @@ def guide_pixels(planes, name, width, height):
     raise KeyError(name)
 
 
+def set_pass_pixels(render_pass, px):
+    """Copies (pixels, channels) float32 into a RenderPass. `rect.foreach_set` takes the flat
+    buffer directly; assigning `rect = px` converts it element by element in Python (about
+    25 ms for 256x256 RGBA, most of the add-on's result-loading time)."""
+    flat = np.ascontiguousarray(px, dtype=np.float32).reshape(-1)
+    try:
+        render_pass.rect.foreach_set(flat)
+    except (AttributeError, TypeError, RuntimeError):  # older Blender without foreach_set here
+        render_pass.rect = px
+
+
 def _log(msg):
     print("Prism: " + msg, file=sys.stderr, flush=True)
 
@@ -124,7 +135,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
         self.report({"WARNING"}, "Prism: " + msg)
 
     def _set_pixels(self, result, px):
-        result.layers[0].passes["Combined"].rect = px
+        set_pass_pixels(result.layers[0].passes["Combined"], px)
 
     def _set_all_passes(self, result, path, passes, width, height):
         planes = exr.read_planes(path)
@@ -138,7 +149,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
             if target is None:
                 self._warn("the render result has no '%s' pass" % name)
                 continue
-            target.rect = guide_pixels(planes, name, width, height)
+            set_pass_pixels(target, guide_pixels(planes, name, width, height))
 
     def update_render_passes(self, scene=None, renderlayer=None):
         """Declares the passes of a render (Blender calls this when it builds render results and
