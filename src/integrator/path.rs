@@ -125,6 +125,8 @@ impl<'a> PathTracer<'a> {
             // Camera rays pass through instances hidden from the camera (meshes standing for
             // Blender area lights), as Blender's ray visibility does.
             let mut next_hit = next_hit;
+            // Distance from the camera to the current ray origin (past hidden surfaces).
+            let mut camera_offset = 0.0f32;
             if depth == 0 {
                 let mut skipped = 0;
                 while let Some(h) = next_hit.filter(|h| !geometry.camera_visible(h.instance)) {
@@ -136,7 +138,9 @@ impl<'a> PathTracer<'a> {
                     }
                     rays += 1;
                     let sp = geometry.surface_point(&h);
-                    ray = Ray::new(offset_ray_origin(sp.p, sp.ng, ray.dir), ray.dir);
+                    let origin = offset_ray_origin(sp.p, sp.ng, ray.dir);
+                    camera_offset += (origin - ray.origin).dot(ray.dir);
+                    ray = Ray::new(origin, ray.dir);
                     next_hit = geometry.intersect(&ray, f32::INFINITY);
                 }
             }
@@ -154,7 +158,7 @@ impl<'a> PathTracer<'a> {
                 break;
             };
             if depth == 0 {
-                guides.first_distance = hit.t;
+                guides.first_distance = camera_offset + hit.t;
             }
             if let Some(sigma_a) = medium {
                 beta *= (sigma_a * -hit.t).exp();
