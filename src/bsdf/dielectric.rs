@@ -68,6 +68,19 @@ impl DielectricBsdf {
         self.eval_with_eta(wo, wi, self.hero_eta()).pdf
     }
 
+    /// The hero wavelength's f(wo, wi) (tinted for transmission), one evaluation.
+    pub fn hero_value(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.is_specular() {
+            return 0.0;
+        }
+        let hero = self.eval_with_eta(wo, wi, self.hero_eta());
+        if hero.transmission {
+            hero.f * self.transmission_tint[0]
+        } else {
+            hero.f
+        }
+    }
+
     /// `(eval(wo, wi), pdf(wo, wi))` in one pass.
     pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (SampledSpectrum, f32) {
         let (f, pdf) = self.eval_pdf_wavelengths(wo, wi);
@@ -114,8 +127,9 @@ impl DielectricBsdf {
             }
             return (f, pdf);
         }
+        let g = Some(self.distribution().g(wo, wi));
         for i in 1..N_WAVELENGTHS {
-            let e = self.eval_with_eta(wo, wi, self.eta[i]);
+            let e = self.eval_with_eta_g(wo, wi, self.eta[i], g);
             f[i] = e.f;
             pdf[i] = e.pdf;
         }
@@ -254,6 +268,12 @@ impl DielectricBsdf {
     /// `sample_rough` run with that `eta`. Zero for the degenerate configurations (grazing
     /// directions, vanishing half vector, back-facing microfacets).
     fn eval_with_eta(&self, wo: Vec3, wi: Vec3, eta: f32) -> RoughEval {
+        self.eval_with_eta_g(wo, wi, eta, None)
+    }
+
+    /// `eval_with_eta` with the masking-shadowing term G(wo, wi) given when already known (it
+    /// does not depend on the IOR, so the wavelengths of a dispersive interface share it).
+    fn eval_with_eta_g(&self, wo: Vec3, wi: Vec3, eta: f32, g: Option<f32>) -> RoughEval {
         let zero = RoughEval::default();
         let (cos_o, cos_i) = (wo.z, wi.z);
         if cos_o == 0.0
@@ -290,7 +310,7 @@ impl DielectricBsdf {
         }
         let distrib = self.distribution();
         let d = distrib.d(wm);
-        let g = distrib.g(wo, wi);
+        let g = g.unwrap_or_else(|| distrib.g(wo, wi));
         let fr = fresnel_dielectric(dot_o, eta);
         let (f, pdf) = if reflection {
             // Walter eq. 20; pdf: visible normal, Fresnel choice, dwm/dwi = 1/(4|wo.wm|).

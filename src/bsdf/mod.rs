@@ -167,6 +167,20 @@ impl Bsdf {
         }
     }
 
+    /// Its value or density differ between the path's wavelengths' (a dispersive dielectric):
+    /// `eval_pdf_wavelengths` then costs one evaluation per wavelength.
+    pub fn is_dispersive(&self) -> bool {
+        matches!(self, Bsdf::Dielectric(d) if d.is_dispersive())
+    }
+
+    /// f(wo, wi) of the hero wavelength alone (one evaluation even when dispersive).
+    pub fn hero_value(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            Bsdf::Dielectric(d) => d.hero_value(wo, wi),
+            _ => self.eval(wo, wi)[0],
+        }
+    }
+
     /// True if the BSDF can scatter to the other side of the surface (the integrator must not
     /// flip the frame to face `wo` for these).
     pub fn has_transmission(&self) -> bool {

@@ -229,15 +229,30 @@ impl<'a> PathTracer<'a> {
                     &alive,
                 ) {
                     let wi = frame.to_local(ls.wi);
-                    let (f, bsdf_pdfs) = bsdf.eval_pdf_wavelengths(wo, wi);
-                    let f = f * wi.z.abs();
+                    // A dispersive BSDF costs one evaluation per wavelength, often more than
+                    // the shadow ray that makes it moot (light seen through glass is mostly
+                    // blocked by the glass itself): when the hero's own value is non-zero, test
+                    // visibility first and evaluate every wavelength only for visible lights.
+                    // Otherwise the full evaluation goes first and saves shadow rays where f is 0.
+                    let eval_after_shadow =
+                        bsdf.is_dispersive() && bsdf.hero_value(wo, wi) > 0.0;
+                    let (mut f, mut bsdf_pdfs) = if eval_after_shadow {
+                        (SampledSpectrum::ONE, SampledSpectrum::ZERO)
+                    } else {
+                        bsdf.eval_pdf_wavelengths(wo, wi)
+                    };
                     // A direction on the wrong geometric side would leak light through the surface.
                     let same_side = ls.wi.dot(ng) * wo_world.dot(ng) > 0.0;
                     let side_ok = if transmissive { true } else { same_side };
                     if side_ok && !f.is_black() {
                         rays += 1;
                         let origin = offset_ray_origin(sp.p, ng, ls.wi);
-                        if !geometry.occluded(&Ray::new(origin, ls.wi), ls.distance) {
+                        let visible = !geometry.occluded(&Ray::new(origin, ls.wi), ls.distance);
+                        if visible && eval_after_shadow {
+                            (f, bsdf_pdfs) = bsdf.eval_pdf_wavelengths(wo, wi);
+                        }
+                        f *= wi.z.abs();
+                        if visible && !f.is_black() {
                             let weight = if ls.delta {
                                 1.0
                             } else {
