@@ -234,8 +234,7 @@ impl<'a> PathTracer<'a> {
                     // blocked by the glass itself): when the hero's own value is non-zero, test
                     // visibility first and evaluate every wavelength only for visible lights.
                     // Otherwise the full evaluation goes first and saves shadow rays where f is 0.
-                    let eval_after_shadow =
-                        bsdf.is_dispersive() && bsdf.hero_value(wo, wi) > 0.0;
+                    let eval_after_shadow = bsdf.is_dispersive() && bsdf.hero_value(wo, wi) > 0.0;
                     let (mut f, mut bsdf_pdfs) = if eval_after_shadow {
                         (SampledSpectrum::ONE, SampledSpectrum::ZERO)
                     } else {
