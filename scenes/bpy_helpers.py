@@ -67,3 +67,16 @@ def mesh_object(name, build, mat, location=(0, 0, 0), rotation=(0, 0, 0), scale=
     ob.scale = scale
     bpy.context.scene.collection.objects.link(ob)
     return ob
+
+
+def world(color, strength=1.0):
+    """A new world whose Background node has `color` x `strength` (also the viewport colour)."""
+    w = bpy.data.worlds.new("World")
+    bpy.context.scene.world = w
+    if w.node_tree is None:
+        w.use_nodes = True
+    bg = next(n for n in w.node_tree.nodes if n.type == "BACKGROUND")
+    bg.inputs["Color"].default_value = (*color, 1.0)
+    bg.inputs["Strength"].default_value = strength
+    w.color = color
+    return w

@@ -31,7 +31,7 @@ import prism  # noqa: E402
 from prism import export  # noqa: E402
 
 sys.path.insert(0, HERE)
-from bpy_helpers import camera, light, material  # noqa: E402
+from bpy_helpers import camera, light, material, world  # noqa: E402
 from bpy_helpers import mesh_object as obj  # noqa: E402
 
 
@@ -89,16 +89,6 @@ def triangular_prism(w, h, depth):
     for y in (-depth / 2, depth / 2):
         pts += [(-w / 2, y, 0.0), (w / 2, y, 0.0), (0.0, y, h)]
     return hull(pts)
-
-
-def world(color, strength=1.0):
-    w = bpy.data.worlds.new("World")
-    bpy.context.scene.world = w
-    if w.node_tree is None:
-        w.use_nodes = True
-    bg = next(n for n in w.node_tree.nodes if n.type == "BACKGROUND")
-    bg.inputs["Color"].default_value = (*color, 1.0)
-    bg.inputs["Strength"].default_value = strength
 
 
 def settings(sc, width, height, spp, max_depth=32, wavelengths="HERO"):

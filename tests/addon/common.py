@@ -15,7 +15,7 @@ REPO = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
 BINARY = os.path.join(REPO, "target", "release", "prism")
 
 sys.path.insert(0, os.path.join(REPO, "scenes"))
-from bpy_helpers import camera, light, material, mesh_object  # noqa: E402,F401  (re-exported to the tests)
+from bpy_helpers import camera, light, material, mesh_object, world  # noqa: E402,F401  (re-exported to the tests)
 
 
 def enable_addon():
@@ -52,18 +52,6 @@ def sphere(radius, segs=48, rings=24):
 
 def cube(size):
     return lambda bm: bmesh.ops.create_cube(bm, size=size)
-
-
-def world(color, strength=1.0):
-    w = bpy.data.worlds.new("World")
-    bpy.context.scene.world = w
-    if w.node_tree is None:
-        w.use_nodes = True
-    bg = next(n for n in w.node_tree.nodes if n.type == "BACKGROUND")
-    bg.inputs["Color"].default_value = (*color, 1.0)
-    bg.inputs["Strength"].default_value = strength
-    w.color = color
-    return w
 
 
 def simple_scene():
