@@ -256,6 +256,13 @@ fn glass_scene(name: &str, ior: Option<f32>, dispersion: serde_json::Value) -> s
     b.write_gltf(&dir.join("glass.gltf"))
 }
 
+/// The IOR model the loader gives the material named "Glass" of a scene.
+fn glass_ior(path: &std::path::Path) -> IorModel {
+    let s = load_scene(path, None, None).unwrap();
+    let glass = s.materials.iter().find(|m| m.gltf.name == "Glass").unwrap();
+    glass.gltf.ior_model()
+}
+
 #[test]
 fn gltf_khr_materials_dispersion() {
     // dispersion = 20 / V_d: 0.5 -> V_d = 40, n_d from KHR_materials_ior.
@@ -279,14 +286,7 @@ fn gltf_khr_materials_dispersion() {
         None,
         json!({ "dispersion": 1.0 }),
     );
-    let s = load_scene(&path, None, None).unwrap();
-    let m = s
-        .materials
-        .iter()
-        .find(|m| m.gltf.name == "Glass")
-        .unwrap()
-        .gltf
-        .ior_model();
+    let m = glass_ior(&path);
     assert_eq!(m.n_d(), 1.5);
     assert!((m.abbe_number().unwrap() - 20.0).abs() < 1e-3);
 
@@ -296,14 +296,7 @@ fn gltf_khr_materials_dispersion() {
         Some(1.4),
         json!({ "dispersion": 0.0 }),
     );
-    let s = load_scene(&path, None, None).unwrap();
-    let m = s
-        .materials
-        .iter()
-        .find(|m| m.gltf.name == "Glass")
-        .unwrap()
-        .gltf
-        .ior_model();
+    let m = glass_ior(&path);
     assert_eq!(m, IorModel::Constant(1.4));
 }
 

@@ -61,6 +61,20 @@ fn estimate(samples: impl Iterator<Item = f64>) -> Estimate {
     }
 }
 
+/// `better`'s standard error is below `max_ratio` times `worse`'s.
+fn assert_less_noisy(better: &Estimate, b: &str, worse: &Estimate, w: &str, max_ratio: f64) {
+    println!(
+        "std err {b} {:.6}, {w} {:.6}",
+        better.std_err, worse.std_err
+    );
+    assert!(
+        better.std_err < max_ratio * worse.std_err,
+        "{b} {} vs {w} {}",
+        better.std_err,
+        worse.std_err
+    );
+}
+
 /// One sample of T with one wavelength per path.
 fn single_sample(rng: &mut Pcg32, wo: Vec3, alpha: f32) -> f64 {
     let w = SampledWavelengths::sample_single(rng.next_f32(), WavelengthPdf::Visible);
@@ -168,16 +182,7 @@ fn hero_mis_reduces_variance_of_the_spectral_average() {
     let single = estimate((0..N).map(|_| single_sample(&mut rng, wo, 0.2)));
     let mut rng = Pcg32::new(5, 1);
     let hero = estimate((0..N).map(|_| hero_sample(&mut rng, wo, 0.2).0));
-    println!(
-        "std err single {:.6} hero {:.6}",
-        single.std_err, hero.std_err
-    );
-    assert!(
-        hero.std_err < 0.6 * single.std_err,
-        "hero {} vs single {}",
-        hero.std_err,
-        single.std_err
-    );
+    assert_less_noisy(&hero, "hero", &single, "single", 0.6);
 }
 
 /// At low roughness the members' lobes barely overlap: weighting by the hero's density alone
@@ -191,14 +196,5 @@ fn hero_mis_beats_hero_density_alone_at_low_roughness() {
     let mis = estimate((0..N).map(|_| hero_sample_with(&mut rng, wo, 0.03, true).0));
     let mut rng = Pcg32::new(7, 2);
     let naive = estimate((0..N).map(|_| hero_sample_with(&mut rng, wo, 0.03, false).0));
-    println!(
-        "std err mis {:.6} hero density alone {:.6}",
-        mis.std_err, naive.std_err
-    );
-    assert!(
-        mis.std_err < 0.7 * naive.std_err,
-        "mis {} vs naive {}",
-        mis.std_err,
-        naive.std_err
-    );
+    assert_less_noisy(&mis, "mis", &naive, "hero density alone", 0.7);
 }
