@@ -182,14 +182,18 @@ fn main() {
     }
 }
 
-fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
+/// Loads and builds the scene; also returns the seconds spent in [`Scene::build`] (BVHs, light
+/// tables), reported in the JSON start event so round-trip benchmarks can split the load.
+fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings, f64)> {
     let desc = load_scene(
         &args.scene,
         args.materials.as_deref(),
         args.camera.as_deref(),
     )?;
     let defaults = desc.render.clone();
+    let build_start = Instant::now();
     let scene = Scene::build(desc)?;
+    let build_seconds = build_start.elapsed().as_secs_f64();
     let strategy = match args.wavelengths {
         Some(WavelengthsArg::Hero) => WavelengthStrategy::Hero,
         Some(WavelengthsArg::Single) => WavelengthStrategy::Single,
@@ -246,7 +250,7 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings)> {
     if settings.max_depth > 1024 {
         return Err(PrismError::input("--max-depth must be at most 1024"));
     }
-    Ok((scene, settings))
+    Ok((scene, settings, build_seconds))
 }
 
 fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
@@ -288,7 +292,7 @@ fn run_render(
         PathBuf::from(format!("{stem}.exr"))
     });
     let load_start = Instant::now();
-    let (scene, mut settings) = load(args)?;
+    let (scene, mut settings, build_seconds) = load(args)?;
     settings.guides = guides;
     let pool = thread_pool(threads)?;
     for w in &scene.warnings {
@@ -301,12 +305,13 @@ fn run_render(
     }
     if mode == ProgressMode::Json {
         eprintln!(
-            "{{\"event\":\"start\",\"width\":{},\"height\":{},\"spp\":{},\"threads\":{},\"load_s\":{:.4}}}",
+            "{{\"event\":\"start\",\"width\":{},\"height\":{},\"spp\":{},\"threads\":{},\"load_s\":{:.4},\"build_s\":{:.4}}}",
             settings.width,
             settings.height,
             settings.spp,
             pool.current_num_threads(),
-            load_start.elapsed().as_secs_f64()
+            load_start.elapsed().as_secs_f64(),
+            build_seconds
         );
     }
     ctrlc::set_handler(|| CANCEL.store(true, Ordering::SeqCst))
@@ -427,7 +432,7 @@ fn run_bench(bench: &BenchArgs) -> Result<()> {
         wavelength_pdf: None,
         lambda: None,
     };
-    let (scene, settings) = load(&args)?;
+    let (scene, settings, _) = load(&args)?;
     for &t in threads {
         let pool = thread_pool(Some(t))?;
         let mut runs: Vec<RenderStats> = (0..repeat.max(1))

@@ -103,23 +103,21 @@ pub fn render(
     let rays = AtomicU64::new(0);
     let discarded = AtomicU64::new(0);
     let start = Instant::now();
-    let finished = AtomicBool::new(false);
-
-    /// Stops the reporter thread even if a worker panics (else the scope would never join).
-    struct SetOnDrop<'a>(&'a AtomicBool);
-    impl Drop for SetOnDrop<'_> {
-        fn drop(&mut self) {
-            self.0.store(true, Ordering::Relaxed);
-        }
-    }
+    // The reporter waits on this channel: it wakes every 20 ms to check the time, and at once
+    // when the sender is dropped at the end of the render (so finishing never waits on a sleep).
+    let (stop_reporter, reporter_wakeup) = std::sync::mpsc::channel::<()>();
 
     std::thread::scope(|s| {
-        let _stop_reporter = SetOnDrop(&finished);
+        // Dropped when the scope's body ends, also if a worker panics (else the scope would
+        // never join the reporter).
+        let _stop_reporter = stop_reporter;
         // Reporter: decoupled from the workers so they never block on I/O.
-        s.spawn(|| {
+        let samples_done = &samples_done;
+        s.spawn(move || {
             let mut last_report = Instant::now();
-            while !finished.load(Ordering::Relaxed) {
-                std::thread::sleep(Duration::from_millis(20));
+            while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
+                reporter_wakeup.recv_timeout(Duration::from_millis(20))
+            {
                 if last_report.elapsed() < Duration::from_millis(250) {
                     continue;
                 }

@@ -749,11 +749,22 @@ impl Importer<'_> {
                     }
                 }
                 out = Vec::with_capacity(count * ncomp);
-                for i in 0..count {
-                    let base = acc.offset() + i * stride;
-                    for c in 0..ncomp {
-                        let o = base + c * cs;
-                        out.push(read(&bytes[o..o + cs]));
+                let data = &bytes[acc.offset()..];
+                if dt == DataType::F32 {
+                    // Fast path for the common case (positions, normals, UVs): no per-component
+                    // type dispatch. Bounds were checked above.
+                    for i in 0..count {
+                        let element = &data[i * stride..i * stride + elem];
+                        out.extend(
+                            element
+                                .chunks_exact(4)
+                                .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f64),
+                        );
+                    }
+                } else {
+                    for i in 0..count {
+                        let element = &data[i * stride..i * stride + elem];
+                        out.extend(element.chunks_exact(cs).map(read));
                     }
                 }
             }
