@@ -1,12 +1,21 @@
 #!/usr/bin/env python3
 """Overhead of the Blender round trip through the Prism add-on, for a ~100k-triangle scene.
 
-    .venv-bpy/bin/python bench/blender_roundtrip.py [--spp 64] [--size 256] [--threads 2] [--repeat 3]
+    .venv-bpy/bin/python bench/blender_roundtrip.py [--scene sphere|studio] [--spp 64] [--size 256]
+                                                    [--threads 2] [--repeat 3]
+
+Scenes (both ~100k triangles in one mesh, so the BVH build is the same size):
+  sphere   a 101,760-triangle UV sphere, one point light, black world: the cheapest render
+           possible (half the pixels are background, paths end after one bounce), so the
+           fixed overhead is the largest possible fraction of it.
+  studio   a subdivided monkey (level 3, 126,976 triangles) on a floor plane, lit by a sun, an
+           area light and a grey world: an ordinary "object on a floor" scene.
 
 Renders with bpy.ops.render.render() (Prism engine) and splits the wall time:
   export     depsgraph -> glTF + .bin + material JSON (add-on, numpy foreach_get)
   start      Popen until the binary's "start" event (process start + glTF load + BVH build)
-  load_bvh   the binary's own glTF load + BVH build time (part of start)
+  load_bvh   the binary's own glTF load + scene build time (part of start)
+  build      of which the scene build (BVHs, light tables)
   render     path tracing, as the binary reports it ("done" seconds)
   exr_load   final EXR -> render result (bpy.data.images.load + foreach_get)
   overhead   wall time of the render operator minus `render`
@@ -23,23 +32,26 @@ import time
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "blender_addon"))
+sys.path.insert(0, os.path.join(REPO, "scenes"))
 os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="bpy_user_"))
 import bpy  # noqa: E402
 import bmesh  # noqa: E402
 
 import prism  # noqa: E402
+from bpy_helpers import world  # noqa: E402
 
 
-def build(spp, size, threads):
-    bpy.ops.wm.read_homefile(use_empty=True)
-    sc = bpy.context.scene
-    mat = bpy.data.materials.new("Clay")
+def _clay():
+    return bpy.data.materials.new("Clay")
+
+
+def _sphere_scene(sc):
     me = bpy.data.meshes.new("Dense")
     bm = bmesh.new()
     bmesh.ops.create_uvsphere(bm, u_segments=320, v_segments=160, radius=1.0)
     bm.to_mesh(me)
     bm.free()
-    me.materials.append(mat)
+    me.materials.append(_clay())
     ob = bpy.data.objects.new("Dense", me)
     sc.collection.objects.link(ob)
     L = bpy.data.lights.new("Lamp", "POINT")
@@ -47,6 +59,50 @@ def build(spp, size, threads):
     lo = bpy.data.objects.new("Lamp", L)
     lo.location = (3, -3, 4)
     sc.collection.objects.link(lo)
+
+
+def _studio_scene(sc):
+    me = bpy.data.meshes.new("Monkey")
+    bm = bmesh.new()
+    bmesh.ops.create_monkey(bm)
+    bm.to_mesh(me)
+    bm.free()
+    for p in me.polygons:
+        p.use_smooth = True
+    me.materials.append(_clay())
+    ob = bpy.data.objects.new("Monkey", me)
+    ob.rotation_euler = (0.0, 0.0, 0.0)
+    sub = ob.modifiers.new("Subdivision", "SUBSURF")
+    sub.levels = sub.render_levels = 3
+    sc.collection.objects.link(ob)
+    floor_me = bpy.data.meshes.new("Floor")
+    bm = bmesh.new()
+    bmesh.ops.create_grid(bm, x_segments=1, y_segments=1, size=6.0)
+    bm.to_mesh(floor_me)
+    bm.free()
+    floor_me.materials.append(bpy.data.materials.new("Floor"))
+    floor = bpy.data.objects.new("Floor", floor_me)
+    floor.location = (0, 0, -1.0)
+    sc.collection.objects.link(floor)
+    sun = bpy.data.lights.new("Sun", "SUN")
+    sun.energy = 3.0
+    so = bpy.data.objects.new("Sun", sun)
+    so.rotation_euler = (0.6, 0.2, 0.8)
+    sc.collection.objects.link(so)
+    area = bpy.data.lights.new("Key", "AREA")
+    area.energy = 300.0
+    area.size = 1.5
+    ao = bpy.data.objects.new("Key", area)
+    ao.location = (-2.5, -2.5, 3.0)
+    ao.rotation_euler = (0.8, 0.0, -0.8)
+    sc.collection.objects.link(ao)
+    world((0.4, 0.45, 0.5), 1.0)
+
+
+def build(spp, size, threads, scene="sphere"):
+    bpy.ops.wm.read_homefile(use_empty=True)
+    sc = bpy.context.scene
+    {"sphere": _sphere_scene, "studio": _studio_scene}[scene](sc)
     cam = bpy.data.cameras.new("Cam")
     co = bpy.data.objects.new("Cam", cam)
     co.location = (0, -5, 0)
@@ -63,6 +119,7 @@ def build(spp, size, threads):
 
 def main():
     ap = argparse.ArgumentParser()
+    ap.add_argument("--scene", choices=("sphere", "studio"), default="sphere")
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--size", type=int, default=256)
     ap.add_argument("--threads", type=int, default=2)
@@ -72,7 +129,7 @@ def main():
     bpy.context.preferences.addons  # (binary found through the repository's target/release)
     overheads = []
     for _ in range(a.repeat):
-        build(a.spp, a.size, a.threads)
+        build(a.spp, a.size, a.threads, a.scene)
         t0 = time.perf_counter()
         bpy.ops.render.render()
         wall = time.perf_counter() - t0
@@ -82,6 +139,7 @@ def main():
         t = last["timings"]
         render_s = float(last["done"]["seconds"])
         row = {
+            "scene": a.scene,
             "triangles": last["triangles"],
             "spp": a.spp,
             "size": a.size,
@@ -90,6 +148,7 @@ def main():
             "export": round(t["export"], 3),
             "start": round(t["to_start_event"], 3),
             "load_bvh": round(t["prism_load"], 3),
+            "build": round(t.get("prism_build", float("nan")), 3),
             "render": round(render_s, 3),
             "exr_load": round(t["load"], 3),
             "overhead": round(wall - render_s, 3),

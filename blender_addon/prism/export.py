@@ -78,8 +78,11 @@ class _Buffer:
         view = self.add(array, target)
         acc = {"bufferView": view, "componentType": comp, "count": int(array.shape[0]), "type": kind}
         if minmax:
-            acc["min"] = [float(x) for x in array.min(axis=0)]
-            acc["max"] = [float(x) for x in array.max(axis=0)]
+            # Reducing a contiguous transposed copy is ~10x faster than min(axis=0) on an
+            # (N, 3) array (numpy's strided axis-0 reduction).
+            columns = np.ascontiguousarray(array.T)
+            acc["min"] = [float(x) for x in columns.min(axis=1)]
+            acc["max"] = [float(x) for x in columns.max(axis=1)]
         self.accessors.append(acc)
         return len(self.accessors) - 1
 
@@ -353,6 +356,43 @@ def write_exr_rgb(path, rgb):
 # ----------------------------------------------------------------------------- mesh data
 
 
+def _corner_vertices(me, n_corners):
+    """Vertex index of every corner (loop). Blender 4.0+ stores it as the ``.corner_vert``
+    attribute, whose ``foreach_get`` is a plain copy; ``loops.foreach_get("vertex_index")``
+    goes through RNA per element (~45 ns each, 9 ms for 200k corners)."""
+    out = np.empty(n_corners, np.int32)
+    attr = me.attributes.get(".corner_vert")
+    if attr is not None and attr.domain == "CORNER" and attr.data_type == "INT":
+        attr.data.foreach_get("value", out)
+    else:  # 3.x
+        me.loops.foreach_get("vertex_index", out)
+    return out
+
+
+def _triangle_materials(me, n_triangles):
+    """Material slot index of every loop triangle. Read from the face ``material_index``
+    attribute through ``loop_triangle_polygons`` where Blender has them (4.0+: plain copies),
+    since ``loop_triangles.foreach_get("material_index")`` costs ~75 ns per triangle."""
+    attr = me.attributes.get("material_index")
+    if attr is None and hasattr(me, "loop_triangle_polygons"):
+        # No attribute: every face uses slot 0.
+        return np.zeros(n_triangles, np.int32)
+    if (
+        attr is not None
+        and attr.domain == "FACE"
+        and attr.data_type == "INT"
+        and hasattr(me, "loop_triangle_polygons")
+    ):
+        face_material = np.empty(len(me.polygons), np.int32)
+        attr.data.foreach_get("value", face_material)
+        tri_face = np.empty(n_triangles, np.int32)
+        me.loop_triangle_polygons.foreach_get("value", tri_face)
+        return face_material[tri_face]
+    out = np.empty(n_triangles, np.int32)
+    me.loop_triangles.foreach_get("material_index", out)
+    return out
+
+
 def _mesh_arrays(me):
     """Per-corner positions, split normals, UVs and per-material triangle index lists."""
     me.calc_loop_triangles()
@@ -360,15 +400,17 @@ def _mesh_arrays(me):
     nl = len(me.loops)
     if nt == 0:
         return None
+    # uint32 matches the RNA type of LoopTriangle.loops, so foreach_get copies directly.
     tri_loops = np.empty(nt * 3, np.uint32)
     me.loop_triangles.foreach_get("loops", tri_loops)
-    tri_mat = np.empty(nt, np.int32)
-    me.loop_triangles.foreach_get("material_index", tri_mat)
+    tri_mat = _triangle_materials(me, nt)
     co = np.empty(len(me.vertices) * 3, np.float32)
-    me.vertices.foreach_get("co", co)
-    loop_vert = np.empty(nl, np.int32)
-    me.loops.foreach_get("vertex_index", loop_vert)
-    pos = co.reshape(-1, 3)[loop_vert]
+    position = me.attributes.get("position")
+    if position is not None and position.domain == "POINT" and position.data_type == "FLOAT_VECTOR":
+        position.data.foreach_get("vector", co)  # 3.5+: a plain copy, unlike vertices.co
+    else:
+        me.vertices.foreach_get("co", co)
+    pos = co.reshape(-1, 3)[_corner_vertices(me, nl)]
     nrm = np.empty(nl * 3, np.float32)
     if hasattr(me, "corner_normals"):  # 4.1+
         me.corner_normals.foreach_get("vector", nrm)

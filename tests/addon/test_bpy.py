@@ -214,6 +214,23 @@ def test_texture_render():
     C.check(c[1] > 3.0 * c[0] and c[1] > 3.0 * c[2], "textured sphere is green: %s" % c)
 
 
+def test_multi_material_mesh():
+    """One mesh, two material slots: faces with x > 0 use the second slot (the exporter reads
+    the face material_index; 4.0+ through attributes). Image right (+x) must be green, left red."""
+    sc = C.simple_scene()
+    C.use_prism(sc, spp=8)
+    ball = bpy.data.objects["Ball"]
+    ball.data.materials.append(C.material("Green", "ShaderNodeBsdfDiffuse", (0.1, 0.8, 0.1)))
+    for poly in ball.data.polygons:
+        poly.material_index = 1 if poly.center.x > 0 else 0
+    rgb = C.render_pixels(sc, os.path.join(OUT, "multi_material.exr"))[..., :3]
+    h, w = rgb.shape[:2]
+    left = rgb[h // 2 - 4:h // 2 + 4, w // 2 - 12:w // 2 - 4].mean(axis=(0, 1))
+    right = rgb[h // 2 - 4:h // 2 + 4, w // 2 + 4:w // 2 + 12].mean(axis=(0, 1))
+    C.check(left[0] > 3.0 * left[1], "left half of the sphere is red (slot 0): %s" % left)
+    C.check(right[1] > 3.0 * right[0], "right half of the sphere is green (slot 1): %s" % right)
+
+
 def test_exr_reader():
     """The add-on's numpy EXR reader (used with an interface) equals Blender's loader, bit for bit,
     on Prism's output (RLE, 64x64 tiles) at a size that is not a multiple of the tile size."""
