@@ -30,6 +30,7 @@ fn plane_scene(light: PunctualLightDesc) -> SceneDesc {
             positions: p.to_vec(),
             normals: Some(vec![Vec3::Y; 4]),
             uvs: None,
+            tangents: None,
             indices: vec![0, 2, 1, 0, 3, 2],
             material: Some(0),
         }],

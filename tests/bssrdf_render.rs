@@ -54,6 +54,7 @@ fn slab_mesh(w: f32, depth: f32) -> MeshDesc {
         positions,
         normals: None,
         uvs: None,
+        tangents: None,
         indices,
         material: Some(0),
     }

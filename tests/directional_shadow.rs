@@ -24,6 +24,7 @@ fn quad(name: &str, half: f32) -> MeshDesc {
         ],
         normals: Some(vec![Vec3::Y; 4]),
         uvs: None,
+        tangents: None,
         indices: vec![0, 2, 1, 0, 3, 2],
         material: Some(0),
     }

@@ -395,10 +395,11 @@ fn material_fields() {
         s.warnings
     );
     assert!(s.materials.iter().all(|m| m.sidecar.is_none()));
+    let nt = d.normal_texture.expect("normalTexture is loaded");
+    assert_eq!(nt.texture, mt.texture, "normal maps are linear data");
+    assert_eq!(d.normal_scale, 1.0, "default normalTexture.scale");
     assert!(
-        s.warnings
-            .iter()
-            .any(|w| w.contains("material 'Diffuse': normalTexture not supported yet")),
+        !s.warnings.iter().any(|w| w.contains("normalTexture")),
         "{:?}",
         s.warnings
     );

@@ -7,7 +7,7 @@ mod triangle;
 
 pub use triangle::intersect_triangle;
 
-use glam::{Affine3A, Mat3, Vec2, Vec3, Vec3A};
+use glam::{Affine3A, Mat3, Vec2, Vec3, Vec3A, Vec4};
 use obvhs::{aabb::Aabb, cwbvh::CwBvh, ray::Ray as BvhRay, BvhBuildParams};
 use std::time::Duration;
 
@@ -33,6 +33,9 @@ pub struct Mesh {
     pub positions: Vec<Vec3>,
     pub normals: Option<Vec<Vec3>>,
     pub uvs: Option<Vec<Vec2>>,
+    /// Per-vertex tangents (xyz unit, w = bitangent sign; zero = unusable), from glTF
+    /// `TANGENT`. Only normal mapping reads them.
+    pub tangents: Option<Vec<Vec4>>,
     pub indices: Vec<[u32; 3]>,
     /// Runtime material id (index into the scene's material list).
     pub material: u32,
@@ -121,11 +124,21 @@ impl Mesh {
             positions,
             normals,
             uvs,
+            tangents: None,
             indices,
             material,
             tris,
             bvh,
         }
+    }
+
+    /// Attaches per-vertex tangents (glTF `TANGENT`); ignored unless there is one per vertex
+    /// and the mesh has shading normals (glTF 2.0 spec 3.7.2.1: without normals, tangents
+    /// are ignored).
+    pub fn with_tangents(mut self, tangents: Option<Vec<Vec4>>) -> Self {
+        self.tangents =
+            tangents.filter(|t| t.len() == self.positions.len() && self.normals.is_some());
+        self
     }
 
     pub fn triangle_count(&self) -> usize {
@@ -258,6 +271,9 @@ pub struct SurfacePoint {
     pub material: u32,
     pub instance: u32,
     pub prim: u32,
+    /// Barycentric weights of vertices 1 and 2 (to interpolate more vertex data later).
+    pub b1: f32,
+    pub b2: f32,
     /// World-space area of the triangle (for light pdfs).
     pub area: f32,
 }
@@ -435,9 +451,144 @@ impl Geometry {
             material: mesh.material,
             instance,
             prim,
+            b1,
+            b2,
             area,
         }
     }
+
+    /// The tangent frame of a tangent-space normal map at `sp` (glTF 2.0 spec 3.7.2.1 and
+    /// 5.23): unit tangent T (+X of the map) and bitangent B (+Y of the map, "up" in the
+    /// image), both orthogonal to `sp.ns`, with B = +-cross(ns, T) carrying the handedness.
+    ///
+    /// * With a `TANGENT` attribute: the interpolated object-space tangent goes to the world
+    ///   by the instance's linear part (tangents are surface vectors, normals use the inverse
+    ///   transpose), and the bitangent sign w is multiplied by sign(det M): for
+    ///   B_obj = w cross(N, T), (M T) x (M B) = det(M) M^-T (T x B), so a mirroring transform
+    ///   turns the triple around and cross(N', T') then points against M B.
+    /// * Without one (or where it is unusable), T = dp/du and the "up" direction -dp/dv of
+    ///   the triangle (glTF's v grows downwards in the image), from the world-space edges and
+    ///   the UV deltas (pbrt-v4 "Triangle::InteractionFromIntersection" derivation). The sign
+    ///   is that of (cross(ns, T) . -dp/dv), so mirrored UVs get a left-handed frame, as
+    ///   MikkTSpace would give them. These per-triangle tangents equal MikkTSpace's wherever
+    ///   the UV mapping is affine across neighbouring triangles (planes, boxes, cylinders'
+    ///   sides); on curved meshes with distorted UVs MikkTSpace averages them per vertex and
+    ///   the two differ slightly (the Blender add-on exports MikkTSpace tangents for this).
+    ///   The spec's MikkTSpace would need vertex welding and per-vertex averaging at load;
+    ///   the per-triangle derivation costs nothing in memory and is exact in the common case.
+    /// * Degenerate UVs (zero-area UV triangle): an arbitrary frame around ns.
+    ///
+    /// T is Gram-Schmidt orthonormalised against the interpolated ns.
+    pub fn normal_map_frame(&self, sp: &SurfacePoint) -> (Vec3, Vec3) {
+        let inst = &self.instances[sp.instance as usize];
+        let mesh = &self.meshes[inst.mesh as usize];
+        let [i0, i1, i2] = mesh.indices[sp.prim as usize];
+        let (b1, b2) = (sp.b1, sp.b2);
+        let b0 = 1.0 - b1 - b2;
+        let ns = sp.ns;
+        let orthonormal = |t: Vec3, sign: f32| -> Option<(Vec3, Vec3)> {
+            let t = (t - ns * ns.dot(t)).try_normalize()?;
+            Some((t, ns.cross(t) * sign))
+        };
+        if let Some(tan) = &mesh.tangents {
+            let (t0, t1, t2) = (tan[i0 as usize], tan[i1 as usize], tan[i2 as usize]);
+            // A zero tangent marks an unusable input value (see the glTF loader).
+            if t0 != Vec4::ZERO && t1 != Vec4::ZERO && t2 != Vec4::ZERO {
+                let t = t0 * b0 + t1 * b1 + t2 * b2;
+                let mut sign = if t.w < 0.0 { -1.0 } else { 1.0 };
+                if inst.flips_handedness {
+                    sign = -sign;
+                }
+                let t_world = Mat3::from(inst.object_to_world.matrix3) * t.truncate();
+                if let Some(frame) = orthonormal(t_world, sign) {
+                    return frame;
+                }
+            }
+        }
+        let [v0, v1, v2] = mesh.vertices(sp.prim as usize);
+        let w0 = inst.object_to_world.transform_point3(v0);
+        let e1 = inst.object_to_world.transform_point3(v1) - w0;
+        let e2 = inst.object_to_world.transform_point3(v2) - w0;
+        let (d1, d2) = match &mesh.uvs {
+            Some(uvs) => {
+                let t0 = uvs[i0 as usize];
+                (uvs[i1 as usize] - t0, uvs[i2 as usize] - t0)
+            }
+            // sp.uv = (b1, b2) then: the UV triangle (0,0), (1,0), (0,1).
+            None => (Vec2::X, Vec2::Y),
+        };
+        let det = d1.x * d2.y - d1.y * d2.x;
+        if det.is_finite() && det.abs() > 1e-20 {
+            let dpdu = (e1 * d2.y - e2 * d1.y) / det;
+            let dpdv = (e2 * d1.x - e1 * d2.x) / det;
+            let up = -dpdv;
+            let sign = if ns.cross(dpdu).dot(up) < 0.0 {
+                -1.0
+            } else {
+                1.0
+            };
+            if let Some(frame) = orthonormal(dpdu, sign) {
+                return frame;
+            }
+        }
+        let f = crate::math::Frame::from_normal(ns);
+        (f.s, f.t)
+    }
+
+    /// Replaces `sp.ns` by the normal-mapped shading normal for a tangent-space normal `nt`
+    /// (unit, +z = unperturbed). `wo` (unit, towards the viewer) keeps the result usable:
+    /// a mapped normal can face away from the viewer or send the mirror direction below the
+    /// geometric surface, where BSDFs return nothing and light is lost (black fringes) or,
+    /// without the integrator's geometric-side checks, would leak. When the mirror
+    /// direction R of `wo` about the mapped normal lies less than q above the geometric
+    /// surface, the normal is replaced by the half vector between `wo` and the direction
+    /// that keeps R's azimuth at elevation q, with q = min(0.9 cos(wo, ng), 0.01) (the rule
+    /// Cycles' normal map node applies, "ensure valid specular reflection"; the 0.9 keeps
+    /// q below cos(wo, ng), where the unperturbed normal always qualifies). Without `wo`
+    /// (BSSRDF exit points) the normal is only kept on the geometric normal's side.
+    pub fn apply_normal_map(&self, sp: &mut SurfacePoint, nt: Vec3, wo: Option<Vec3>) {
+        let (t, b) = self.normal_map_frame(sp);
+        let Some(n) = (t * nt.x + b * nt.y + sp.ns * nt.z).try_normalize() else {
+            return;
+        };
+        sp.ns = match wo.and_then(Vec3::try_normalize) {
+            Some(wo) => {
+                // Work on the viewer's side of the surface, then return to the outward one.
+                let side = if wo.dot(sp.ng) < 0.0 { -1.0 } else { 1.0 };
+                side * valid_reflection_normal(side * n, side * sp.ng, wo)
+            }
+            None => {
+                let c = n.dot(sp.ng);
+                if c >= 1e-3 {
+                    n
+                } else {
+                    (n - sp.ng * (c - 1e-3)).try_normalize().unwrap_or(sp.ng)
+                }
+            }
+        };
+    }
+}
+
+/// See [`Geometry::apply_normal_map`]: `n`, `ng` and `wo` unit, `ng` on the side of `wo`.
+fn valid_reflection_normal(n: Vec3, ng: Vec3, wo: Vec3) -> Vec3 {
+    let cos_o = wo.dot(ng);
+    if !(cos_o > 0.0) {
+        return n;
+    }
+    let q = (0.9 * cos_o).min(0.01);
+    let r = n * (2.0 * wo.dot(n)) - wo;
+    if r.dot(ng) >= q && wo.dot(n) > 0.0 {
+        return n;
+    }
+    // Keep R's azimuth around ng; fall back to the viewer's opposite azimuth.
+    let tangential = (r - ng * r.dot(ng))
+        .try_normalize()
+        .or_else(|| (-wo + ng * cos_o).try_normalize());
+    let Some(x) = tangential else {
+        return ng;
+    };
+    let r_new = ng * q + x * (1.0 - q * q).max(0.0).sqrt();
+    (wo + r_new).try_normalize().unwrap_or(ng)
 }
 
 fn transform_aabb(b: &Aabb, m: &Affine3A) -> Aabb {
@@ -463,5 +614,40 @@ pub fn offset_ray_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
         p + ng * eps
     } else {
         p - ng * eps
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The corrected normal always faces the viewer and keeps the mirror direction above the
+    /// geometric surface; normals that already do are left alone.
+    #[test]
+    fn valid_reflection_normal_keeps_the_mirror_direction_up() {
+        let ng = Vec3::Z;
+        let mut seed = 12345u32;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        for _ in 0..10_000 {
+            let dir = |a: f32, b: f32, max_theta: f32| {
+                let (phi, th) = (a * std::f32::consts::TAU, b * max_theta);
+                Vec3::new(th.sin() * phi.cos(), th.sin() * phi.sin(), th.cos())
+            };
+            let wo = dir(rnd(), rnd(), std::f32::consts::FRAC_PI_2 - 1e-4);
+            let n = dir(rnd(), rnd(), 1.55);
+            let out = valid_reflection_normal(n, ng, wo);
+            assert!(out.is_finite() && (out.length() - 1.0).abs() < 1e-4);
+            assert!(wo.dot(out) > 0.0, "wo {wo} n {n} -> {out}");
+            let r = out * (2.0 * wo.dot(out)) - wo;
+            let q = (0.9 * wo.dot(ng)).min(0.01);
+            assert!(r.dot(ng) >= q - 1e-4, "wo {wo} n {n} -> {out}, R.z {}", r.z);
+            let r0 = n * (2.0 * wo.dot(n)) - wo;
+            if r0.dot(ng) >= q && wo.dot(n) > 0.0 {
+                assert_eq!(out, n);
+            }
+        }
     }
 }

@@ -163,9 +163,10 @@ impl<'a> PathTracer<'a> {
             if let Some(sigma_a) = medium {
                 beta *= (sigma_a * -hit.t).exp();
             }
-            let sp = geometry.surface_point(&hit);
+            let mut sp = geometry.surface_point(&hit);
             let material = &scene.materials[sp.material as usize];
             let wo_world = -ray.dir;
+            material.apply_normal_map(geometry, &scene.textures, &mut sp, Some(wo_world));
 
             if material.is_emissive() {
                 let cos_light = sp.ng.dot(wo_world);
@@ -322,7 +323,9 @@ impl<'a> PathTracer<'a> {
                     break;
                 };
                 beta *= probe.weight;
-                let pi = probe.point;
+                let mut pi = probe.point;
+                let exit_material = &scene.materials[pi.material as usize];
+                exit_material.apply_normal_map(geometry, &scene.textures, &mut pi, None);
                 // Outward normals at the exit point (shading normal on the geometric side).
                 let ng_i = pi.ng;
                 let ns_i = if pi.ns.dot(ng_i) < 0.0 { -pi.ns } else { pi.ns };

@@ -84,7 +84,9 @@ impl Scene {
                 _ => default_material,
             };
             mesh_map[mi] = runtime_meshes.len() as u32;
-            runtime_meshes.push(Mesh::new(m.positions, normals, uvs, tris, material));
+            let tangents = m.tangents;
+            runtime_meshes
+                .push(Mesh::new(m.positions, normals, uvs, tris, material).with_tangents(tangents));
         }
         let runtime_instances: Vec<Instance> = instances
             .iter()

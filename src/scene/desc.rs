@@ -13,6 +13,11 @@ pub struct MeshDesc {
     /// Per-vertex shading normals (object space), if the file has them.
     pub normals: Option<Vec<Vec3>>,
     pub uvs: Option<Vec<Vec2>>,
+    /// Per-vertex tangents (object space) from the glTF `TANGENT` attribute: xyz = unit
+    /// tangent along +u, w = +-1 bitangent sign (glTF 2.0 spec 3.7.2.1: bitangent =
+    /// cross(normal, tangent.xyz) * w). `None`: tangents are derived from the UVs per triangle
+    /// when a normal map needs them.
+    pub tangents: Option<Vec<Vec4>>,
     /// Three indices per triangle.
     pub indices: Vec<u32>,
     /// Index into `SceneDesc::materials`; `None` = the glTF default material.
@@ -71,6 +76,10 @@ pub struct GltfMaterialDesc {
     /// Linear RGB radiance scale: emissiveFactor x KHR_materials_emissive_strength.
     pub emissive: Vec3,
     pub emissive_texture: Option<TextureRef>,
+    /// Tangent-space normal map (glTF `normalTexture`, linear texels).
+    pub normal_texture: Option<TextureRef>,
+    /// `normalTexture.scale`: multiplies the map's X and Y (glTF 2.0 spec 5.23).
+    pub normal_scale: f32,
     /// KHR_materials_specular (defaults 1 and white).
     pub specular: f32,
     pub specular_color: Vec3,
@@ -98,6 +107,8 @@ impl Default for GltfMaterialDesc {
             metallic_roughness_texture: None,
             emissive: Vec3::ZERO,
             emissive_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
             specular: 1.0,
             specular_color: Vec3::ONE,
             transmission: 0.0,

@@ -915,6 +915,7 @@ impl Importer<'_> {
             }
             None => None,
         };
+        let tangents = self.load_tangents(prim, &name, n, normals.is_some())?;
         let raw_indices: Vec<u32> = match prim.indices() {
             Some(a) => {
                 if !matches!(a.data_type(), DataType::U8 | DataType::U16 | DataType::U32) {
@@ -965,12 +966,80 @@ impl Importer<'_> {
             return Ok(None);
         }
         let material = prim.material().index();
-        let mut desc = compact(name, &positions, normals.as_deref(), uvs.as_deref(), &kept);
+        let mut desc = compact(
+            name,
+            &positions,
+            normals.as_deref(),
+            uvs.as_deref(),
+            tangents.as_deref(),
+            &kept,
+        );
         desc.material = material;
         if let Some(normals) = desc.normals.as_mut() {
             fix_normals(normals, &desc.positions, &desc.indices);
         }
         Ok(Some(desc))
+    }
+
+    /// The `TANGENT` attribute (glTF 2.0 spec 3.7.2.1: VEC4, xyz unit tangent, w = +-1
+    /// bitangent sign). Unusable tangents are a warning, never fatal: a normal map then uses
+    /// tangents derived from the UVs. Per the spec, tangents are ignored when the primitive has
+    /// no normals ("client implementations MUST calculate flat normals and the provided
+    /// tangents (if present) MUST be ignored").
+    fn load_tangents(
+        &mut self,
+        prim: &gltf::Primitive,
+        name: &str,
+        n: usize,
+        has_normals: bool,
+    ) -> Result<Option<Vec<Vec4>>, String> {
+        let Some(a) = prim.get(&Semantic::Tangents) else {
+            return Ok(None);
+        };
+        if !has_normals {
+            self.warn_once(format!(
+                "{name}: TANGENT without NORMAL is ignored (glTF 2.0 spec 3.7.2.1)"
+            ));
+            return Ok(None);
+        }
+        if a.dimensions() != Dimensions::Vec4 {
+            self.warn_once(format!(
+                "{name}: TANGENT must be VEC4, found {:?}; ignored (tangents derived from UVs)",
+                a.dimensions()
+            ));
+            return Ok(None);
+        }
+        if a.count() != n {
+            self.warn_once(format!(
+                "{name}: TANGENT has {} elements but POSITION has {n}; ignored (tangents derived from UVs)",
+                a.count()
+            ));
+            return Ok(None);
+        }
+        let v = self.read_accessor(&a, Dimensions::Vec4, &format!("{name} TANGENT"))?;
+        let mut bad = 0usize;
+        let tangents = v
+            .chunks_exact(4)
+            .map(|c| {
+                let t = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32);
+                let w = c[3] as f32;
+                let len = t.length();
+                if t.is_finite() && w.is_finite() && len > 1e-12 && len.is_finite() {
+                    // The spec asks for w = +-1; only its sign is meaningful.
+                    (t / len).extend(if w < 0.0 { -1.0 } else { 1.0 })
+                } else {
+                    // Zero marks "no usable tangent": the renderer derives one from the UVs.
+                    bad += 1;
+                    Vec4::ZERO
+                }
+            })
+            .collect::<Vec<_>>();
+        if bad > 0 {
+            self.warn_once(format!(
+                "{name}: {bad} TANGENT value(s) are zero-length or not finite; tangents derived from UVs there"
+            ));
+        }
+        Ok(Some(tangents))
     }
 
     // ---------------------------------------------------------------- materials
@@ -1066,9 +1135,6 @@ impl Importer<'_> {
         }
         // Inputs the renderer does not model yet: reported once, never fatal.
         let mut ignored: Vec<&str> = Vec::new();
-        if m.normal_texture().is_some() {
-            ignored.push("normalTexture");
-        }
         if m.transmission()
             .is_some_and(|t| t.transmission_texture().is_some())
         {
@@ -1114,6 +1180,35 @@ impl Importer<'_> {
             Some(t) => Some(self.texture_ref(&t, ColorSpace::Srgb, &label, "emissiveTexture")?),
             None => None,
         };
+        // normalTexture (glTF 2.0 spec 5.23): linear texels, XY scaled by `scale`. Its
+        // KHR_texture_transform is not parsed by the gltf crate for this slot (it is a
+        // normalTextureInfo, not a textureInfo), so it is read from the raw extension object.
+        let (normal_texture, normal_scale) = match m.normal_texture() {
+            Some(t) => {
+                let slot = "normalTexture";
+                let scale = t.scale();
+                if !scale.is_finite() {
+                    return Err(format!("{label}: {slot}.scale is not finite"));
+                }
+                let transform = match t.extension_value("KHR_texture_transform") {
+                    Some(v) => Some(
+                        parse_texture_transform(v)
+                            .map_err(|e| format!("{label}: {slot}: KHR_texture_transform: {e}"))?,
+                    ),
+                    None => None,
+                };
+                let r = self.texture_slot(
+                    t.texture(),
+                    t.tex_coord(),
+                    transform,
+                    ColorSpace::Linear,
+                    &label,
+                    slot,
+                )?;
+                (Some(r), scale)
+            }
+            None => (None, 1.0),
+        };
         Ok(GltfMaterialDesc {
             name,
             base_color: Vec4::from_array(base_color),
@@ -1123,6 +1218,8 @@ impl Importer<'_> {
             metallic_roughness_texture,
             emissive: Vec3::from_array(emissive_factor) * strength,
             emissive_texture,
+            normal_texture,
+            normal_scale,
             specular,
             specular_color: Vec3::from_array(specular_color),
             transmission,
@@ -1141,26 +1238,51 @@ impl Importer<'_> {
         label: &str,
         slot: &str,
     ) -> Result<TextureRef, String> {
-        let mut tex_coord = info.tex_coord();
+        let transform = info.texture_transform().map(|t| TextureTransform {
+            offset: Vec2::from_array(t.offset()),
+            rotation: t.rotation(),
+            scale: Vec2::from_array(t.scale()),
+            tex_coord: t.tex_coord(),
+        });
+        self.texture_slot(
+            info.texture(),
+            info.tex_coord(),
+            transform,
+            space,
+            label,
+            slot,
+        )
+    }
+
+    /// A texture slot of a material: texture, TEXCOORD set and optional KHR_texture_transform.
+    fn texture_slot(
+        &mut self,
+        texture: gltf::Texture,
+        tex_coord: u32,
+        transform: Option<TextureTransform>,
+        space: ColorSpace,
+        label: &str,
+        slot: &str,
+    ) -> Result<TextureRef, String> {
+        let mut tex_coord = tex_coord;
         let mut uv_transform = Mat3::IDENTITY;
-        if let Some(t) = info.texture_transform() {
-            if let Some(tc) = t.tex_coord() {
+        if let Some(t) = transform {
+            if let Some(tc) = t.tex_coord {
                 tex_coord = tc;
             }
-            let (o, r, s) = (t.offset(), t.rotation(), t.scale());
-            if !finite_all(&[o[0], o[1], r, s[0], s[1]]) {
+            let (o, r, s) = (t.offset, t.rotation, t.scale);
+            if !finite_all(&[o.x, o.y, r, s.x, s.y]) {
                 return Err(format!(
                     "{label}: {slot}: KHR_texture_transform has non-finite values"
                 ));
             }
-            uv_transform = texture_transform_matrix(Vec2::from_array(o), r, Vec2::from_array(s));
+            uv_transform = texture_transform_matrix(o, r, s);
         }
         if tex_coord != 0 {
             self.warn_once(format!(
                 "{label}: {slot} uses TEXCOORD_{tex_coord}; only TEXCOORD_0 is loaded and used instead"
             ));
         }
-        let texture = info.texture();
         let image = texture.source().index();
         let sampler = texture.sampler();
         let repeat = |w: gltf::texture::WrappingMode| -> bool {
@@ -1333,6 +1455,7 @@ fn compact(
     positions: &[Vec3],
     normals: Option<&[Vec3]>,
     uvs: Option<&[Vec2]>,
+    tangents: Option<&[Vec4]>,
     tris: &[[u32; 3]],
 ) -> MeshDesc {
     let mut remap = vec![u32::MAX; positions.len()];
@@ -1354,6 +1477,7 @@ fn compact(
         positions: pick3(positions),
         normals: normals.map(pick3),
         uvs: uvs.map(|u| order.iter().map(|&v| u[v as usize]).collect()),
+        tangents: tangents.map(|t| order.iter().map(|&v| t[v as usize]).collect()),
         indices,
         material: None,
     }
@@ -1400,6 +1524,55 @@ fn fix_normals(normals: &mut [Vec3], positions: &[Vec3], indices: &[u32]) {
             }
         }
     }
+}
+
+/// A KHR_texture_transform extension object (glTF `KHR_texture_transform` spec; defaults
+/// offset (0,0), rotation 0, scale (1,1), texCoord unchanged).
+#[derive(Clone, Copy, Debug)]
+struct TextureTransform {
+    offset: Vec2,
+    rotation: f32,
+    scale: Vec2,
+    tex_coord: Option<u32>,
+}
+
+/// Parses a raw KHR_texture_transform object (for texture slots the gltf crate leaves as JSON).
+fn parse_texture_transform(v: &serde_json::Value) -> Result<TextureTransform, String> {
+    let obj = v
+        .as_object()
+        .ok_or_else(|| format!("expected an object, got {v}"))?;
+    let num = |key: &str, x: &serde_json::Value| -> Result<f32, String> {
+        x.as_f64()
+            .map(|f| f as f32)
+            .ok_or_else(|| format!("{key} must be a number, got {x}"))
+    };
+    let pair = |key: &str, default: Vec2| -> Result<Vec2, String> {
+        match obj.get(key) {
+            None => Ok(default),
+            Some(serde_json::Value::Array(a)) if a.len() == 2 => {
+                Ok(Vec2::new(num(key, &a[0])?, num(key, &a[1])?))
+            }
+            Some(x) => Err(format!("{key} must be an array of 2 numbers, got {x}")),
+        }
+    };
+    let rotation = match obj.get("rotation") {
+        None => 0.0,
+        Some(x) => num("rotation", x)?,
+    };
+    let tex_coord = match obj.get("texCoord") {
+        None => None,
+        Some(x) => Some(
+            x.as_u64()
+                .and_then(|t| u32::try_from(t).ok())
+                .ok_or_else(|| format!("texCoord must be a non-negative integer, got {x}"))?,
+        ),
+    };
+    Ok(TextureTransform {
+        offset: pair("offset", Vec2::ZERO)?,
+        rotation,
+        scale: pair("scale", Vec2::ONE)?,
+        tex_coord,
+    })
 }
 
 /// KHR_texture_transform as a UV matrix: `T(offset) * R(rotation) * S(scale)`, with

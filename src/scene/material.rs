@@ -7,6 +7,7 @@ use super::desc::{
 use super::texture::sample_texture;
 use crate::bsdf::{Bsdf, DielectricBsdf, DiffuseBsdf, MetallicRoughnessBsdf};
 use crate::bssrdf::SubsurfaceMaterial;
+use crate::geometry::{Geometry, SurfacePoint};
 use crate::spectrum::{
     RgbAlbedoSpectrum, RgbIlluminantSpectrum, RgbUnboundedSpectrum, SampledSpectrum,
     SampledWavelengths,
@@ -167,6 +168,37 @@ impl Material {
                 let rgb = self.gltf.emissive * lookup(textures, &t, uv).xyz();
                 RgbIlluminantSpectrum::new(rgb).sample(w)
             }
+        }
+    }
+
+    /// Whether the material has a normal map (the integrator then calls
+    /// [`Material::apply_normal_map`]).
+    pub fn has_normal_map(&self) -> bool {
+        self.gltf.normal_texture.is_some()
+    }
+
+    /// Tangent-space normal from the material's normal map at `uv`, per glTF 2.0 spec 5.23:
+    /// texels are linear, n = normalize((2c - 1) * (scale, scale, 1)). `None` without a map
+    /// or where the texel decodes to no direction.
+    pub fn tangent_space_normal(&self, textures: &[TextureDesc], uv: Vec2) -> Option<Vec3> {
+        let t = self.gltf.normal_texture?;
+        let c = lookup(textures, &t, uv).xyz();
+        let s = self.gltf.normal_scale;
+        let n = (c * 2.0 - Vec3::ONE) * Vec3::new(s, s, 1.0);
+        n.try_normalize()
+    }
+
+    /// Perturbs `sp.ns` by the material's normal map (no-op without one); `wo` is the unit
+    /// direction towards the viewer, if there is one (see `Geometry::apply_normal_map`).
+    pub fn apply_normal_map(
+        &self,
+        geometry: &Geometry,
+        textures: &[TextureDesc],
+        sp: &mut SurfacePoint,
+        wo: Option<Vec3>,
+    ) {
+        if let Some(nt) = self.tangent_space_normal(textures, sp.uv) {
+            geometry.apply_normal_map(sp, nt, wo);
         }
     }
 

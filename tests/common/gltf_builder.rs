@@ -96,6 +96,14 @@ impl GltfBuilder {
         }))
     }
 
+    pub fn vec4(&mut self, p: &[[f32; 4]]) -> usize {
+        let bytes: Vec<u8> = p.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+        let view = self.push_view(&bytes);
+        self.push_accessor(json!({
+            "bufferView": view, "componentType": 5126, "count": p.len(), "type": "VEC4"
+        }))
+    }
+
     pub fn indices_u16(&mut self, i: &[u16]) -> usize {
         let bytes: Vec<u8> = i.iter().flat_map(|x| x.to_le_bytes()).collect();
         let view = self.push_view(&bytes);
@@ -367,6 +375,16 @@ pub fn test_dir(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
+}
+
+/// PNG bytes of a `w` x `h` RGBA16 image (for data textures that need more than 8 bits,
+/// e.g. an exactly flat normal map: 0.5 has no 8-bit code).
+pub fn png16_bytes(w: u32, h: u32, rgba: &[[u16; 4]]) -> Vec<u8> {
+    let img: image::ImageBuffer<image::Rgba<u16>, Vec<u16>> =
+        image::ImageBuffer::from_fn(w, h, |x, y| image::Rgba(rgba[(y * w + x) as usize]));
+    let mut out = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut out, image::ImageFormat::Png).unwrap();
+    out.into_inner()
 }
 
 /// PNG bytes of a `w` x `h` RGBA8 image.

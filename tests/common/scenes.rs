@@ -15,6 +15,7 @@ pub fn sphere_mesh(material: usize, segments: u32, rings: u32) -> MeshDesc {
         positions,
         normals: Some(normals),
         uvs: None,
+        tangents: None,
         indices: triangles.into_iter().flatten().collect(),
         material: Some(material),
     }
