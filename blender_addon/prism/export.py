@@ -227,7 +227,36 @@ def convert_material(mat):
         m["specular"] = 0.0
         m["roughness"] = 1.0
         return m, None, False
+    m["normal"], normal_ok = _normal_map(node)
+    if not normal_ok:
+        m["normal_unsupported"] = True
     return m, sss, True
+
+
+def _normal_map(node):
+    """The shader's `Normal` input as a glTF normalTexture: (info or None, supported).
+
+    Supported: a tangent-space Normal Map node whose Color comes from an Image Texture. Its
+    Strength becomes normalTexture.scale. The two agree at Strength 1 (the usual setting);
+    otherwise Cycles blends the unperturbed and the mapped normal, N + Strength (N_map - N),
+    while glTF scales the map's X and Y (glTF 2.0 spec 5.23), which tilts mild maps alike
+    and steep ones a little differently. Anything else on the input (Bump node, object- or
+    world-space normal maps, procedural colours) is unsupported: the normal stays
+    unperturbed and the material is named in a warning."""
+    sock = node.inputs.get("Normal")
+    if sock is None or not sock.is_linked:
+        return None, True
+    src = sock.links[0].from_node
+    if src.type != "NORMAL_MAP" or src.space != "TANGENT":
+        return None, False
+    img = _linked_image(src.inputs.get("Color"))
+    if img is None:
+        return None, False
+    strength = src.inputs.get("Strength")
+    if strength is not None and strength.is_linked:
+        return None, False
+    scale = float(strength.default_value) if strength is not None else 1.0
+    return {"image": img, "scale": max(scale, 0.0), "uv_map": src.uv_map}, True
 
 
 def _principled_subsurface(node, m):
@@ -299,6 +328,25 @@ def image_rgba8(img):
     if img.is_float:
         c = np.clip(px[..., :3], 0.0, 1.0)
         px[..., :3] = np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+    return (np.clip(px, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+
+
+def _is_data(img):
+    cs = img.colorspace_settings
+    return bool(getattr(cs, "is_data", False)) or cs.name in {"Non-Color", "Raw", "Generic Data"}
+
+
+def image_data_rgba8(img):
+    """A data image (normal map) as 8-bit RGBA rows, top row first, holding the values Cycles
+    reads: the stored values for Non-Color images (glTF data textures are linear, spec 5.23),
+    else the image's colours decoded to linear (an sRGB byte image; float pixels already are)."""
+    w, h = img.size
+    px = np.empty(w * h * 4, np.float32)
+    img.pixels.foreach_get(px)
+    px = px.reshape(h, w, 4)[::-1].copy()
+    if not img.is_float and not _is_data(img):
+        c = np.clip(px[..., :3], 0.0, 1.0)
+        px[..., :3] = np.where(c <= 0.04045, c / 12.92, np.power((c + 0.055) / 1.055, 2.4))
     return (np.clip(px, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
 
 
@@ -432,6 +480,29 @@ def _mesh_arrays(me):
     return pos, nrm, uv, groups
 
 
+def _mesh_tangents(me, uv_name):
+    """Per-corner MikkTSpace tangents of UV map `uv_name` as (N, 4) float32: xyz in object
+    space (like the normals: the root node turns Z-up into Y-up), w = Blender's bitangent_sign,
+    or None when Blender cannot compute them (n-gons). Blender defines bitangent =
+    bitangent_sign * cross(normal, tangent), pointing along +v; the export flips v
+    (v_gltf = 1 - v) and images upside down, so +v in Blender is "up" in the image, which is
+    +Y of a glTF normal map: w is the same number (glTF 2.0 spec 3.7.2.1). These are the
+    tangents Cycles' Normal Map node uses."""
+    try:
+        me.calc_tangents(uvmap=uv_name)
+    except RuntimeError:
+        return None
+    try:
+        nl = len(me.loops)
+        t = np.empty(nl * 3, np.float32)
+        me.loops.foreach_get("tangent", t)
+        sign = np.empty(nl, np.float32)
+        me.loops.foreach_get("bitangent_sign", sign)
+    finally:
+        me.free_tangents()
+    return np.concatenate([t.reshape(-1, 3), sign.reshape(-1, 1)], axis=1)
+
+
 # ----------------------------------------------------------------------------- exporter
 
 
@@ -451,6 +522,10 @@ class Exporter:
         self.material_index = {}
         self.material_json = {}
         self.unsupported = []
+        # Normal-mapped material name -> the Normal Map node's UV map ('' = the mesh's own).
+        self.normal_uv_maps = {}
+        # Materials whose Normal input is not exported (Bump, object-space maps, ...).
+        self.unsupported_normals = []
         self.images = []
         self.image_index = {}
         self.lights = []
@@ -465,17 +540,22 @@ class Exporter:
         self.nodes[0]["children"].append(len(self.nodes) - 1)
         return len(self.nodes) - 1
 
-    def _image(self, img):
-        key = img.name
+    def _image(self, img, data=False):
+        """glTF image index for `img`; `data`: a data texture (normal map), see image_data_rgba8."""
+        key = (img.name, data)
         if key in self.image_index:
             return self.image_index[key]
         fname = "tex%d.png" % len(self.images)
         dst = os.path.join(self.out_dir, fname)
         src = img.filepath_from_user() if img.filepath else ""
         ext = os.path.splitext(src)[1].lower()
-        if src and os.path.isfile(src) and not img.packed_file and ext in {".png", ".jpg", ".jpeg"}:
+        # A data texture's file holds the right values only when Blender reads it as data.
+        copy_ok = not data or _is_data(img)
+        if copy_ok and src and os.path.isfile(src) and not img.packed_file and ext in {".png", ".jpg", ".jpeg"}:
             fname = "tex%d%s" % (len(self.images), ext)
             shutil.copyfile(src, os.path.join(self.out_dir, fname))
+        elif data:
+            write_png(dst, image_data_rgba8(img))
         else:
             write_png(dst, image_rgba8(img))
         self.images.append({"uri": fname})
@@ -505,6 +585,19 @@ class Exporter:
             self._textures.append({"source": self._image(m["image"]), "sampler": 0})
             g["pbrMetallicRoughness"]["baseColorTexture"] = {"index": tex}
             g["pbrMetallicRoughness"]["baseColorFactor"] = [1.0, 1.0, 1.0, 1.0]
+        nm = m.get("normal")
+        if nm is not None:
+            if not _is_data(nm["image"]):
+                self.warnings.append(
+                    "material '%s': normal map image '%s' is not Non-Color; exported decoded to linear, as Cycles reads it"
+                    % (name, nm["image"].name)
+                )
+            tex = len(self._textures)
+            self._textures.append({"source": self._image(nm["image"], data=True), "sampler": 0})
+            g["normalTexture"] = {"index": tex, "scale": nm["scale"]}
+            self.normal_uv_maps[name] = nm["uv_map"]
+        if m.get("normal_unsupported"):
+            self.unsupported_normals.append(name)
         e = [max(c, 0.0) for c in m["emission"]]
         s = max(m["emission_strength"], 0.0)
         if max(e) > 0.0 and s > 0.0:
@@ -542,20 +635,41 @@ class Exporter:
         }
         if uv is not None:
             attrs["TEXCOORD_0"] = self.buf.accessor(uv, "VEC2")
+        materials = {mi: self._material(slots[mi] if 0 <= mi < len(slots) else None) for mi in groups}
+        self._mesh_tangent_attribute(me, attrs, [self.materials[i] for i in materials.values()])
         prims = []
         for mi, idx in groups.items():
-            mat = slots[mi] if 0 <= mi < len(slots) else None
             prims.append(
                 {
                     "attributes": attrs,
                     "indices": self.buf.accessor(idx, "SCALAR", target=34963),
-                    "material": self._material(mat),
+                    "material": materials[mi],
                 }
             )
             self.n_triangles += len(idx) // 3
         self.meshes.append({"name": me.name, "primitives": prims})
         self.mesh_cache[key] = len(self.meshes) - 1
         return self.mesh_cache[key]
+
+    def _mesh_tangent_attribute(self, me, attrs, materials):
+        """Adds TANGENT (MikkTSpace, as Cycles uses) when a material of the mesh is normal-mapped."""
+        mapped = [g["name"] for g in materials if "normalTexture" in g]
+        if not mapped or "TEXCOORD_0" not in attrs:
+            return
+        layer = me.uv_layers.active  # the exported TEXCOORD_0
+        for name in mapped:
+            want = self.normal_uv_maps.get(name, "")
+            if want and want != layer.name:
+                self.warnings.append(
+                    "material '%s': the Normal Map node's UV map '%s' is not exported; using '%s'" % (name, want, layer.name)
+                )
+        tangents = _mesh_tangents(me, layer.name)
+        if tangents is None:
+            self.warnings.append(
+                "mesh '%s': Blender cannot compute tangents (n-gons?); Prism derives them per triangle from the UVs" % me.name
+            )
+            return
+        attrs["TANGENT"] = self.buf.accessor(tangents, "VEC4")
 
     # -- objects
     def _add_mesh_object(self, ob, matrix, is_instance):
@@ -833,6 +947,12 @@ class Exporter:
             elif ob.type == "LIGHT":
                 self._add_light(ob, matrix)
         self._add_camera()
+        if self.unsupported_normals:
+            self.warnings.insert(
+                0,
+                "unsupported Normal inputs ignored (only a tangent-space Normal Map node with an Image Texture is exported): "
+                + ", ".join(sorted(set(self.unsupported_normals))),
+            )
         if self.unsupported:
             self.warnings.insert(0, "unsupported materials rendered as grey diffuse: " + ", ".join(sorted(set(self.unsupported))))
         gltf = {
