@@ -508,3 +508,71 @@ fn bad_inputs_are_reported() {
     assert!(px.iter().flatten().all(|x| x.is_finite()));
     assert!(mean(&px).min_element() > 0.0);
 }
+
+/// normalTexture's `scale`, `texCoord` and KHR_texture_transform (which the gltf crate leaves as
+/// raw JSON for this slot) are loaded like the other textures' (glTF 2.0 spec 5.23,
+/// KHR_texture_transform); tangents of a primitive without normals are ignored (spec 3.7.2.1).
+#[test]
+fn normal_texture_fields_are_loaded() {
+    let dir = test_dir("normal_map_fields");
+    let png = png_bytes(1, 1, &[[128, 128, 255, 255]]);
+    let path = write_plane(
+        &dir,
+        Case {
+            scale: 0.25,
+            ..Case::new(Tangents::Attribute)
+        },
+        Some(png),
+    );
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    doc["extensionsUsed"] = json!(["KHR_materials_specular", "KHR_texture_transform"]);
+    doc["materials"][0]["normalTexture"]["extensions"] = json!({ "KHR_texture_transform": {
+        "offset": [0.5, 0.0], "rotation": 0.0, "scale": [2.0, 2.0] } });
+    let p = dir.join("transform.gltf");
+    std::fs::write(&p, serde_json::to_string(&doc).unwrap()).unwrap();
+    let s = load_scene(&p, None, None).expect("loads");
+    let m = &s.materials[0].gltf;
+    assert_eq!(m.normal_scale, 0.25);
+    let nt = m.normal_texture.expect("normal texture");
+    let want = glam::Mat3::from_translation(Vec2::new(0.5, 0.0))
+        * glam::Mat3::from_scale(Vec2::splat(2.0));
+    assert!(
+        nt.uv_transform.abs_diff_eq(want, 1e-6),
+        "{:?}",
+        nt.uv_transform
+    );
+    assert!(
+        s.textures[nt.texture].texels[0].x < 0.51,
+        "linear, not sRGB-decoded"
+    );
+    assert!(s.meshes[0].tangents.is_some());
+
+    // A malformed transform is a one-line error naming the slot.
+    doc["materials"][0]["normalTexture"]["extensions"]["KHR_texture_transform"]["offset"] =
+        json!("up");
+    std::fs::write(&p, serde_json::to_string(&doc).unwrap()).unwrap();
+    let e = load_scene(&p, None, None).unwrap_err().to_string();
+    assert!(
+        e.contains("normalTexture: KHR_texture_transform: offset"),
+        "{e}"
+    );
+
+    // TANGENT without NORMAL: ignored with a warning.
+    let mut d: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    d["meshes"][0]["primitives"][0]["attributes"]
+        .as_object_mut()
+        .unwrap()
+        .remove("NORMAL");
+    std::fs::write(&p, serde_json::to_string(&d).unwrap()).unwrap();
+    let s = load_scene(&p, None, None).expect("loads");
+    assert!(s.meshes[0].tangents.is_none());
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("TANGENT without NORMAL")),
+        "{:?}",
+        s.warnings
+    );
+}

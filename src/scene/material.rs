@@ -180,6 +180,11 @@ impl Material {
     /// Tangent-space normal from the material's normal map at `uv`, per glTF 2.0 spec 5.23:
     /// texels are linear, n = normalize((2c - 1) * (scale, scale, 1)). `None` without a map
     /// or where the texel decodes to no direction.
+    ///
+    /// A KHR_texture_transform moves the lookup only; the tangent frame stays that of the
+    /// mesh's UVs (TANGENT or dp/du), as in Cycles, whose Normal Map node takes its tangents
+    /// from the UV map whatever Mapping node feeds the image (the glTF spec leaves a rotated
+    /// normal map's frame unspecified).
     pub fn tangent_space_normal(&self, textures: &[TextureDesc], uv: Vec2) -> Option<Vec3> {
         let t = self.gltf.normal_texture?;
         let c = lookup(textures, &t, uv).xyz();
