@@ -8,8 +8,8 @@ Scenes (both ~100k triangles in one mesh, so the BVH build is the same size):
   sphere   a 101,760-triangle UV sphere, one point light, black world: the cheapest render
            possible (half the pixels are background, paths end after one bounce), so the
            fixed overhead is the largest possible fraction of it.
-  studio   a subdivided monkey (level 3, 126,976 triangles) on a floor plane, lit by a sun, an
-           area light and a grey world: an ordinary "object on a floor" scene.
+  studio   the same sphere on a floor plane (2 more triangles), lit by a sun, an area light and
+           a grey world: an ordinary "object on a floor" scene with indirect light.
 
 Renders with bpy.ops.render.render() (Prism engine) and splits the wall time:
   export     depsgraph -> glTF + .bin + material JSON (add-on, numpy foreach_get)
@@ -45,7 +45,8 @@ def _clay():
     return bpy.data.materials.new("Clay")
 
 
-def _sphere_scene(sc):
+def _dense_sphere(sc, location=(0.0, 0.0, 0.0)):
+    """A 101,760-triangle UV sphere of radius 1."""
     me = bpy.data.meshes.new("Dense")
     bm = bmesh.new()
     bmesh.ops.create_uvsphere(bm, u_segments=320, v_segments=160, radius=1.0)
@@ -53,7 +54,13 @@ def _sphere_scene(sc):
     bm.free()
     me.materials.append(_clay())
     ob = bpy.data.objects.new("Dense", me)
+    ob.location = location
     sc.collection.objects.link(ob)
+    return ob
+
+
+def _sphere_scene(sc):
+    _dense_sphere(sc)
     L = bpy.data.lights.new("Lamp", "POINT")
     L.energy = 1000
     lo = bpy.data.objects.new("Lamp", L)
@@ -62,19 +69,7 @@ def _sphere_scene(sc):
 
 
 def _studio_scene(sc):
-    me = bpy.data.meshes.new("Monkey")
-    bm = bmesh.new()
-    bmesh.ops.create_monkey(bm)
-    bm.to_mesh(me)
-    bm.free()
-    for p in me.polygons:
-        p.use_smooth = True
-    me.materials.append(_clay())
-    ob = bpy.data.objects.new("Monkey", me)
-    ob.rotation_euler = (0.0, 0.0, 0.0)
-    sub = ob.modifiers.new("Subdivision", "SUBSURF")
-    sub.levels = sub.render_levels = 3
-    sc.collection.objects.link(ob)
+    _dense_sphere(sc)
     floor_me = bpy.data.meshes.new("Floor")
     bm = bmesh.new()
     bmesh.ops.create_grid(bm, x_segments=1, y_segments=1, size=6.0)

@@ -3,6 +3,7 @@
 
 use clap::{Parser, Subcommand, ValueEnum};
 use prism::error::{PrismError, Result};
+use prism::film::{FilterKind, PixelFilter};
 use prism::integrator::{WavelengthPdf, WavelengthSampling, WavelengthStrategy};
 use prism::render::{render, Progress, RenderSettings, RenderStats};
 use prism::scene::{load_scene, Scene};
@@ -66,6 +67,20 @@ struct SceneArgs {
     /// Diagnostic: render every path at this one wavelength (nm, 360-830)
     #[arg(long)]
     lambda: Option<f32>,
+    /// Pixel filter (default: the JSON's render.filter, else blackman-harris, as Cycles)
+    #[arg(long, value_enum)]
+    filter: Option<FilterArg>,
+    /// Pixel filter width in pixels, Cycles' convention: box +-w/2, gaussian sigma w/4,
+    /// blackman-harris +-w (default: the JSON's render.filter.width, else 1.5)
+    #[arg(long)]
+    filter_width: Option<f32>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum FilterArg {
+    Box,
+    Gaussian,
+    BlackmanHarris,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -221,6 +236,19 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings, f64)> {
             )));
         }
     }
+    let (json_filter, json_width) = match &defaults.filter {
+        Some((name, width)) => (FilterKind::from_name(name), Some(*width)),
+        None => (None, None),
+    };
+    let filter_kind = match args.filter {
+        Some(FilterArg::Box) => FilterKind::Box,
+        Some(FilterArg::Gaussian) => FilterKind::Gaussian,
+        Some(FilterArg::BlackmanHarris) => FilterKind::BlackmanHarris,
+        None => json_filter.unwrap_or(FilterKind::BlackmanHarris),
+    };
+    let filter_width = args.filter_width.or(json_width).unwrap_or(1.5);
+    let filter = PixelFilter::new(filter_kind, filter_width)
+        .map_err(|e| PrismError::input(format!("--filter-width: {e}")))?;
     let settings = RenderSettings {
         width: args.width.or(defaults.width).unwrap_or(512),
         height: args.height.or(defaults.height).unwrap_or(512),
@@ -233,6 +261,7 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings, f64)> {
             fixed: args.lambda,
         },
         guides: false,
+        filter,
     };
     if settings.width == 0
         || settings.height == 0
@@ -431,6 +460,8 @@ fn run_bench(bench: &BenchArgs) -> Result<()> {
         wavelengths: bench.wavelengths,
         wavelength_pdf: None,
         lambda: None,
+        filter: None,
+        filter_width: None,
     };
     let (scene, settings, _) = load(&args)?;
     for &t in threads {

@@ -3,7 +3,7 @@
 //! parallel with rayon. Random numbers depend only on (pixel, sample, seed), and each pixel
 //! accumulates its samples in order, so the image is bit-identical for any thread count.
 
-use crate::film::Film;
+use crate::film::{Film, PixelFilter};
 use crate::geometry::Ray;
 use crate::integrator::{PathTracer, WavelengthSampling};
 use crate::sampler::Sampler;
@@ -26,6 +26,8 @@ pub struct RenderSettings {
     pub wavelengths: WavelengthSampling,
     /// Accumulate the denoising guides (albedo, normal, depth) and write them with the film.
     pub guides: bool,
+    /// Pixel reconstruction filter (default: Blackman–Harris 1.5 px, as Cycles).
+    pub filter: PixelFilter,
 }
 
 impl Default for RenderSettings {
@@ -38,6 +40,7 @@ impl Default for RenderSettings {
             seed: 0,
             wavelengths: WavelengthSampling::default(),
             guides: false,
+            filter: PixelFilter::default(),
         }
     }
 }
@@ -159,7 +162,8 @@ pub fn render(
                                 settings.seed,
                                 &mut sampler,
                             );
-                            let raster = Vec2::new(x, y) + sampler.next_2d();
+                            let raster =
+                                Vec2::new(x, y) + settings.filter.sample_2d(sampler.next_2d());
                             let ray: Ray = camera.generate_ray(raster, sampler.next_2d());
                             let result = tracer.radiance(ray, &wavelengths, &mut sampler);
                             band_rays += result.rays as u64;

@@ -2,9 +2,11 @@
 //! linear Rec.709 (Blender's scene-linear default) and writes OpenEXR.
 
 mod exr_io;
+pub mod filter;
 pub mod metrics;
 
 pub use exr_io::{read_exr_channel, read_exr_rgba, write_exr_channels, write_exr_rgba};
+pub use filter::{FilterKind, PixelFilter};
 
 use crate::spectrum::rgb::xyz_to_linear_srgb;
 use glam::Vec3;

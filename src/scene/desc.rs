@@ -280,6 +280,9 @@ pub struct RenderDefaults {
     pub wavelengths: Option<String>,
     /// `render.wavelength_pdf`: "visible" or "uniform" (validated by the sidecar parser).
     pub wavelength_pdf: Option<String>,
+    /// `render.filter`: pixel filter type ("box" | "gaussian" | "blackman_harris") and width in
+    /// pixels (Cycles' convention; validated by the sidecar parser).
+    pub filter: Option<(String, f32)>,
 }
 
 #[derive(Clone, Debug, Default)]

@@ -89,6 +89,8 @@ pub const SUBSURFACE_PRESETS: &[&str] = &[
 /// Accepted values of `render.wavelengths`.
 pub const WAVELENGTH_MODES: &[&str] = &["hero", "single", "stratified"];
 
+use crate::film::filter::{FilterKind, MAX_FILTER_WIDTH};
+
 /// Accepted values of `render.wavelength_pdf`.
 pub const WAVELENGTH_PDFS: &[&str] = &["visible", "uniform"];
 
@@ -812,6 +814,7 @@ impl Validator<'_> {
                 "max_depth",
                 "wavelengths",
                 "wavelength_pdf",
+                "filter",
             ],
             path,
         )?;
@@ -849,7 +852,36 @@ impl Validator<'_> {
                     .map(str::to_string)
                 })
                 .transpose()?,
+            filter: m
+                .get("filter")
+                .map(|f| self.filter(f, &path.key("filter")))
+                .transpose()?,
         })
+    }
+
+    /// `render.filter`: `{"type": "blackman_harris", "width": 1.5}`; either key may be left out
+    /// (type defaults to Blackman–Harris, width to 1.5 px, Cycles' defaults).
+    fn filter(&self, v: &Value, path: &JPath) -> R<(String, f32)> {
+        let m = self.object(v, path)?;
+        self.check_keys(m, &["type", "width"], path)?;
+        let kind = match m.get("type") {
+            Some(t) => self.string(t, &path.key("type"), FilterKind::NAMES, "pixel filter")?,
+            None => FilterKind::BlackmanHarris.name(),
+        };
+        let width = match m.get("width") {
+            Some(w) => {
+                let width = self.number(w, &path.key("width"), Range::Positive)?;
+                if width > MAX_FILTER_WIDTH {
+                    return Err(self.err(
+                        &path.key("width"),
+                        format!("{width} is wider than {MAX_FILTER_WIDTH} pixels"),
+                    ));
+                }
+                width
+            }
+            None => 1.5,
+        };
+        Ok((kind.to_string(), width))
     }
 }
 
@@ -863,6 +895,36 @@ mod tests {
             .map(|s| s.to_string())
             .collect();
         parse_materials_json(s, "m.json", Some(&names)).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn render_filter_parses_and_rejects_bad_values() {
+        let f =
+            parse(r#"{"version":1,"render":{"filter":{"type":"gaussian","width":2}}}"#).unwrap();
+        assert_eq!(f.render.filter, Some(("gaussian".to_string(), 2.0)));
+        let f = parse(r#"{"version":1,"render":{"filter":{}}}"#).unwrap();
+        assert_eq!(f.render.filter, Some(("blackman_harris".to_string(), 1.5)));
+        for (doc, msg) in [
+            (
+                r#"{"version":1,"render":{"filter":{"type":"mitchell"}}}"#,
+                "render.filter.type",
+            ),
+            (
+                r#"{"version":1,"render":{"filter":{"width":0}}}"#,
+                "render.filter.width",
+            ),
+            (
+                r#"{"version":1,"render":{"filter":{"width":40}}}"#,
+                "render.filter.width",
+            ),
+            (
+                r#"{"version":1,"render":{"filter":{"size":1}}}"#,
+                "render.filter.size",
+            ),
+        ] {
+            let e = parse(doc).unwrap_err();
+            assert!(e.contains(msg), "{doc}: {e}");
+        }
     }
 
     #[test]
