@@ -1011,6 +1011,8 @@ def render_settings(scene):
         out.update(spp=int(p.samples), max_depth=int(p.max_depth), wavelengths=p.wavelengths.lower())
         if hasattr(p, "wavelength_pdf"):
             out["wavelength_pdf"] = p.wavelength_pdf.lower()
+        if hasattr(p, "filter_type"):
+            out["filter"] = {"type": p.filter_type.lower(), "width": float(p.filter_width)}
     return out
 
 

@@ -44,6 +44,24 @@ class PrismRenderSettings(bpy.types.PropertyGroup):
         ],
         default="VISIBLE",
     )
+    filter_type: EnumProperty(
+        name="Pixel Filter",
+        description="Pixel reconstruction filter (the same filters and widths as Cycles)",
+        items=[
+            ("BOX", "Box", "Uniform over the width (1 px: plain jitter inside the pixel)"),
+            ("GAUSSIAN", "Gaussian", "Gaussian with sigma = width / 4"),
+            ("BLACKMAN_HARRIS", "Blackman-Harris", "Blackman-Harris window over +-width (default, as Cycles)"),
+        ],
+        default="BLACKMAN_HARRIS",
+    )
+    filter_width: FloatProperty(
+        name="Width",
+        description="Pixel filter width in pixels, as Cycles' Film > Pixel Filter > Width",
+        default=1.5,
+        min=0.01,
+        max=10.0,
+        subtype="PIXEL",
+    )
     threads: IntProperty(name="Threads", description="Worker threads (0 = all cores)", default=0, min=0, max=1024)
     denoising_data: BoolProperty(
         name="Denoising Data",

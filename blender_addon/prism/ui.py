@@ -31,6 +31,21 @@ class RENDER_PT_prism_sampling(PrismPanel, bpy.types.Panel):
         col.prop(p, "seed")
 
 
+class RENDER_PT_prism_film(PrismPanel, bpy.types.Panel):
+    bl_label = "Film"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        p = context.scene.prism
+        col = layout.column()
+        col.prop(p, "filter_type")
+        col.prop(p, "filter_width")
+
+
 class VIEWLAYER_PT_prism_passes(PrismPanel, bpy.types.Panel):
     """Blender's own pass panel is Cycles/EEVEE specific; these are the passes Prism writes."""
 
@@ -108,7 +123,7 @@ class MATERIAL_PT_prism_surface(PrismPanel, bpy.types.Panel):
         self.layout.template_node_view(mat.node_tree, out, out.inputs["Surface"])
 
 
-classes = (RENDER_PT_prism_sampling, VIEWLAYER_PT_prism_passes, MATERIAL_PT_prism, MATERIAL_PT_prism_surface)
+classes = (RENDER_PT_prism_sampling, RENDER_PT_prism_film, VIEWLAYER_PT_prism_passes, MATERIAL_PT_prism, MATERIAL_PT_prism_surface)
 
 
 def register():

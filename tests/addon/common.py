@@ -76,6 +76,9 @@ def use_prism(sc, spp=16, threads=2):
     sc.prism.samples = spp
     sc.prism.threads = threads
     sc.prism.max_depth = 8
+    # The parity tests set Cycles to a 1 px box filter (use_cycles); match it.
+    sc.prism.filter_type = "BOX"
+    sc.prism.filter_width = 1.0
 
 
 def render_pixels(sc, path):
