@@ -23,12 +23,32 @@ use crate::math::sqr;
 use crate::spectrum::{SampledSpectrum, N_WAVELENGTHS};
 use glam::{Vec2, Vec3};
 
-/// Scalar (one wavelength) BSDF value and hero-direction pdf of a rough interface.
+/// Scalar (one wavelength) BSDF value and hero-direction pdf of a rough interface, with the
+/// microfacet cosine and Fresnel term they were made of (a reflection's other wavelengths
+/// only rescale them, see `per_wavelength`).
 #[derive(Clone, Copy, Debug, Default)]
 struct RoughEval {
     f: f32,
     pdf: f32,
     transmission: bool,
+    dot_o: f32,
+    fresnel: f32,
+}
+
+/// What a rough-interface evaluation at (wo, wi) shares between wavelengths: the directions,
+/// reflection vs transmission (the sides of wo and wi), and the Smith masking terms, which
+/// depend on wo and wi but not on the IOR: G(wo, wi) of the BSDF (Walter et al. 2007 eqs.
+/// 20-21, height-correlated form of Heitz 2014 eq. 99) and G1(wo) of the visible-normal
+/// density (Heitz 2014 eq. 38). Computing them once per (wo, wi) instead of once per
+/// wavelength saves two of the three Smith Lambda evaluations per wavelength on a dispersive
+/// interface, and one D evaluation (D_wo is written with the D already at hand).
+#[derive(Clone, Copy, Debug)]
+struct RoughPair {
+    wo: Vec3,
+    wi: Vec3,
+    reflection: bool,
+    g: f32,
+    g1_o: f32,
 }
 
 impl DielectricBsdf {
@@ -65,7 +85,8 @@ impl DielectricBsdf {
         if self.is_specular() {
             return 0.0;
         }
-        self.eval_with_eta(wo, wi, self.hero_eta()).pdf
+        self.rough_pair(wo, wi)
+            .map_or(0.0, |p| self.eval_eta(&p, self.hero_eta()).pdf)
     }
 
     /// The hero wavelength's f(wo, wi) (tinted for transmission), one evaluation.
@@ -73,7 +94,10 @@ impl DielectricBsdf {
         if self.is_specular() {
             return 0.0;
         }
-        let hero = self.eval_with_eta(wo, wi, self.hero_eta());
+        let Some(pair) = self.rough_pair(wo, wi) else {
+            return 0.0;
+        };
+        let hero = self.eval_eta(&pair, self.hero_eta());
         if hero.transmission {
             hero.f * self.transmission_tint[0]
         } else {
@@ -92,49 +116,47 @@ impl DielectricBsdf {
         if self.is_specular() {
             return (SampledSpectrum::ZERO, SampledSpectrum::ZERO);
         }
-        let hero = self.eval_with_eta(wo, wi, self.hero_eta());
+        let Some(pair) = self.rough_pair(wo, wi) else {
+            return (SampledSpectrum::ZERO, SampledSpectrum::ZERO);
+        };
+        let hero = self.eval_eta(&pair, self.hero_eta());
         if !self.is_dispersive() {
             return (
                 self.spectral(hero.f, hero.transmission),
                 SampledSpectrum::splat(hero.pdf),
             );
         }
-        self.per_wavelength(wo, wi, hero)
+        self.per_wavelength(&pair, hero)
     }
 
-    /// Dispersive rough interface: every wavelength's own f and hero density at (wo, wi).
+    /// Dispersive rough interface: every wavelength's own f and hero density at (wo, wi), given
+    /// the hero's evaluation.
     fn per_wavelength(
         &self,
-        wo: Vec3,
-        wi: Vec3,
+        pair: &RoughPair,
         hero: RoughEval,
     ) -> (SampledSpectrum, SampledSpectrum) {
         let mut f = SampledSpectrum::ZERO;
         let mut pdf = SampledSpectrum::ZERO;
         f[0] = hero.f;
         pdf[0] = hero.pdf;
-        // Oriented to the upper hemisphere as in `eval_with_eta` (the side decides Fresnel).
-        let wm = (wo + wi).normalize_or_zero();
-        let wm = if wm.z < 0.0 { -wm } else { wm };
-        let fr_hero = fresnel_dielectric(wo.dot(wm), self.eta[0]);
-        if wo.z * wi.z > 0.0 && hero.pdf > 0.0 && fr_hero > 0.0 {
+        if pair.reflection && hero.pdf > 0.0 && hero.fresnel > 0.0 {
             // Reflection: the half vector, D, G and the visible-normal density do not depend
             // on the IOR; f and pdf both scale with each wavelength's Fresnel term.
             for i in 1..N_WAVELENGTHS {
-                let ratio = fresnel_dielectric(wo.dot(wm), self.eta[i]) / fr_hero;
+                let ratio = fresnel_dielectric(hero.dot_o, self.eta[i]) / hero.fresnel;
                 f[i] = hero.f * ratio;
                 pdf[i] = hero.pdf * ratio;
             }
             return (f, pdf);
         }
-        let g = Some(self.distribution().g(wo, wi));
         for i in 1..N_WAVELENGTHS {
-            let e = self.eval_with_eta_g(wo, wi, self.eta[i], g);
+            let e = self.eval_eta(pair, self.eta[i]);
             f[i] = e.f;
             pdf[i] = e.pdf;
         }
         // Transmission is a property of the geometry (wo, wi on opposite sides).
-        if wo.z * wi.z < 0.0 {
+        if !pair.reflection {
             f *= self.transmission_tint;
         }
         (f, pdf)
@@ -242,12 +264,13 @@ impl DielectricBsdf {
             wi
         };
         // Re-derive f and pdf from (wo, wi) so that they agree exactly with eval/pdf (MIS).
-        let hero = self.eval_with_eta(wo, wi, eta);
+        let pair = self.rough_pair(wo, wi)?;
+        let hero = self.eval_eta(&pair, eta);
         if !(hero.pdf > 0.0) {
             return None;
         }
         let (f, pdf_wavelengths) = if self.is_dispersive() {
-            self.per_wavelength(wo, wi, hero)
+            self.per_wavelength(&pair, hero)
         } else {
             (
                 self.spectral(hero.f, hero.transmission),
@@ -264,30 +287,37 @@ impl DielectricBsdf {
         })
     }
 
-    /// Walter et al. 2007 BSDF for a single relative IOR `eta` (without the tint) and the pdf of
-    /// `sample_rough` run with that `eta`. Zero for the degenerate configurations (grazing
-    /// directions, vanishing half vector, back-facing microfacets).
-    fn eval_with_eta(&self, wo: Vec3, wi: Vec3, eta: f32) -> RoughEval {
-        self.eval_with_eta_g(wo, wi, eta, None)
+    /// The IOR-independent part of a rough evaluation at (wo, wi); None for grazing or
+    /// non-finite directions, where the BSDF and its density are zero.
+    fn rough_pair(&self, wo: Vec3, wi: Vec3) -> Option<RoughPair> {
+        if wo.z == 0.0 || wi.z == 0.0 || !wo.is_finite() || !wi.is_finite() {
+            return None;
+        }
+        let distrib = self.distribution();
+        let (lambda_o, lambda_i) = (distrib.lambda(wo), distrib.lambda(wi));
+        Some(RoughPair {
+            wo,
+            wi,
+            reflection: wo.z * wi.z > 0.0,
+            // G = 1 / (1 + Lambda(wo) + Lambda(wi)), G1(wo) = 1 / (1 + Lambda(wo)): the same
+            // as `TrowbridgeReitz::g` and `g1` (Lambda is even in w, so no mirroring needed).
+            g: 1.0 / (1.0 + lambda_o + lambda_i),
+            g1_o: 1.0 / (1.0 + lambda_o),
+        })
     }
 
-    /// `eval_with_eta` with the masking-shadowing term G(wo, wi) given when already known (it
-    /// does not depend on the IOR, so the wavelengths of a dispersive interface share it).
-    fn eval_with_eta_g(&self, wo: Vec3, wi: Vec3, eta: f32, g: Option<f32>) -> RoughEval {
+    /// Walter et al. 2007 BSDF for a single relative IOR `eta` (without the tint) and the pdf of
+    /// `sample_rough` run with that `eta`. Zero for the degenerate configurations (vanishing
+    /// half vector, back-facing microfacets).
+    fn eval_eta(&self, pair: &RoughPair, eta: f32) -> RoughEval {
         let zero = RoughEval::default();
-        let (cos_o, cos_i) = (wo.z, wi.z);
-        if cos_o == 0.0
-            || cos_i == 0.0
-            || !wo.is_finite()
-            || !wi.is_finite()
-            || !(eta > 0.0)
-            || !eta.is_finite()
-        {
+        if !(eta > 0.0) || !eta.is_finite() {
             return zero;
         }
-        let reflection = cos_o * cos_i > 0.0;
+        let (wo, wi) = (pair.wo, pair.wi);
+        let (cos_o, cos_i) = (wo.z, wi.z);
         // etap = n(wi side) / n(wo side).
-        let etap = if reflection {
+        let etap = if pair.reflection {
             1.0
         } else if cos_o > 0.0 {
             eta
@@ -308,24 +338,25 @@ impl DielectricBsdf {
         if !(dot_o * cos_o > 0.0 && dot_i * cos_i > 0.0) {
             return zero;
         }
-        let distrib = self.distribution();
-        let d = distrib.d(wm);
-        let g = g.unwrap_or_else(|| distrib.g(wo, wi));
+        let d = self.distribution().d(wm);
         let fr = fresnel_dielectric(dot_o, eta);
-        let (f, pdf) = if reflection {
+        // Visible-normal density D_wo(wm) = G1(wo) |wo.wm| D(wm) / |cos_o| (Heitz 2014 eq. 38;
+        // |wo.wm| since wo.wm has the sign of cos_o here), as `TrowbridgeReitz::d_visible`.
+        let d_visible = pair.g1_o * dot_o.abs() * d / cos_o.abs();
+        let (f, pdf) = if pair.reflection {
             // Walter eq. 20; pdf: visible normal, Fresnel choice, dwm/dwi = 1/(4|wo.wm|).
-            let f = d * g * fr / (4.0 * (cos_o * cos_i).abs());
-            let pdf = distrib.d_visible(wo, wm) * fr / (4.0 * dot_o.abs());
+            let f = d * pair.g * fr / (4.0 * (cos_o * cos_i).abs());
+            let pdf = d_visible * fr / (4.0 * dot_o.abs());
             (f, pdf)
         } else {
             // Walter eq. 21 in radiance form: the n_o^2 / (n_i i.h + n_o o.h)^2 factor equals
             // 1 / (etap wi.wm + wo.wm)^2, which already contains the 1/etap^2 of radiance.
             let denom = sqr(etap * dot_i + dot_o);
             let t = 1.0 - fr;
-            let f = t * d * g * (dot_i * dot_o).abs() / ((cos_i * cos_o).abs() * denom);
+            let f = t * d * pair.g * (dot_i * dot_o).abs() / ((cos_i * cos_o).abs() * denom);
             // Walter eq. 17: dwm/dwi = etap^2 |wi.wm| / (etap wi.wm + wo.wm)^2.
             let dwm_dwi = sqr(etap) * dot_i.abs() / denom;
-            let pdf = distrib.d_visible(wo, wm) * t * dwm_dwi;
+            let pdf = d_visible * t * dwm_dwi;
             (f, pdf)
         };
         if !(f.is_finite() && pdf.is_finite()) {
@@ -334,7 +365,9 @@ impl DielectricBsdf {
         RoughEval {
             f,
             pdf,
-            transmission: !reflection,
+            transmission: !pair.reflection,
+            dot_o,
+            fresnel: fr,
         }
     }
 }
