@@ -18,6 +18,9 @@ Renders with bpy.ops.render.render() (Prism engine) and splits the wall time:
   build      of which the scene build (BVHs, light tables)
   render     path tracing, as the binary reports it ("done" seconds)
   exr_load   final EXR -> render result (bpy.data.images.load + foreach_get)
+  process    Popen until the binary has exited (start + render + final EXR write + exit)
+  engine     the whole RenderEngine.render() call (the rest of the wall time is Blender's own
+             render pipeline: render result, depsgraph, post-processing)
   overhead   wall time of the render operator minus `render`
 Prints one JSON line per repeat and the median overhead.
 """
@@ -146,6 +149,8 @@ def main():
             "build": round(t.get("prism_build", float("nan")), 3),
             "render": round(render_s, 3),
             "exr_load": round(t["load"], 3),
+            "process": round(t["process"], 3),
+            "engine": round(t["engine"], 3),
             "overhead": round(wall - render_s, 3),
             "overhead_pct": round(100 * (wall - render_s) / wall, 2),
         }

@@ -106,6 +106,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
     bl_use_eevee_viewport = True  # Material Preview / Rendered viewport shading through EEVEE
 
     def render(self, depsgraph):
+        t_engine = time.perf_counter()
         scene = depsgraph.scene
         width, height = export.render_size(scene)
         LAST.clear()
@@ -123,6 +124,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
         finally:
             self.end_result(result)
             shutil.rmtree(tmp, ignore_errors=True)
+            LAST["timings"]["engine"] = time.perf_counter() - t_engine
 
     def _error(self, msg):
         LAST["error"] = msg
