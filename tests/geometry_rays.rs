@@ -44,3 +44,17 @@ fn negative_zero_direction_components_hit() {
         }
     }
 }
+
+/// A mesh without UVs reads texture coordinate (0, 0) everywhere (Cycles' behaviour for a
+/// missing UV map), not its barycentrics.
+#[test]
+fn meshes_without_uvs_have_zero_texture_coordinates() {
+    let g = plane(Affine3A::IDENTITY);
+    for origin in [Vec3::new(0.3, 2.0, 0.6), Vec3::new(-0.8, 2.0, 0.1)] {
+        let hit = g
+            .intersect(&Ray::new(origin, Vec3::NEG_Y), f32::INFINITY)
+            .expect("hits the plane");
+        let sp = g.surface_point_at(hit.instance, hit.prim, hit.b1, hit.b2);
+        assert_eq!(sp.uv, glam::Vec2::ZERO, "{origin}");
+    }
+}

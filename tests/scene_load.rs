@@ -439,6 +439,14 @@ fn missing_image_file_is_named() {
     let s = load(&path);
     assert_eq!(s.textures.len(), 1);
     assert!(approx(s.textures[0].texels[0].x, 1.0));
+    // The quad has no TEXCOORD_0: one warning names it (the texture is read at uv (0, 0)).
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("'T'") && w.contains("without TEXCOORD_0")),
+        "{:?}",
+        s.warnings
+    );
 }
 
 #[test]

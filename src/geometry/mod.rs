@@ -263,8 +263,11 @@ pub struct SurfacePoint {
     pub p: Vec3,
     /// Geometric normal (unit, from the winding, as placed in the world).
     pub ng: Vec3,
-    /// Interpolated shading normal (unit), on the same side as `ng`.
+    /// Interpolated shading normal (unit), on the same side as `ng`; normal mapping replaces
+    /// it (`Geometry::apply_normal_map`).
     pub ns: Vec3,
+    /// The interpolated normal before any normal map (equal to `ns` without one).
+    pub ns_smooth: Vec3,
     /// dp/du direction for a stable tangent frame (may be zero).
     pub dpdu: Vec3,
     pub uv: Vec2,
@@ -440,12 +443,16 @@ impl Geometry {
                 };
                 (uv, dpdu)
             }
-            None => (Vec2::new(b1, b2), e1),
+            // No TEXCOORD_0: every point reads texture coordinate (0, 0), as Cycles does for a
+            // missing UV map (and as glTF viewers do), so a Blender scene exported without UVs
+            // renders alike; the glTF loader warns when a textured material meets such a mesh.
+            None => (Vec2::ZERO, e1),
         };
         SurfacePoint {
             p,
             ng,
             ns,
+            ns_smooth: ns,
             dpdu,
             uv,
             material: mesh.material,
@@ -514,7 +521,8 @@ impl Geometry {
                 let t0 = uvs[i0 as usize];
                 (uvs[i1 as usize] - t0, uvs[i2 as usize] - t0)
             }
-            // sp.uv = (b1, b2) then: the UV triangle (0,0), (1,0), (0,1).
+            // No UVs (textures then read uv (0, 0) everywhere): a frame along the triangle's
+            // parametric directions, as if its UVs were (0,0), (1,0), (0,1).
             None => (Vec2::X, Vec2::Y),
         };
         let det = d1.x * d2.y - d1.y * d2.x;
@@ -567,6 +575,34 @@ impl Geometry {
             }
         };
     }
+}
+
+/// Shadowing of a diffuse lobe shaded with a bumped/normal-mapped normal `ns` where the
+/// surface's own (interpolated) normal is `n_smooth`, for light arriving from `wi` (all unit,
+/// `ns` and `n_smooth` on the same side): Conty Estevez, Lecocq & Stein 2019, "A
+/// Microfacet-Based Shadowing Function to Solve the Bump Terminator Problem" (Ray Tracing Gems,
+/// ch. 12). The mapped normals are treated as microfacets of a GGX surface whose roughness
+/// follows from how far `ns` tilts, alpha^2 = tan^2(theta_d) / 8, and the light is masked by
+/// Smith's G1 = 2 / (1 + sqrt(1 + alpha^2 tan^2(theta_i))) with theta_i measured from
+/// `n_smooth`: 1 for an untilted normal or light from above, falling smoothly to 0 at the
+/// smooth horizon instead of the hard terminator a tilted normal otherwise gives. Cycles (4.x+)
+/// applies this term to its diffuse closures whenever the closure normal differs from the
+/// smooth one; measured on a plane, it darkens 31-degree tilts by 0.6% under a sun 37 degrees
+/// from the zenith and by 7% at 69 degrees, as this function predicts.
+pub fn bump_terminator_shadowing(n_smooth: Vec3, ns: Vec3, wi: Vec3) -> f32 {
+    let cos_i = n_smooth.dot(wi);
+    if !(cos_i > 0.0) {
+        return 0.0;
+    }
+    let cos_d = n_smooth.dot(ns).min(1.0);
+    if !(cos_d > 0.0) {
+        return 0.0;
+    }
+    let tan2_d = (1.0 - cos_d * cos_d) / (cos_d * cos_d);
+    let alpha2 = (0.125 * tan2_d).clamp(0.0, 1.0);
+    let cos2_i = (cos_i * cos_i).max(1e-12);
+    let tan2_i = (1.0 - cos2_i) / cos2_i;
+    2.0 / (1.0 + (1.0 + alpha2 * tan2_i).sqrt())
 }
 
 /// See [`Geometry::apply_normal_map`]: `n`, `ng` and `wo` unit, `ng` on the side of `wo`.

@@ -328,6 +328,34 @@ impl Importer<'_> {
         }
     }
 
+    /// One warning naming the meshes whose textured material has no TEXCOORD_0 to look the
+    /// texture up with (they read texture coordinate (0, 0), as in Cycles).
+    fn warn_textures_without_uvs(&mut self) {
+        let mut names: Vec<String> = Vec::new();
+        for mesh in &self.scene.meshes {
+            let Some(material) = mesh.material.and_then(|i| self.scene.materials.get(i)) else {
+                continue;
+            };
+            let g = &material.gltf;
+            let textured = g.base_color_texture.is_some()
+                || g.metallic_roughness_texture.is_some()
+                || g.emissive_texture.is_some()
+                || g.normal_texture.is_some();
+            if textured && mesh.uvs.is_none() && !names.contains(&mesh.name) {
+                names.push(mesh.name.clone());
+            }
+        }
+        if !names.is_empty() {
+            let shown: Vec<&str> = names.iter().take(5).map(String::as_str).collect();
+            let more = names.len().saturating_sub(shown.len());
+            self.scene.warnings.push(format!(
+                "{} without TEXCOORD_0 use textured materials; the textures are read at uv (0, 0){}",
+                shown.join(", "),
+                if more > 0 { format!(" (and {more} more)") } else { String::new() }
+            ));
+        }
+    }
+
     fn run(&mut self, camera_name: Option<&str>) -> Result<(), String> {
         for m in self.doc.materials() {
             let desc = self.material(&m)?;
@@ -354,6 +382,7 @@ impl Importer<'_> {
             }
         };
         self.traverse(&roots)?;
+        self.warn_textures_without_uvs();
         if self.skipped_non_triangle > 0 {
             let n = self.skipped_non_triangle;
             let s = if n == 1 { "" } else { "s" };
