@@ -56,12 +56,13 @@ def build_scene(width=96, height=72):
     return sc
 
 
-def export_bundled(sc, folder):
-    """Blender's own glTF exporter, as a user runs it (File > Export > glTF, separate files)."""
-    path = os.path.join(folder, "scene.gltf")
+def export_bundled(sc, folder, fmt="GLTF_SEPARATE"):
+    """Blender's own glTF exporter, as a user runs it (File > Export > glTF: separate files, or
+    the exporter's default, one .glb with the images embedded)."""
+    path = os.path.join(folder, "scene.glb" if fmt == "GLB" else "scene.gltf")
     bpy.ops.export_scene.gltf(
         filepath=path,
-        export_format="GLTF_SEPARATE",
+        export_format=fmt,
         export_cameras=True,
         export_lights=True,
         export_yup=True,
@@ -108,14 +109,14 @@ def test_bundled_exporter_matches_cycles():
     C.check(rel < 0.005, "relMSE after 3x3 blur %.4f < 0.005" % rel)
 
 
-def render_both(sc, name, spp):
+def render_both(sc, name, spp, fmt="GLTF_SEPARATE"):
     """Cycles on the scene, then Prism on the bundled exporter's glTF of it: (prism, cycles) RGB."""
     C.use_cycles(sc, spp)
     sc.cycles.pixel_filter_type = "BLACKMAN_HARRIS"
     sc.cycles.filter_width = 1.5
     cycles = C.render_pixels(sc, os.path.join(OUT, "%s_cycles.exr" % name))[..., :3]
     folder = tempfile.mkdtemp(prefix="export_", dir=OUT)
-    gltf = export_bundled(sc, folder)
+    gltf = export_bundled(sc, folder, fmt)
     out = os.path.join(folder, "prism.exr")
     h, w = cycles.shape[:2]
     run = subprocess.run(
@@ -132,7 +133,8 @@ def render_both(sc, name, spp):
 def test_bundled_emission_texture_rough_glass():
     """An emissive panel (Principled Emission Strength 8 -> KHR_materials_emissive_strength) as
     the only lamp besides a dim world, a generated checker image on the floor (written by the
-    exporter as PNG, sRGB), and rough glass (roughness 0.2). Same bounds as above."""
+    exporter as PNG embedded in a .glb, the exporter's default format), and rough glass
+    (roughness 0.2). Same bounds as above."""
     sc = build_scene()
     for name in ("Point", "Spot", "Sun", "GoldBall"):
         bpy.data.objects.remove(bpy.data.objects[name])
@@ -159,7 +161,7 @@ def test_bundled_emission_texture_rough_glass():
     bpy.data.objects["Floor"].data.uv_layers.new(name="UVMap")  # unit square per face: 8x8 checks
     glass = bpy.data.materials["Glass"].node_tree.nodes["Principled BSDF"]
     glass.inputs["Roughness"].default_value = 0.2
-    prism, cycles = render_both(sc, "emission", 256)
+    prism, cycles = render_both(sc, "emission", 256, fmt="GLB")
     ratio = prism.mean(axis=(0, 1)) / cycles.mean(axis=(0, 1))
     rel = C.rel_mse(C.blur(prism), C.blur(cycles))
     print("  means prism %s cycles %s ratio %s; blurred relMSE %.4f"
