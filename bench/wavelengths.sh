@@ -17,16 +17,17 @@
 # the median). Also split by region: pixels whose camera ray hits clear glass (the albedo
 # guide of the first reference half, rendered with --guides) and the rest. Times are medians
 # over the seeds (wall seconds from the `done` event; CPU = user + system of the process).
-# Equal-time relMSE = relMSE x (median seconds / hero's median seconds): the relMSE of an
-# unbiased estimator falls as 1/time.
-# Runtime with the defaults on the 2-core VM: about 6 minutes (references ~70%).
+# Equal-time relMSE = relMSE x (seconds / hero's seconds), the time ratio being the median
+# over rounds of the ratio within a round (the relMSE of an unbiased estimator falls as
+# 1/time); with wall seconds and, less disturbed by other processes, with CPU seconds.
+# Runtime with the defaults on the 2-core VM: about 7 minutes (references ~60%).
 # Usage: bench/wavelengths.sh [--append]   (env: RES=128 SPP=64 REF_SPP=2048 THREADS=2 SEED=7
-#        REPEAT=3 SWEEP=1 PRISM=path/to/prism; --append adds the tables, date, commit, commands
+#        REPEAT=4 SWEEP=1 PRISM=path/to/prism; --append adds the tables, date, commit, commands
 #        and load to bench/README.md)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 RES=${RES:-128}; SPP=${SPP:-64}; REF_SPP=${REF_SPP:-2048}; THREADS=${THREADS:-2}; SEED=${SEED:-7}
-REPEAT=${REPEAT:-3}; SWEEP=${SWEEP:-1}
+REPEAT=${REPEAT:-4}; SWEEP=${SWEEP:-1}
 OUT=${OUT:-/tmp/prism_wavelengths}
 append=0
 for a in "$@"; do
@@ -70,8 +71,8 @@ flags_for() {
 rows="$OUT/rows.tsv"
 : > "$rows"
 # measure GROUP SCENE MATERIALS CFG... : reference halves, then REPEAT rounds over the
-# configurations (alternating within a round so that changes of the machine's load hit them
-# alike); appends "GROUP CFG SEED WALL CPU RAYS RELMSE_JSON CLAMPED_JSON" rows.
+# configurations (all in each round, so that changes of the machine's load hit them alike);
+# appends "GROUP CFG SEED WALL CPU RAYS RELMSE_JSON CLAMPED_JSON" rows.
 measure() {
   local group=$1 scene=$2 materials=$3
   shift 3
@@ -84,8 +85,14 @@ measure() {
   tb=$(r "$scene" "$OUT/${group}_refB.exr" "$half" 1001 "${mflag[@]}")
   echo "   reference halves: $ta / $tb (wall s, CPU s, rays)" >&2
   printf '%s\tref\t1000\t%s\t{}\t{}\n' "$group" "$(echo "$ta" | tr ' ' '\t')" >> "$rows"
+  local fwd=("$@") rev=() i
+  for ((i = $# - 1; i >= 0; i--)); do rev+=("${fwd[i]}"); done
   for k in $(seq 0 $((REPEAT - 1))); do
-    for cfg in "$@"; do
+    local order=("${fwd[@]}")
+    # Odd rounds in reverse order (A B, B A, ...): a steady drift of the machine's load then
+    # cancels from the per-round time ratios instead of favouring whichever runs first.
+    [ $((k % 2)) = 1 ] && order=("${rev[@]}")
+    for cfg in "${order[@]}"; do
       local img="$OUT/${group}_${cfg}_$k.exr" t e ec
       # shellcheck disable=SC2046
       t=$(r "$scene" "$img" "$SPP" $((SEED + k)) "${mflag[@]}" $(flags_for "$cfg"))

@@ -43,10 +43,18 @@ def per_seed_ratios(group, kind="corrected"):
             if r["seed"] in hero]
 
 
+def rel_time(group, cfg, key="wall"):
+    """cfg / hero seconds per sample: the median over rounds of the ratio of the two runs of a
+    round, which ran close together, so that a change of the shared machine's load between
+    rounds cancels (a ratio of medians would mix rounds)."""
+    hero = {r["seed"]: r[key] for r in runs[group, "hero"]}
+    return statistics.median(r[key] / max(hero[r["seed"]], 1e-6)
+                             for r in runs[group, cfg] if r["seed"] in hero)
+
+
 def cost(group):
-    """hero / single median seconds per sample (wall, CPU)."""
-    return (med(group, "hero", "wall") / max(med(group, "single", "wall"), 1e-6),
-            med(group, "hero", "cpu") / max(med(group, "single", "cpu"), 1e-6))
+    """hero / single seconds per sample (wall, CPU)."""
+    return 1 / rel_time(group, "single"), 1 / rel_time(group, "single", "cpu")
 
 
 out = []
@@ -56,12 +64,11 @@ out.append("| scene | strategy | seconds | CPU s | µs/sample | rays/sample | re
            "| same, clamped to 1 |")
 out.append("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
 for g in main:
-    th = max(med(g, "hero", "wall"), 1e-6)
     eh, ech = tiny(err(g, "hero")), tiny(err(g, "hero", clamped=True))
     for cfg in [c for (gg, c) in runs if gg == g and c != "ref"]:
         t = med(g, cfg, "wall")
-        eq = err(g, cfg) * t / th
-        eqc = err(g, cfg, clamped=True) * t / th
+        eq = err(g, cfg) * rel_time(g, cfg)
+        eqc = err(g, cfg, clamped=True) * rel_time(g, cfg)
         out.append(
             f"| {g} | {cfg} | {t:.2f} | {med(g, cfg, 'cpu'):.2f} | {t / samples * 1e6:.2f} | "
             f"{med(g, cfg, 'rays') / samples:.2f} | {err(g, cfg, 'raw'):.4g} | {err(g, cfg):.4g} | "
@@ -69,9 +76,9 @@ for g in main:
 out.append("")
 has_lum = all("lum_corrected" in r["e"]["total"] for g in main for r in runs[g, "hero"])
 out.append("| scene | reference relMSE (estimated) | single/hero, equal spp: raw; corrected (per-seed "
-           "range) | hero/single time per sample: wall; CPU | single/hero, equal time: raw; "
-           "**corrected** |" + (" single/hero, luminance only, equal spp |" if has_lum else ""))
-out.append("| --- | --- | --- | --- | --- |" + (" --- |" if has_lum else ""))
+           "range) | hero/single time per sample: wall; CPU | single/hero, equal wall time: raw; "
+           "**corrected** | equal CPU time, corrected |" + (" single/hero, luminance only, equal spp |" if has_lum else ""))
+out.append("| --- | --- | --- | --- | --- | --- |" + (" --- |" if has_lum else ""))
 for g in main:
     ref = err(g, "hero", "reference")
     raw = err(g, "single", "raw") / tiny(err(g, "hero", "raw"))
@@ -81,7 +88,7 @@ for g in main:
     lum = (f" {err(g, 'single', 'lum_corrected') / tiny(err(g, 'hero', 'lum_corrected')):.2f} |"
            if has_lum else "")
     out.append(f"| {g} | {ref:.3g} | {raw:.2f}; {cor:.2f} ({min(seeds):.2f}–{max(seeds):.2f}) | "
-               f"{cw:.2f}; {cc:.2f} | {raw / cw:.2f}; **{cor / cw:.2f}** |" + lum)
+               f"{cw:.2f}; {cc:.2f} | {raw / cw:.2f}; **{cor / cw:.2f}** | {cor / cc:.2f} |" + lum)
 out.append("")
 out.append("Error by region (corrected relMSE, contributions to the image mean; `glass`: pixels whose "
            "camera ray hits clear glass):")
@@ -103,7 +110,7 @@ if sweep:
     out.append("")
     out.append("| glass | hero relMSE (corrected) | single/hero, equal spp: raw; corrected | on glass "
                "pixels | elsewhere | hero/single time per sample (wall; CPU) | single/hero, equal "
-               "time (corrected) |")
+               "time, corrected (wall; CPU) |")
     out.append("| --- | --- | --- | --- | --- | --- | --- |")
     for g in sweep + ["rough_dispersive"]:
         if (g, "hero") not in runs:
@@ -114,5 +121,5 @@ if sweep:
         rg = [err(g, "single", region=x) / tiny(err(g, "hero", region=x)) for x in ("glass", "rest")]
         cw, cc = cost(g)
         out.append(f"| {name} | {err(g, 'hero'):.4g} | {raw:.2f}; {cor:.2f} | {rg[0]:.2f} | "
-                   f"{rg[1]:.2f} | {cw:.2f}; {cc:.2f} | {cor / cw:.2f} |")
+                   f"{rg[1]:.2f} | {cw:.2f}; {cc:.2f} | {cor / cw:.2f}; {cor / cc:.2f} |")
 print("\n".join(out))

@@ -168,8 +168,15 @@ impl SampledWavelengths {
         let hero = density.sample(u);
         let range = LAMBDA_MAX - LAMBDA_MIN;
         let lambda: [f32; N_WAVELENGTHS] = std::array::from_fn(|k| {
+            // In [0, 2 range): one conditional subtraction wraps it, exactly (Sterbenz) and
+            // without the cost of a floating-point remainder on every camera path.
             let shifted = hero - LAMBDA_MIN + range * k as f32 / N_WAVELENGTHS as f32;
-            LAMBDA_MIN + shifted.rem_euclid(range)
+            LAMBDA_MIN
+                + if shifted >= range {
+                    shifted - range
+                } else {
+                    shifted
+                }
         });
         let hero_pdf = lambda.map(|l| density.pdf(l));
         let mean_pdf = hero_pdf.iter().sum::<f32>() / N_WAVELENGTHS as f32;
