@@ -5,7 +5,7 @@
 use super::spectral_mis::SpectralMis;
 use crate::bsdf::Bsdf;
 use crate::bssrdf::{active_wavelengths, random_walk, SubsurfaceMethod};
-use crate::geometry::{offset_ray_origin, Ray};
+use crate::geometry::{bump_terminator_shadowing, offset_ray_origin, Ray};
 use crate::math::{power_heuristic, Frame};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
@@ -203,6 +203,29 @@ impl<'a> PathTracer<'a> {
             };
             let frame = Frame::from_normal_tangent(ns, sp.dpdu);
             let wo = frame.to_local(wo_world);
+            // A normal-mapped Lambertian lobe (whose value does not depend on wo) shades with
+            // the mapped normal even where it faces away from the viewer, as Cycles' diffuse
+            // closures do, instead of going black there.
+            let bumped_diffuse = matches!(bsdf, Bsdf::Diffuse(_)) && sp.ns != sp.ns_smooth;
+            let wo = if bumped_diffuse {
+                glam::Vec3::new(wo.x, wo.y, wo.z.abs())
+            } else {
+                wo
+            };
+            // A normal-mapped diffuse lobe is masked near the smooth normal's horizon (Conty
+            // Estevez et al. 2019), as Cycles does: a factor on f for every incident direction.
+            let bump_shadow = |wi: glam::Vec3| -> f32 {
+                if bumped_diffuse {
+                    let n_smooth = if ns.dot(sp.ns) < 0.0 {
+                        -sp.ns_smooth
+                    } else {
+                        sp.ns_smooth
+                    };
+                    bump_terminator_shadowing(n_smooth, ns, wi)
+                } else {
+                    1.0
+                }
+            };
 
             let guide_here =
                 subsurface.is_some() || !bsdf.is_specular() || depth >= GUIDE_MAX_SPECULAR;
@@ -251,7 +274,7 @@ impl<'a> PathTracer<'a> {
                         if visible && eval_after_shadow {
                             (f, bsdf_pdfs) = bsdf.eval_pdf_wavelengths(wo, wi);
                         }
-                        f *= wi.z.abs();
+                        f *= wi.z.abs() * bump_shadow(ls.wi);
                         if visible && !f.is_black() {
                             let weight = if ls.delta {
                                 1.0
@@ -285,7 +308,7 @@ impl<'a> PathTracer<'a> {
                 // Shading normal disagrees with the geometry: the sample would leak light.
                 break;
             }
-            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            beta *= bs.f * (bs.wi.z.abs() * bump_shadow(wi_world) / bs.pdf);
             if !guides_done {
                 // Only a Dirac BSDF gets here (see above): glass tint or mirror colour.
                 guide_tint *= bsdf.albedo();

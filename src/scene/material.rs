@@ -203,8 +203,22 @@ impl Material {
         wo: Option<Vec3>,
     ) {
         if let Some(nt) = self.tangent_space_normal(textures, sp.uv) {
+            // Only lobes that depend on the viewing direction need the mapped normal to face
+            // the viewer: a Lambertian one shades with the mapped normal as it is (the
+            // integrator evaluates it for viewers behind it), as in Cycles, which adjusts
+            // normals only for its microfacet closures.
+            let wo = wo.filter(|_| !self.is_pure_diffuse());
             geometry.apply_normal_map(sp, nt, wo);
         }
+    }
+
+    /// The glTF model reduces to a Lambertian BSDF everywhere (see `gltf_bsdf`).
+    fn is_pure_diffuse(&self) -> bool {
+        let g = &self.gltf;
+        matches!(self.model, SurfaceModel::Gltf)
+            && g.metallic <= 0.0
+            && g.specular <= 0.0
+            && g.transmission <= 0.0
     }
 
     /// What scatters at a surface point: the BSDF and, when it is the boundary of a
