@@ -74,43 +74,9 @@ def export_bundled(sc, folder, fmt="GLTF_SEPARATE"):
     return path
 
 
-def test_bundled_exporter_matches_cycles():
-    """Bounds as the add-on's Cycles parity tests: per-channel means within 3%, relMSE after a 3x3
-    blur below 0.005 (Cycles against itself with another seed: ~0.002 at these settings)."""
-    spp = 256
-    sc = build_scene()
-    C.use_cycles(sc, spp)
-    sc.cycles.pixel_filter_type = "BLACKMAN_HARRIS"
-    sc.cycles.filter_width = 1.5
-    cycles = C.render_pixels(sc, os.path.join(OUT, "cycles.exr"))[..., :3]
-
-    folder = tempfile.mkdtemp(prefix="export_", dir=OUT)
-    gltf = export_bundled(sc, folder)
-    with open(gltf) as f:
-        doc = json.load(f)
-    kinds = sorted(l["type"] for l in doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", []))
-    C.check(kinds == ["directional", "point", "spot"], "the bundled exporter wrote the three lights: %s" % kinds)
-    out = os.path.join(folder, "prism.exr")
-    run = subprocess.run(
-        [C.BINARY, "render", gltf, "-o", out, "--spp", str(spp), "--width", "96", "--height", "72",
-         "--max-depth", "8", "--threads", "2", "--progress", "none"],
-        capture_output=True, text=True,
-    )
-    C.check(run.returncode == 0, "prism renders the bundled exporter's glTF: %s" % run.stderr.strip()[-400:])
-    for line in run.stderr.splitlines():
-        print("  prism: " + line)
-    prism = C.read_exr(out)[..., :3]
-    C.check(prism.shape == cycles.shape, "same image size %s vs %s" % (prism.shape, cycles.shape))
-    ratio = prism.mean(axis=(0, 1)) / cycles.mean(axis=(0, 1))
-    rel = C.rel_mse(C.blur(prism), C.blur(cycles))
-    print("  means prism %s cycles %s ratio %s; blurred relMSE %.4f"
-          % (prism.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)), ratio, rel))
-    C.check(np.all(np.abs(ratio - 1.0) < 0.03), "channel means within 3%%: %s" % ratio)
-    C.check(rel < 0.005, "relMSE after 3x3 blur %.4f < 0.005" % rel)
-
-
 def render_both(sc, name, spp, fmt="GLTF_SEPARATE"):
-    """Cycles on the scene, then Prism on the bundled exporter's glTF of it: (prism, cycles) RGB."""
+    """Cycles on the scene, then Prism on the bundled exporter's glTF of it:
+    (prism RGB, cycles RGB, path of the glTF)."""
     C.use_cycles(sc, spp)
     sc.cycles.pixel_filter_type = "BLACKMAN_HARRIS"
     sc.cycles.filter_width = 1.5
@@ -127,7 +93,30 @@ def render_both(sc, name, spp, fmt="GLTF_SEPARATE"):
     C.check(run.returncode == 0, "prism renders the bundled exporter's glTF: %s" % run.stderr.strip()[-400:])
     for line in run.stderr.splitlines():
         print("  prism: " + line)
-    return C.read_exr(out)[..., :3], cycles
+    prism = C.read_exr(out)[..., :3]
+    C.check(prism.shape == cycles.shape, "same image size %s vs %s" % (prism.shape, cycles.shape))
+    return prism, cycles, gltf
+
+
+def check_parity(prism, cycles):
+    """Per-channel means within 3% and relMSE after a 3x3 blur below 0.005, the bounds of the
+    add-on's Cycles parity tests (Cycles against itself with another seed: ~0.002 here)."""
+    ratio = prism.mean(axis=(0, 1)) / cycles.mean(axis=(0, 1))
+    rel = C.rel_mse(C.blur(prism), C.blur(cycles))
+    print("  means prism %s cycles %s ratio %s; blurred relMSE %.4f"
+          % (prism.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)), ratio, rel))
+    C.check(np.all(np.abs(ratio - 1.0) < 0.03), "channel means within 3%%: %s" % ratio)
+    C.check(rel < 0.005, "relMSE after 3x3 blur %.4f < 0.005" % rel)
+
+
+def test_bundled_exporter_matches_cycles():
+    """Principled diffuse, metal and glass; point, spot and sun lights; the world from the sidecar."""
+    prism, cycles, gltf = render_both(build_scene(), "lights", 256)
+    with open(gltf) as f:
+        doc = json.load(f)
+    kinds = sorted(l["type"] for l in doc.get("extensions", {}).get("KHR_lights_punctual", {}).get("lights", []))
+    C.check(kinds == ["directional", "point", "spot"], "the bundled exporter wrote the three lights: %s" % kinds)
+    check_parity(prism, cycles)
 
 
 def test_bundled_emission_texture_rough_glass():
@@ -161,13 +150,8 @@ def test_bundled_emission_texture_rough_glass():
     bpy.data.objects["Floor"].data.uv_layers.new(name="UVMap")  # unit square per face: 8x8 checks
     glass = bpy.data.materials["Glass"].node_tree.nodes["Principled BSDF"]
     glass.inputs["Roughness"].default_value = 0.2
-    prism, cycles = render_both(sc, "emission", 256, fmt="GLB")
-    ratio = prism.mean(axis=(0, 1)) / cycles.mean(axis=(0, 1))
-    rel = C.rel_mse(C.blur(prism), C.blur(cycles))
-    print("  means prism %s cycles %s ratio %s; blurred relMSE %.4f"
-          % (prism.mean(axis=(0, 1)), cycles.mean(axis=(0, 1)), ratio, rel))
-    C.check(np.all(np.abs(ratio - 1.0) < 0.03), "channel means within 3%%: %s" % ratio)
-    C.check(rel < 0.005, "relMSE after 3x3 blur %.4f < 0.005" % rel)
+    prism, cycles, _ = render_both(sc, "emission", 256, fmt="GLB")
+    check_parity(prism, cycles)
 
 
 if __name__ == "__main__":
