@@ -1,39 +1,47 @@
 //! Hero-wavelength spectral MIS (Wilkie et al. 2014, "Hero Wavelength Spectral Sampling").
 //!
-//! A camera path carries N wavelengths: the hero `lambda_h`, drawn with density `p(lambda)`, and
-//! its rotations. The directions are sampled with the hero's BSDF densities, so the path `x`
-//! has density `p(lambda_h) P(x | lambda_h)`. Every member could have been the hero and would
-//! have produced the same wavelength set, so the balance heuristic over the N "which member
-//! was the hero" techniques gives, for each member j,
+//! A camera path carries N wavelengths: the hero and N - 1 companions, placed by rotating the
+//! hero's primary sample u (`SampledWavelengths::sample_hero`: member k is drawn from the
+//! wavelength density at u + k/N). The directions are sampled with the hero's BSDF densities,
+//! so the path `x` has density `P(x | lambda_h)` given the set. Every member could have been
+//! the hero and would have produced the same set, with the same density (1) of its primary
+//! sample, so the balance heuristic over the N "which member was the hero" techniques gives,
+//! for each member j (Wilkie et al. eq. 8 written in the rotated variable u, where the
+//! integrand is f / p(lambda)),
 //!
 //! ```text
-//!     F_j = f(x, lambda_j) / sum_k p(lambda_k) P(x | lambda_k)        (Wilkie et al. eq. 8)
+//!     F_j = f(x, lambda_j) / (p(lambda_j) sum_k h_k P(x | lambda_k))      h_k = 1 / N
 //! ```
 //!
 //! With the throughput `beta_j = f(x, lambda_j) / P(x | lambda_h)` the integrator already keeps,
-//! `F_j = beta_j / (sum_k p(lambda_k) r_k)` where `r_k = P(x | lambda_k) / P(x | lambda_h)` is the
-//! ratio this module tracks vertex by vertex. The film divides every slot by the mean of
-//! `p(lambda_k)`, so the integrator multiplies contributions by `1 / denominator()` with
-//! `denominator() = sum_k w_k r_k`, `w_k = p(lambda_k) / sum_j p(lambda_j)`.
+//! `F_j = beta_j / (p(lambda_j) sum_k h_k r_k)` where `r_k = P(x | lambda_k) / P(x | lambda_h)`
+//! is the ratio this module tracks vertex by vertex. The film divides slot j by `p(lambda_j)`
+//! (`SampledWavelengths::pdf`) and the mean over the N slots supplies the 1/N, so the
+//! integrator multiplies contributions by `1 / denominator()` with
+//! `denominator() = sum_k w_k r_k` and `w_k = h_k / sum_j h_j` the shares of
+//! `SampledWavelengths::hero_pdf` (equal for `sample_hero`; `[1, 0, ..]` for one wavelength
+//! per path).
 //!
 //! Without dispersion every `r_k` stays 1 and the weight is 1. On a rough dispersive interface
 //! all `r_k` stay positive: every wavelength keeps contributing with its own BSDF value. A
 //! smooth dispersive refraction gives `r_k = 0` (and `f = 0`) for the secondaries: the hero
-//! continues alone with weight `1 / w_h`, i.e. divided by its own density, which is the unbiased
-//! single-wavelength estimate. Contributions collected before that vertex keep all N members.
+//! continues alone with weight `1 / w_h`, which with the film's 1/N and `1 / p(lambda_h)` is the
+//! unbiased single-wavelength estimate. Contributions collected before that vertex keep all N
+//! members.
 //!
 //! Light sampling and BSDF sampling are combined with the power heuristic on the
-//! wavelength-aggregated densities `sum_k p(lambda_k) P_t(x | lambda_k)` of each technique t. The
-//! resulting weights are `h_t(x) * p(lambda_k) P_t(x | lambda_k) / sum_k' p(lambda_k') P_t(x |
-//! lambda_k')`: a partition of unity over (technique, hero member) that does not depend on
-//! which member actually was the hero, which is what keeps the estimator unbiased.
+//! wavelength-aggregated densities `sum_k w_k P_t(x | lambda_k)` of each technique t. The
+//! resulting weights are `h_t(x) * w_k P_t(x | lambda_k) / sum_k' w_k' P_t(x | lambda_k')`: a
+//! partition of unity over (technique, hero member) that does not depend on which member
+//! actually was the hero, which is what keeps the estimator unbiased.
 
 use crate::math::power_heuristic;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, N_WAVELENGTHS};
 
 #[derive(Clone, Copy, Debug)]
 pub struct SpectralMis {
-    /// `w_k = p(lambda_k) / sum_j p(lambda_j)`: each member's share of the hero density.
+    /// `w_k`: each member's share of the "which member was the hero" densities (normalised
+    /// `SampledWavelengths::hero_pdf`).
     hero_share: SampledSpectrum,
     /// `r_k = P(x | lambda_k) / P(x | lambda_h)` over the path so far (r_0 = 1).
     ratio: SampledSpectrum,

@@ -1,8 +1,9 @@
 //! How a camera path chooses its wavelengths.
 //!
-//! * `Hero` (Wilkie et al. 2014): a hero wavelength plus N-1 companions at equal spacing over
-//!   the range (hero rotation); all N are carried by one path, weighted by the balance
-//!   heuristic over the N "which one was the hero" techniques (see `integrator::spectral_mis`).
+//! * `Hero` (Wilkie et al. 2014): a hero wavelength plus N-1 companions at equal spacing in the
+//!   wavelength density's primary sample space (hero rotation of u, so each member follows the
+//!   density); all N are carried by one path, weighted by the balance heuristic over the N
+//!   "which one was the hero" techniques (see `integrator::spectral_mis`).
 //! * `Single`: one wavelength per path, drawn independently for every sample.
 //! * `Stratified`: one wavelength per path; the wavelengths of successive samples of a pixel
 //!   are stratified over the spectrum (a per-pixel rotated van der Corput sequence), the

@@ -150,40 +150,38 @@ impl IndexMut<usize> for SampledSpectrum {
 pub struct SampledWavelengths {
     pub lambda: [f32; N_WAVELENGTHS],
     pub pdf: [f32; N_WAVELENGTHS],
-    /// Density with which each member would have been drawn as the hero, p(lambda_i)
-    /// (0 for slots that are inactive from the start). The hero MIS weights of
-    /// `integrator::spectral_mis` are proportional to these.
+    /// Relative density with which the set would have been drawn had member i been the hero,
+    /// in the variable the set is sampled in (0 for slots that are inactive from the start):
+    /// the hero MIS shares of `integrator::spectral_mis` are proportional to these. All 1 for
+    /// `sample_hero` (rotation in primary sample space).
     pub hero_pdf: [f32; N_WAVELENGTHS],
 }
 
 impl SampledWavelengths {
-    /// Hero-wavelength rotation (Wilkie et al. 2014, eq. 5): the hero is drawn from `density`,
-    /// the companions are the hero shifted by k/N of the range.
+    /// Hero-wavelength rotation (Wilkie et al. 2014, eq. 5) in the primary sample space of
+    /// `density`: the hero is `density.sample(u)`, the companions are `density.sample(u + k/N)`
+    /// (mod 1). Every member is then distributed by `density` itself, one in each N-quantile
+    /// of it, so with the visible-band density all N land where the eye is sensitive. (A
+    /// rotation by k/N of the wavelength range instead puts about one member per path in the
+    /// 360-420 / 700-830 nm tails, where it carries almost nothing to the image; with the
+    /// uniform density the two rotations are the same.)
     ///
-    /// Any of the N members could have been the hero, so the one-sample MIS (balance
-    /// heuristic) density of every member is the mean of the hero density over the set. The
-    /// path tracer refines this when the members' path densities differ
-    /// (`integrator::spectral_mis`).
+    /// Wilkie et al.'s derivation holds unchanged in the variable the set is rotated in: in u
+    /// the hero density is 1 for whichever member is the hero, and the integrand is
+    /// f(lambda) / p(lambda). So member i's film density is its own p(lambda_i) (`pdf`), and
+    /// the one-sample MIS (balance heuristic) over "which member was the hero" gives every
+    /// member the same share (`hero_pdf`, all 1); `integrator::spectral_mis` refines the
+    /// weights by the members' path densities where they differ.
     pub fn sample_hero(u: f32, density: WavelengthPdf) -> Self {
-        let hero = density.sample(u);
-        let range = LAMBDA_MAX - LAMBDA_MIN;
         let lambda: [f32; N_WAVELENGTHS] = std::array::from_fn(|k| {
-            // In [0, 2 range): one conditional subtraction wraps it, exactly (Sterbenz) and
-            // without the cost of a floating-point remainder on every camera path.
-            let shifted = hero - LAMBDA_MIN + range * k as f32 / N_WAVELENGTHS as f32;
-            LAMBDA_MIN
-                + if shifted >= range {
-                    shifted - range
-                } else {
-                    shifted
-                }
+            // In [0, 2): one conditional subtraction wraps it exactly (Sterbenz).
+            let uk = u + k as f32 / N_WAVELENGTHS as f32;
+            density.sample(if uk >= 1.0 { uk - 1.0 } else { uk })
         });
-        let hero_pdf = lambda.map(|l| density.pdf(l));
-        let mean_pdf = hero_pdf.iter().sum::<f32>() / N_WAVELENGTHS as f32;
         SampledWavelengths {
             lambda,
-            pdf: [mean_pdf; N_WAVELENGTHS],
-            hero_pdf,
+            pdf: lambda.map(|l| density.pdf(l)),
+            hero_pdf: [1.0; N_WAVELENGTHS],
         }
     }
 
@@ -335,17 +333,37 @@ mod tests {
 
     #[test]
     fn hero_rotation_covers_range_and_terminates() {
-        let mut w = SampledWavelengths::sample_hero(0.3, WavelengthPdf::Visible);
-        for l in w.lambda {
-            assert!((LAMBDA_MIN..=LAMBDA_MAX).contains(&l));
-        }
+        // Uniform density: the rotation in primary sample space is the rotation by a quarter
+        // of the wavelength range.
+        let w = SampledWavelengths::sample_hero(0.3, WavelengthPdf::Uniform);
         let mut sorted = w.lambda;
         sorted.sort_by(f32::total_cmp);
         for k in 1..N_WAVELENGTHS {
             let gap = sorted[k] - sorted[k - 1];
             assert!((gap - (LAMBDA_MAX - LAMBDA_MIN) / 4.0).abs() < 1e-2);
         }
-        w.terminate_secondary();
-        assert!(w.secondary_terminated() && w.pdf[0] > 0.0);
+        // Visible density: one member in each quartile of the density, each with its own
+        // density as film pdf, equal hero shares.
+        for u in [0.0, 0.3, 0.74, 0.9999] {
+            let mut w = SampledWavelengths::sample_hero(u, WavelengthPdf::Visible);
+            let mut sorted = w.lambda;
+            sorted.sort_by(f32::total_cmp);
+            for (k, l) in sorted.into_iter().enumerate() {
+                assert!((LAMBDA_MIN..=LAMBDA_MAX).contains(&l));
+                let lo = sample_visible_wavelength(k as f32 / 4.0);
+                let hi = sample_visible_wavelength((k + 1) as f32 / 4.0);
+                assert!(
+                    l >= lo - 1e-3 && l <= hi + 1e-3,
+                    "u {u}: {l} not in [{lo}, {hi}]"
+                );
+            }
+            for k in 0..N_WAVELENGTHS {
+                assert_eq!(w.pdf[k], visible_wavelength_pdf(w.lambda[k]));
+                assert_eq!(w.hero_pdf[k], w.hero_pdf[0]);
+            }
+            assert_eq!(w.lambda[0], sample_visible_wavelength(u));
+            w.terminate_secondary();
+            assert!(w.secondary_terminated() && w.pdf[0] > 0.0);
+        }
     }
 }
