@@ -128,6 +128,19 @@ impl MetallicRoughnessBsdf {
         self.eval_pdf(wo, wi).0
     }
 
+    /// The diffuse term of `eval`: (1 - metallic) (1 - F_d(wo.h)) base / pi.
+    pub fn diffuse_part(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        if !(wo.z > 0.0 && wi.z > 0.0) {
+            return SampledSpectrum::ZERO;
+        }
+        let h = (wo + wi).normalize_or_zero();
+        if h == Vec3::ZERO {
+            return SampledSpectrum::ZERO;
+        }
+        let (fd, _) = self.fresnels(schlick_weight(wo.dot(h).clamp(0.0, 1.0)));
+        self.base_color * INV_PI * (SampledSpectrum::ONE - fd) * (1.0 - self.metallic())
+    }
+
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
         self.eval_pdf(wo, wi).1
     }

@@ -108,6 +108,18 @@ impl Bsdf {
         }
     }
 
+    /// The Lambertian (diffuse) component of `eval(wo, wi)`: all of it for `Diffuse`, the
+    /// Fresnel-weighted base for `MetallicRoughness`, none for dielectrics. Normal-mapped
+    /// surfaces scale this part by the bump-terminator shadowing, as Cycles does for its
+    /// diffuse closures only (`crate::geometry::bump_terminator_shadowing`).
+    pub fn diffuse_part(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        match self {
+            Bsdf::Diffuse(b) => b.eval(wo, wi),
+            Bsdf::MetallicRoughness(b) => b.diffuse_part(wo, wi),
+            Bsdf::Dielectric(_) => SampledSpectrum::ZERO,
+        }
+    }
+
     /// `(eval(wo, wi), pdf(wo, wi))` computed in one pass (what light sampling with MIS needs).
     pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (SampledSpectrum, f32) {
         match self {

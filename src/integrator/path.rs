@@ -203,28 +203,32 @@ impl<'a> PathTracer<'a> {
             };
             let frame = Frame::from_normal_tangent(ns, sp.dpdu);
             let wo = frame.to_local(wo_world);
-            // A normal-mapped Lambertian lobe (whose value does not depend on wo) shades with
-            // the mapped normal even where it faces away from the viewer, as Cycles' diffuse
-            // closures do, instead of going black there.
-            let bumped_diffuse = matches!(bsdf, Bsdf::Diffuse(_)) && sp.ns != sp.ns_smooth;
+            // A normal-mapped surface with a diffuse base shades with the mapped normal even
+            // where it faces away from the viewer, as Cycles' diffuse closures do (their value
+            // does not depend on wo), instead of going black there (`Material::apply_normal_map`).
+            let bumped_diffuse = sp.ns != sp.ns_smooth
+                && match &bsdf {
+                    Bsdf::Diffuse(_) => true,
+                    Bsdf::MetallicRoughness(b) => b.metallic < 1.0,
+                    Bsdf::Dielectric(_) => false,
+                };
             let wo = if bumped_diffuse {
                 glam::Vec3::new(wo.x, wo.y, wo.z.abs())
             } else {
                 wo
             };
-            // A normal-mapped diffuse lobe is masked near the smooth normal's horizon (Conty
-            // Estevez et al. 2019), as Cycles does: a factor on f for every incident direction.
-            let bump_shadow = |wi: glam::Vec3| -> f32 {
-                if bumped_diffuse {
-                    let n_smooth = if ns.dot(sp.ns) < 0.0 {
-                        -sp.ns_smooth
-                    } else {
-                        sp.ns_smooth
-                    };
-                    bump_terminator_shadowing(n_smooth, ns, wi)
+            // The diffuse part of a normal-mapped surface is masked near the smooth normal's
+            // horizon (Conty Estevez et al. 2019), as Cycles does for its diffuse closures: f
+            // loses (1 - G(wi)) of its diffuse part, for light and BSDF samples alike.
+            let bumped = sp.ns != sp.ns_smooth && !transmissive;
+            let bump_loss = |wi: glam::Vec3, wi_world: glam::Vec3| -> SampledSpectrum {
+                let n_smooth = if ns.dot(sp.ns) < 0.0 {
+                    -sp.ns_smooth
                 } else {
-                    1.0
-                }
+                    sp.ns_smooth
+                };
+                let g = bump_terminator_shadowing(n_smooth, ns, wi_world);
+                bsdf.diffuse_part(wo, wi) * (1.0 - g)
             };
 
             let guide_here =
@@ -274,7 +278,10 @@ impl<'a> PathTracer<'a> {
                         if visible && eval_after_shadow {
                             (f, bsdf_pdfs) = bsdf.eval_pdf_wavelengths(wo, wi);
                         }
-                        f *= wi.z.abs() * bump_shadow(ls.wi);
+                        if visible && bumped {
+                            f = (f - bump_loss(wi, ls.wi)).clamp_zero();
+                        }
+                        f *= wi.z.abs();
                         if visible && !f.is_black() {
                             let weight = if ls.delta {
                                 1.0
@@ -308,7 +315,12 @@ impl<'a> PathTracer<'a> {
                 // Shading normal disagrees with the geometry: the sample would leak light.
                 break;
             }
-            beta *= bs.f * (bs.wi.z.abs() * bump_shadow(wi_world) / bs.pdf);
+            let f = if bumped && !bs.specular {
+                (bs.f - bump_loss(bs.wi, wi_world)).clamp_zero()
+            } else {
+                bs.f
+            };
+            beta *= f * (bs.wi.z.abs() / bs.pdf);
             if !guides_done {
                 // Only a Dirac BSDF gets here (see above): glass tint or mirror colour.
                 guide_tint *= bsdf.albedo();

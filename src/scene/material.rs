@@ -203,22 +203,23 @@ impl Material {
         wo: Option<Vec3>,
     ) {
         if let Some(nt) = self.tangent_space_normal(textures, sp.uv) {
-            // Only lobes that depend on the viewing direction need the mapped normal to face
-            // the viewer: a Lambertian one shades with the mapped normal as it is (the
-            // integrator evaluates it for viewers behind it), as in Cycles, which adjusts
-            // normals only for its microfacet closures.
-            let wo = wo.filter(|_| !self.is_pure_diffuse());
+            // Only view-dependent lobes need the mapped normal to face the viewer. Cycles
+            // bends it (for the mirror direction) in its microfacet closures only and shades
+            // diffuse closures with the mapped normal as it is, even facing away from the
+            // viewer. Prism has one frame per BSDF: materials with a diffuse base keep the
+            // mapped normal as it is (the integrator then evaluates them for viewers behind
+            // it, see `integrator::path`), which is exact for their diffuse part, the one that
+            // dominates there; metals and transmissive materials get the bent normal.
+            let wo = wo.filter(|_| !self.has_diffuse_base());
             geometry.apply_normal_map(sp, nt, wo);
         }
     }
 
-    /// The glTF model reduces to a Lambertian BSDF everywhere (see `gltf_bsdf`).
-    fn is_pure_diffuse(&self) -> bool {
+    /// The glTF model has a Lambertian base everywhere: not a metal, not transmissive, no
+    /// sidecar model (see `gltf_bsdf`).
+    fn has_diffuse_base(&self) -> bool {
         let g = &self.gltf;
-        matches!(self.model, SurfaceModel::Gltf)
-            && g.metallic <= 0.0
-            && g.specular <= 0.0
-            && g.transmission <= 0.0
+        matches!(self.model, SurfaceModel::Gltf) && g.metallic < 1.0 && g.transmission <= 0.0
     }
 
     /// What scatters at a surface point: the BSDF and, when it is the boundary of a
