@@ -551,9 +551,11 @@ impl Geometry {
     /// direction R of `wo` about the mapped normal lies less than q above the geometric
     /// surface, the normal is replaced by the half vector between `wo` and the direction
     /// that keeps R's azimuth at elevation q, with q = min(0.9 cos(wo, ng), 0.01) (the rule
-    /// Cycles' normal map node applies, "ensure valid specular reflection"; the 0.9 keeps
-    /// q below cos(wo, ng), where the unperturbed normal always qualifies). Without `wo`
-    /// (BSSRDF exit points) the normal is only kept on the geometric normal's side.
+    /// Cycles applies to its microfacet closures, "ensure valid specular reflection"; the 0.9
+    /// keeps q below cos(wo, ng), where the unperturbed normal always qualifies). Without `wo`
+    /// (BSSRDF exit points, and materials with a diffuse base, which Cycles shades with the
+    /// mapped normal as it is: see `Material::apply_normal_map`) the normal is only kept on
+    /// the geometric normal's side.
     pub fn apply_normal_map(&self, sp: &mut SurfacePoint, nt: Vec3, wo: Option<Vec3>) {
         let (t, b) = self.normal_map_frame(sp);
         let Some(n) = (t * nt.x + b * nt.y + sp.ns * nt.z).try_normalize() else {
