@@ -47,7 +47,8 @@ struct SceneArgs {
     width: Option<u32>,
     #[arg(long)]
     height: Option<u32>,
-    /// Maximum number of bounces (default: the JSON's render.max_depth, else 16)
+    /// Maximum path depth: 1 = direct light only, as pbrt's maxdepth; Cycles' Max Bounces B is
+    /// depth B + 1 (default: the JSON's render.max_depth, else 16)
     #[arg(long)]
     max_depth: Option<u32>,
     #[arg(long, default_value_t = 0)]

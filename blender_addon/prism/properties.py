@@ -24,7 +24,14 @@ GLASS_PRESET_ITEMS = [
 
 class PrismRenderSettings(bpy.types.PropertyGroup):
     samples: IntProperty(name="Samples", description="Samples per pixel", default=64, min=1, max=1 << 20)
-    max_depth: IntProperty(name="Max Depth", description="Maximum number of bounces", default=16, min=1, max=1024)
+    max_depth: IntProperty(
+        name="Max Depth",
+        description="Maximum path depth: 1 = direct light only (pbrt's maxdepth); "
+        "Cycles' Max Bounces B corresponds to depth B + 1",
+        default=16,
+        min=1,
+        max=1024,
+    )
     wavelengths: EnumProperty(
         name="Wavelengths",
         description="How each path's wavelengths are chosen",
