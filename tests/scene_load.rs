@@ -949,3 +949,28 @@ fn names_with_newlines_stay_on_one_line() {
     ));
     assert!(e.contains("'Cam era'"), "{e}");
 }
+
+#[test]
+fn unsupported_optional_extensions_are_named_in_one_warning() {
+    let dir = test_dir("unsupported_ext");
+    let mut b = GltfBuilder::basic();
+    b.use_ext("KHR_materials_clearcoat");
+    b.use_ext("KHR_materials_sheen");
+    b.use_ext("KHR_texture_transform");
+    let s = load(&b.write_gltf(&dir.join("t.gltf")));
+    let hits: Vec<&String> = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("extensions not supported"))
+        .collect();
+    assert_eq!(hits.len(), 1, "{:?}", s.warnings);
+    assert!(
+        hits[0].contains("KHR_materials_clearcoat, KHR_materials_sheen")
+            && !hits[0].contains("KHR_texture_transform"),
+        "{}",
+        hits[0]
+    );
+    // A plain file warns about nothing of the sort.
+    let plain = load(&GltfBuilder::basic().write_gltf(&dir.join("plain.gltf")));
+    assert!(plain.warnings.iter().all(|w| !w.contains("extensions")));
+}

@@ -92,6 +92,12 @@ pub fn import_gltf(path: &Path, camera_name: Option<&str>) -> R<GltfImport> {
     let root: gltf::json::Root = gltf::json::deserialize::from_slice(json_bytes)
         .map_err(|e| fail(format!("invalid glTF JSON: {e}")))?;
     precheck(&root).map_err(fail)?;
+    let unsupported_extensions: Vec<String> = root
+        .extensions_used
+        .iter()
+        .filter(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str()))
+        .cloned()
+        .collect();
     let doc = gltf::Document::from_json(root).map_err(|e| fail(validation_message(e)))?;
     let dir = path
         .parent()
@@ -110,6 +116,15 @@ pub fn import_gltf(path: &Path, camera_name: Option<&str>) -> R<GltfImport> {
         skipped_non_triangle: 0,
         warned: Vec::new(),
     };
+    if !unsupported_extensions.is_empty() {
+        // Optional extensions may be ignored (glTF 2.0 spec 3.12); say which, since the image
+        // then differs from what the author saw (clearcoat, sheen, ...). Required ones were
+        // rejected by validation above.
+        imp.scene.warnings.push(format!(
+            "extensions not supported and ignored: {}",
+            unsupported_extensions.join(", ")
+        ));
+    }
     imp.run(camera_name).map_err(fail)?;
     if imp.scene.camera.is_none() {
         return Err(PrismError::input(format!("no camera in {file}")));
@@ -213,6 +228,19 @@ fn precheck(root: &gltf::json::Root) -> Result<(), String> {
     }
     Ok(())
 }
+
+/// The glTF extensions the importer implements (everything else in `extensionsUsed` is
+/// ignored with one warning).
+const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_dispersion",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+    "KHR_texture_transform",
+];
 
 fn validation_message(e: gltf::Error) -> String {
     match e {
