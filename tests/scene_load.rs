@@ -974,3 +974,21 @@ fn unsupported_optional_extensions_are_named_in_one_warning() {
     let plain = load(&GltfBuilder::basic().write_gltf(&dir.join("plain.gltf")));
     assert!(plain.warnings.iter().all(|w| !w.contains("extensions")));
 }
+
+#[test]
+fn vertex_colours_are_named_in_a_warning() {
+    let dir = test_dir("color_0");
+    let mut b = GltfBuilder::basic();
+    let pos = b.positions(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    let col = b.vec4(&[[1.0, 0.0, 0.0, 1.0]; 3]);
+    let mut p = GltfBuilder::prim(pos, None, None, 4);
+    p["attributes"]["COLOR_0"] = json!(col);
+    let m = b.mesh("Painted", vec![p]);
+    b.root(json!({ "name": "Painted", "mesh": m }));
+    let s = load(&b.write_gltf(&dir.join("t.gltf")));
+    assert!(
+        s.warnings.iter().any(|w| w.contains("COLOR_0")),
+        "{:?}",
+        s.warnings
+    );
+}

@@ -948,6 +948,13 @@ impl Importer<'_> {
             }
             None => None,
         };
+        if prim.get(&Semantic::Colors(0)).is_some() {
+            self.warn_once(
+                "COLOR_0 vertex colours are not supported yet and ignored (base colours are used \
+                 without them)"
+                    .to_string(),
+            );
+        }
         let uvs = match prim.get(&Semantic::TexCoords(0)) {
             Some(a) => {
                 let v = self.read_accessor(&a, Dimensions::Vec2, &format!("{name} TEXCOORD_0"))?;
