@@ -103,6 +103,7 @@ fn inversion_round_trip() {
         g: 0.0,
         roughness: 0.0,
         method: "table".into(),
+        boundary: "dielectric".into(),
         weight: 1.0,
     };
     assert_eq!(coefficients(&desc, &table), c);
@@ -124,6 +125,7 @@ fn presets_and_similarity() {
         g,
         roughness: 0.0,
         method: "table".into(),
+        boundary: "dielectric".into(),
         weight: 1.0,
     };
     let c = coefficients(

@@ -12,7 +12,10 @@
 //!   returns Sp / pdf, the pdf combining all three axes and all of the path's wavelengths
 //!   (spectral MIS: one-sample balance heuristic over the wavelength that drove the radius).
 //!   The exit point then gets next-event estimation with the Sw lobe (`SwLobe`).
-//! * `"random_walk"`: a volumetric random walk inside the closed mesh (`random_walk.rs`).
+//! * `"random_walk"`: a volumetric random walk inside the closed mesh (`random_walk.rs`). Where
+//!   the walk reaches the boundary from inside, what the boundary does is `WalkBoundary`: in
+//!   both models the light that leaves does so with a fixed exit lobe (`ExitLobe`), so the
+//!   exit point gets next-event estimation exactly like a table exit.
 //!
 //! Coefficients are RGB triples in 1 / scene unit, upsampled to unbounded spectra, so every
 //! wavelength of the path has its own profile.
@@ -45,6 +48,68 @@ pub enum SubsurfaceMethod {
     RandomWalk,
 }
 
+/// The boundary of a random-walk medium (sidecar `subsurface.boundary`).
+///
+/// A smooth dielectric boundary taken literally lets a walk leave only through a Dirac
+/// refraction, which next-event estimation cannot sample: delta lights (sun, point, spot) would
+/// never light the object directly, and small area lights only through BSDF-sampled hits. Both
+/// models below therefore let the transmitted light leave with a fixed lobe sampled at the exit
+/// point, which then gets next-event estimation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WalkBoundary {
+    /// `"dielectric"` (default). Entry: the (rough) dielectric BSDF, exactly. At the walk's
+    /// exit the dielectric BSDF is sampled for the walk's incident direction: internal
+    /// reflection (Fresnel, total internal reflection included) continues the walk with the
+    /// interface's own direction and weight; a transmission keeps its weight (the interface's
+    /// transmittance for that direction, times eta^2: radiance is eta^2 denser inside) and
+    /// only its direction is replaced by one from Sw = (1 - Fr(cos)) / (c pi). Sw is the exit
+    /// distribution of isotropic internal radiance through the smooth interface (the exit lobe
+    /// of the separable BSSRDF, Jensen et al. 2001; pbrt-v3 section 11.4.1), so the model is
+    /// exact where the radiance reaching the boundary from inside is isotropic, the diffusion
+    /// regime, and keeps the energy that leaves for every incident direction exactly, so the
+    /// white furnace stays exact.
+    Dielectric,
+    /// `"lambertian"`: Cycles' random walk (Chiang, Kutz, Burley 2016, "Practical and
+    /// Controllable Subsurface Scattering for Production Path Tracing"): the surface's
+    /// (rough) dielectric reflection stays on top, the transmitted part enters with a
+    /// cosine distribution, and every walk that reaches the boundary leaves through it with a
+    /// Lambertian lobe (no internal Fresnel reflection, no eta^2 radiance factors).
+    Lambertian,
+}
+
+/// The direction distribution of light leaving a subsurface medium at an exit point (table
+/// exits and random-walk exits), normalised: \int f cos dw = 1 over the outer hemisphere.
+#[derive(Clone, Copy, Debug)]
+pub enum ExitLobe {
+    Sw(SwLobe),
+    Lambertian,
+}
+
+impl ExitLobe {
+    /// The lobe for a direction with `cos_theta` to the outward normal (0 below the surface).
+    pub fn eval(&self, cos_theta: f32) -> f32 {
+        match self {
+            ExitLobe::Sw(sw) => sw.eval(cos_theta),
+            ExitLobe::Lambertian if cos_theta > 0.0 => INV_PI,
+            ExitLobe::Lambertian => 0.0,
+        }
+    }
+
+    /// Both lobes are sampled with the cosine distribution.
+    pub fn pdf(&self, cos_theta: f32) -> f32 {
+        if cos_theta > 0.0 {
+            cosine_hemisphere_pdf(cos_theta)
+        } else {
+            0.0
+        }
+    }
+
+    /// Cosine-weighted direction in the local frame (outward normal = +z).
+    pub fn sample(&self, u: Vec2) -> Vec3 {
+        sample_cosine_hemisphere(u)
+    }
+}
+
 /// A subsurface material's runtime data (built once per material instance).
 #[derive(Clone, Debug)]
 pub struct SubsurfaceMaterial {
@@ -59,6 +124,8 @@ pub struct SubsurfaceMaterial {
     /// GGX alpha of the boundary (perceptual roughness squared).
     pub alpha: f32,
     pub method: SubsurfaceMethod,
+    /// What a random walk's boundary does (see `WalkBoundary`).
+    pub boundary: WalkBoundary,
     /// Exit lobe normalisation c = 1 - 2 Fm1_external(eta).
     sw_norm: f32,
 }
@@ -80,6 +147,11 @@ impl SubsurfaceMaterial {
                 SubsurfaceMethod::RandomWalk
             } else {
                 SubsurfaceMethod::Table
+            },
+            boundary: if desc.boundary == "lambertian" {
+                WalkBoundary::Lambertian
+            } else {
+                WalkBoundary::Dielectric
             },
             sw_norm: (1.0 - 2.0 * table::fresnel_moment_external(desc.eta, 1)) as f32,
         }
@@ -124,6 +196,15 @@ impl SubsurfaceMaterial {
         SwLobe {
             eta: self.eta,
             norm: self.sw_norm,
+        }
+    }
+
+    /// The exit lobe: Sw for a dielectric boundary (table exits and random-walk exits alike),
+    /// Lambertian for a random walk with `boundary: "lambertian"`.
+    pub fn exit_lobe(&self) -> ExitLobe {
+        match (self.method, self.boundary) {
+            (SubsurfaceMethod::RandomWalk, WalkBoundary::Lambertian) => ExitLobe::Lambertian,
+            _ => ExitLobe::Sw(self.sw()),
         }
     }
 

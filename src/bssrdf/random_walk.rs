@@ -1,6 +1,7 @@
 //! Volumetric random-walk subsurface scattering (the method of Blender Cycles' default SSS):
 //! exponential free flights inside the closed mesh, Henyey-Greenstein scattering, and the
-//! boundary handled by the caller with the dielectric BSDF.
+//! boundary handled by the caller (`super::WalkBoundary`: internal reflection by the dielectric
+//! BSDF, exits through a fixed lobe that gets next-event estimation).
 //!
 //! Distances are sampled with the sigma_t of one wavelength of the path, chosen uniformly once
 //! per walk (the hero-wavelength idea of Wilkie et al. 2014 applied to the whole walk), and the

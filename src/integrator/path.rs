@@ -4,7 +4,8 @@
 
 use super::spectral_mis::SpectralMis;
 use crate::bsdf::Bsdf;
-use crate::bssrdf::{active_wavelengths, random_walk, SubsurfaceMethod};
+use crate::bsdf::BsdfSample;
+use crate::bssrdf::{active_wavelengths, random_walk, SubsurfaceMethod, WalkBoundary};
 use crate::geometry::{bump_terminator_shadowing, offset_ray_origin, Ray};
 use crate::math::{power_heuristic, Frame};
 use crate::sampler::Sampler;
@@ -193,6 +194,10 @@ impl<'a> PathTracer<'a> {
                 sampler.next_1d(),
                 walk_medium.is_some(),
             );
+            // The path reached the boundary of the random-walk medium it travels in: light
+            // leaves through the exit lobe below (`bssrdf::WalkBoundary`), which gets its own
+            // next-event estimation; internal reflection cannot reach a light outside.
+            let walk_exit = subsurface.filter(|_| walk_medium.is_some());
             let transmissive = matches!(bsdf, Bsdf::Dielectric(_));
             // Reflective models shade both faces alike: turn the normals towards the viewer.
             // Dielectrics keep the outward normal so that inside/outside (eta) stays meaningful.
@@ -246,7 +251,7 @@ impl<'a> PathTracer<'a> {
             // Next-event estimation.
             let u_light = sampler.next_1d();
             let u_light2 = sampler.next_2d();
-            if !bsdf.is_specular() {
+            if !bsdf.is_specular() && walk_exit.is_none() {
                 if let Some(ls) = lights.sample(
                     geometry,
                     &scene.materials,
@@ -303,8 +308,21 @@ impl<'a> PathTracer<'a> {
             }
 
             // Continue the path by sampling the BSDF.
-            let Some(bs) = bsdf.sample(wo, sampler.next_1d(), sampler.next_2d()) else {
-                break;
+            let bs = match walk_exit {
+                // A Lambertian walk boundary lets every walk out (weight 1); the exit lobe
+                // below picks the direction. Stands for a transmission along the normal.
+                Some(ss) if ss.boundary == WalkBoundary::Lambertian => BsdfSample {
+                    wi: glam::Vec3::Z,
+                    f: SampledSpectrum::ONE,
+                    pdf: 1.0,
+                    specular: true,
+                    transmission: true,
+                    pdf_wavelengths: SampledSpectrum::ONE,
+                },
+                _ => match bsdf.sample(wo, sampler.next_1d(), sampler.next_2d()) {
+                    Some(bs) => bs,
+                    None => break,
+                },
             };
             if !(bs.pdf > 0.0) || bs.f.is_black() {
                 break;
@@ -338,6 +356,9 @@ impl<'a> PathTracer<'a> {
             let sss_table = bs.transmission
                 && entering
                 && subsurface.is_some_and(|s| s.method == SubsurfaceMethod::Table);
+            // Where light leaves a subsurface medium, if it does here: point, outward geometric
+            // normal, shading frame (outward normal), lobe.
+            let mut exit = None;
             if sss_table {
                 // Separable BSSRDF: the boundary's transmission sample stands for
                 // (1 - Fr(cos theta_o)); undo the radiance 1/eta^2 it carries (light refracts
@@ -365,48 +386,18 @@ impl<'a> PathTracer<'a> {
                 let ng_i = pi.ng;
                 let ns_i = if pi.ns.dot(ng_i) < 0.0 { -pi.ns } else { pi.ns };
                 let frame_i = Frame::from_normal_tangent(ns_i, pi.dpdu);
-                let sw = ss.sw();
-                // Next-event estimation at the exit point with the Sw lobe.
-                let u_light = sampler.next_1d();
-                let u_light2 = sampler.next_2d();
-                if let Some(ls) = lights.sample(
-                    geometry,
-                    &scene.materials,
-                    &scene.textures,
-                    pi.p,
-                    u_light,
-                    u_light2,
-                    &alive,
-                ) {
-                    let cos = frame_i.to_local(ls.wi).z;
-                    let f = sw.eval(cos);
-                    if f > 0.0 && ls.wi.dot(ng_i) > 0.0 {
-                        rays += 1;
-                        let origin = offset_ray_origin(pi.p, ng_i, ls.wi);
-                        if !geometry.occluded(&Ray::new(origin, ls.wi), ls.distance) {
-                            let weight = if ls.delta {
-                                1.0
-                            } else {
-                                mis.light_weight(ls.pdf, SampledSpectrum::splat(sw.pdf(cos)))
-                            };
-                            l += beta * ls.li * (f * cos * weight / (ls.pdf * mis.denominator()));
-                        }
-                    }
+                exit = Some((pi.p, ng_i, frame_i, ss.exit_lobe()));
+            } else if let (true, Some(ss)) = (bs.transmission, walk_exit) {
+                // A random walk leaves its medium here. A dielectric boundary's transmission
+                // sample kept its weight (transmittance for the walk's direction, times eta^2);
+                // only its direction is replaced by the exit lobe's (`WalkBoundary`).
+                if let (Bsdf::Dielectric(d), WalkBoundary::Dielectric) = (&bsdf, ss.boundary) {
+                    let eta = d.eta[0];
+                    eta_scale /= eta * eta;
                 }
-                let wi = sw.sample(sampler.next_2d());
-                let pdf = sw.pdf(wi.z);
-                if !(pdf > 0.0) {
-                    break;
-                }
-                let wi_world = frame_i.to_world(wi);
-                if !(wi_world.dot(ng_i) > 0.0) {
-                    break;
-                }
-                beta *= sw.eval(wi.z) * wi.z / pdf;
-                specular_bounce = false;
-                prev_denominator = mis.denominator();
-                prev_bsdf_density = pdf * prev_denominator;
-                next = (pi.p, ng_i, wi_world);
+                medium = None;
+                walk_medium = None;
+                exit = Some((sp.p, sp.ng, frame, ss.exit_lobe()));
             } else if bs.transmission {
                 if let Bsdf::Dielectric(d) = &bsdf {
                     let eta = d.eta[0];
@@ -427,6 +418,67 @@ impl<'a> PathTracer<'a> {
                     }
                     _ => None,
                 };
+                if let (Some(s), true) = (subsurface, walk_medium.is_some()) {
+                    if s.boundary == WalkBoundary::Lambertian {
+                        // Lambertian boundary: the transmitted light enters with a cosine
+                        // distribution and without the refraction's 1/eta^2 radiance factor
+                        // (the Lambertian exit has none either).
+                        if let Bsdf::Dielectric(d) = &bsdf {
+                            beta *= d.eta * d.eta;
+                            let eta = d.eta[0];
+                            eta_scale /= eta * eta;
+                        }
+                        let local = -s.exit_lobe().sample(sampler.next_2d());
+                        let dir = frame.to_world(local);
+                        if !(dir.dot(sp.ng) < 0.0) {
+                            break;
+                        }
+                        next = (sp.p, ng, dir);
+                    }
+                }
+            }
+            if let Some((p_exit, ng_i, frame_i, lobe)) = exit {
+                // Next-event estimation at the exit point with the exit lobe.
+                let u_light = sampler.next_1d();
+                let u_light2 = sampler.next_2d();
+                if let Some(ls) = lights.sample(
+                    geometry,
+                    &scene.materials,
+                    &scene.textures,
+                    p_exit,
+                    u_light,
+                    u_light2,
+                    &alive,
+                ) {
+                    let cos = frame_i.to_local(ls.wi).z;
+                    let f = lobe.eval(cos);
+                    if f > 0.0 && ls.wi.dot(ng_i) > 0.0 {
+                        rays += 1;
+                        let origin = offset_ray_origin(p_exit, ng_i, ls.wi);
+                        if !geometry.occluded(&Ray::new(origin, ls.wi), ls.distance) {
+                            let weight = if ls.delta {
+                                1.0
+                            } else {
+                                mis.light_weight(ls.pdf, SampledSpectrum::splat(lobe.pdf(cos)))
+                            };
+                            l += beta * ls.li * (f * cos * weight / (ls.pdf * mis.denominator()));
+                        }
+                    }
+                }
+                let wi = lobe.sample(sampler.next_2d());
+                let pdf = lobe.pdf(wi.z);
+                if !(pdf > 0.0) {
+                    break;
+                }
+                let wi_world = frame_i.to_world(wi);
+                if !(wi_world.dot(ng_i) > 0.0) {
+                    break;
+                }
+                beta *= lobe.eval(wi.z) * wi.z / pdf;
+                specular_bounce = false;
+                prev_denominator = mis.denominator();
+                prev_bsdf_density = pdf * prev_denominator;
+                next = (p_exit, ng_i, wi_world);
             }
             if !beta.is_finite() {
                 break;

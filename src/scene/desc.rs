@@ -159,6 +159,8 @@ pub struct SubsurfaceDesc {
     pub roughness: f32,
     /// "table" (photon beam diffusion) or "random_walk".
     pub method: String,
+    /// Random walk only: "dielectric" (default) or "lambertian" (`crate::bssrdf::WalkBoundary`).
+    pub boundary: String,
     /// Fraction of the surface that is subsurface scattering (Blender's Principled
     /// "Subsurface Weight"); the rest is the glTF surface model. 1 = all subsurface.
     pub weight: f32,

@@ -25,7 +25,8 @@
 //!   optional `scale` (> 0, default 1), `eta` (> 0, default 1.33) or `ior` (a number >= 1 or an
 //!   object with exactly one of the dielectric IOR forms below; the BSSRDF then uses its n_d as
 //!   the scalar eta), `g` (in (-1,1), default 0), `roughness` (in [0,1], default 0), `method`
-//!   (`"table"` default | `"random_walk"`), `weight` (in [0,1], default 1: the fraction of the
+//!   (`"table"` default | `"random_walk"`), `boundary` (random walk only: `"dielectric"`
+//!   default | `"lambertian"`, see `crate::bssrdf::WalkBoundary`), `weight` (in [0,1], default 1: the fraction of the
 //!   surface that is subsurface, the rest being the glTF material; chosen per shading point).
 //!   Coefficients are non-negative RGB triples, `mfp` positive, `reflectance` in [0,1].
 //! * `dielectric`: exactly one IOR form (models in `crate::spectrum::dispersion`, lambda in
@@ -100,6 +101,8 @@ pub const IOR_FORMS: &[&str] = &["ior", "cauchy", "sellmeier", "abbe", "preset"]
 
 /// Accepted values of `subsurface.method`.
 pub const SUBSURFACE_METHODS: &[&str] = &["table", "random_walk"];
+/// Accepted values of `subsurface.boundary` (random walk only).
+pub const SUBSURFACE_BOUNDARIES: &[&str] = &["dielectric", "lambertian"];
 
 /// A parsed, validated sidecar.
 #[derive(Clone, Debug, Default)]
@@ -486,6 +489,7 @@ impl Validator<'_> {
                 "g",
                 "roughness",
                 "method",
+                "boundary",
                 "weight",
             ],
             path,
@@ -553,6 +557,19 @@ impl Validator<'_> {
                 .to_string(),
             None => "table".to_string(),
         };
+        let boundary = match m.get("boundary") {
+            Some(x) => {
+                let b = self.string(x, &path.key("boundary"), SUBSURFACE_BOUNDARIES, "boundary")?;
+                if method != "random_walk" {
+                    return Err(self.err(
+                        &path.key("boundary"),
+                        "applies to method 'random_walk' only",
+                    ));
+                }
+                b.to_string()
+            }
+            None => "dielectric".to_string(),
+        };
         // The boundary's IOR: scalar `eta`, or any IOR form under `ior` (the BSSRDF then uses
         // its n_d as the scalar eta).
         let ior = match (m.get("eta"), m.get("ior")) {
@@ -574,6 +591,7 @@ impl Validator<'_> {
             g: opt("g", Range::OpenSigned, 0.0)?,
             roughness: opt("roughness", Range::Unit, 0.0)?,
             method,
+            boundary,
             weight: opt("weight", Range::Unit, 1.0)?,
         })
     }
@@ -1061,6 +1079,18 @@ mod tests {
                 "materials.Skin.subsurface.weight: must be in [0, 1], got 1.5",
             ),
             (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","method":"random_walk","boundary":"rough"}}}}"#,
+                "materials.Skin.subsurface.boundary: unknown boundary 'rough' (valid: dielectric, lambertian)",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","boundary":"lambertian"}}}}"#,
+                "materials.Skin.subsurface.boundary: applies to method 'random_walk' only",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","method":"random_walk","boundary":1}}}}"#,
+                "materials.Skin.subsurface.boundary: expected a string, found a number",
+            ),
+            (
                 r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","ior":"water"}}}}"#,
                 "materials.Skin.subsurface.ior: expected a number or an object, found a string",
             ),
@@ -1144,6 +1174,7 @@ mod tests {
         assert_eq!(s.g, 0.0);
         assert_eq!(s.roughness, 0.0);
         assert_eq!(s.method, "table");
+        assert_eq!(s.boundary, "dielectric");
         assert_eq!(f.world.as_ref().unwrap().strength, 1.0);
         assert_eq!(s.ior, None);
         let f = parse(
