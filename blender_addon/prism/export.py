@@ -260,31 +260,103 @@ def _normal_map(node):
 
 
 def _principled_subsurface(node, m):
+    """The sidecar `subsurface` entry for a Principled BSDF with subsurface weight > 0.
+
+    Cycles' three methods (measured against Cycles 5.0 in tests/addon/test_sss_parity.py):
+    - Random Walk and Random Walk (Skin) (3.x: Random Walk (Fixed Radius) and Random Walk): a
+      volumetric walk whose coefficients Cycles derives from colour A and radius d per channel:
+      the single-scattering albedo from the fit of Wrenninge, Villemin and Hery 2017 ("Path
+      Traced Subsurface Scattering using Anisotropic Phase Functions and Non-Exponential Free
+      Flights", Pixar TM 17-07, extending Chiang, Kutz and Burley 2016 to anisotropy g), and
+      sigma_t = 1 / (d' (1 - g)) with d' = d / (4 pi) (Random Walk: Cycles scales the radius
+      to look like its older profiles) or d' = d sqrt(3 (1 - a')) (Skin: a' inverts the
+      dipole's diffuse reflectance for A at the IOR, Jensen et al. 2001). Exported as explicit
+      sigma_a / sigma_s with method "random_walk" and boundary "lambertian", Cycles' boundary:
+      no internal Fresnel reflection, diffuse exit.
+    - Christensen-Burley: Prism's diffusion table ("table") with reflectance A and mean free
+      path d / (4 pi), Cycles' own radius-to-mean-free-path scaling.
+    The boundary's IOR and roughness are the Principled IOR and Roughness (its specular layer)."""
     if node.inputs.get("Subsurface Weight") is not None:  # 4.x+: colour from Base Color
         weight = _val(node, "Subsurface Weight")
         radius = _val(node, "Subsurface Radius", default=(1.0, 0.2, 0.1))
         scale = _val(node, "Subsurface Scale", default=0.05)
         colour = m["base"]
-        mfp = [r * scale for r in radius]
-        eta = _val(node, "IOR", default=1.4)
+        radius = [r * scale for r in radius]
+        eta = _val(node, "IOR", default=1.5)
+        skin = "RANDOM_WALK_SKIN"
     else:  # 3.x: "Subsurface" scales the radius, colour from "Subsurface Color"
         weight = _val(node, "Subsurface")
         radius = _val(node, "Subsurface Radius", default=(1.0, 0.2, 0.1))
         colour = _rgb(_val(node, "Subsurface Color", default=(0.8, 0.8, 0.8, 1)))
-        mfp = [r * weight for r in radius]
+        radius = [r * weight for r in radius]
         eta = _val(node, "Subsurface IOR", default=1.4)
+        skin = "RANDOM_WALK"  # 3.x's "Random Walk" adjusts the radius like 4.x's Skin
     if weight <= 0.0:
         return None
-    g = _val(node, "Subsurface Anisotropy", default=0.0)
-    return {
-        "reflectance": [min(max(float(c), 0.0), 1.0) for c in colour],
-        "mfp": [max(float(r), 1e-6) for r in mfp],
-        "eta": max(float(eta), 1.0),
-        "g": min(max(float(g), -0.99), 0.99),
+    method = getattr(node, "subsurface_method", "BURLEY")
+    eta = max(float(eta), 1.01)
+    colour = [min(max(float(c), 0.0), 1.0) for c in colour]
+    radius = [max(float(r), 1e-6) for r in radius]
+    out = {
+        "eta": eta,
+        "roughness": min(max(float(_val(node, "Roughness", default=0.5)), 0.0), 1.0),
         # The rest of the surface is the Principled base (the glTF material), as in Cycles'
         # mix of subsurface and diffuse by the weight.
         "weight": min(max(float(weight), 0.0), 1.0),
     }
+    if method == "BURLEY":
+        g = min(max(float(_val(node, "Subsurface Anisotropy", default=0.0)), -0.99), 0.99)
+        out.update(reflectance=colour, mfp=[r / (4.0 * math.pi) for r in radius], g=g, method="table")
+        return out
+    g = min(max(float(_val(node, "Subsurface Anisotropy", default=0.0)), 0.0), 0.9)  # Cycles' range
+    sigma_a, sigma_s = [], []
+    for a, d in zip(colour, radius):
+        if method == skin:
+            d *= math.sqrt(3.0 * (1.0 - _dipole_albedo_inverse(a, eta)))
+        else:
+            d /= 4.0 * math.pi
+        sigma_t = 1.0 / (max(d, 1e-9) * (1.0 - g))
+        alpha = _walk_albedo(a, g)
+        sigma_s.append(alpha * sigma_t)
+        sigma_a.append((1.0 - alpha) * sigma_t)
+    out.update(sigma_a=sigma_a, sigma_s=sigma_s, g=g, method="random_walk", boundary="lambertian")
+    return out
+
+
+def _walk_albedo(a, g):
+    """Single-scattering albedo whose random walk (no boundary reflection) reflects `a`, for
+    Henyey-Greenstein anisotropy g: the fit of Wrenninge, Villemin and Hery 2017 (Pixar TM
+    17-07, its coefficients), which Cycles uses."""
+    def poly(c):
+        return sum(k * g ** i for i, k in enumerate(c))
+
+    p_a = poly((1.8260523782, -1.28451056436, -1.79904629312, 9.19393289202, -22.8215585862, 32.0234874259, -23.6264803333, 7.21067002658))
+    p_b = 4.98511194385 + 0.127355959438 * math.exp(poly((0.0, 31.1491581433, -201.847017512, 841.576016723, -2018.09288505, 2731.71560286, -1935.41424244, 559.009054474)))
+    p_c = poly((1.09686102424, -0.394704063468, 1.05258115941, -8.83963712726, 28.8643230661, -46.8802913581, 38.5402837518, -12.7181042538))
+    p_d = poly((0.496310210422, 0.360146581622, -2.15139309747, 17.8896899217, -55.2984010333, 82.065982243, -58.5106008578, 15.8478295021))
+    p_e = 4.23190299701 + 0.00310603949088 * math.exp(poly((0.0, 76.7316253952, -594.356773233, 2448.8834203, -5576.68528998, 7116.60171912, -4763.54467887, 1303.5318055)))
+    p_f = poly((2.40602999408, -2.51814844609, 9.18494908356, -79.2191708682, 259.082868209, -403.613804597, 302.85712436, -87.4370473567))
+    blend = a ** 0.25
+    alpha = (1.0 - blend) * p_a * math.atan(p_b * a) ** p_c + blend * p_d * math.atan(p_e * a) ** p_f
+    return min(max(alpha, 0.0), 0.999999)
+
+
+def _dipole_albedo_inverse(rd, eta):
+    """The reduced albedo a' whose dipole diffuse reflectance (Jensen et al. 2001, eq. 8 with
+    Egan and Hilgeman's fit of F_dr) is `rd`, by bisection."""
+    if rd < 1e-4:
+        return 0.0
+    f_dr = -1.440 / eta ** 2 + 0.710 / eta + 0.668 + 0.0636 * eta
+    a_coef = (1.0 + f_dr) / (1.0 - f_dr)
+    lo, hi = 0.0, 1.0
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        s = math.sqrt(3.0 * (1.0 - mid))
+        if 0.5 * mid * (1.0 + math.exp(-4.0 / 3.0 * a_coef * s)) * math.exp(-s) < rd:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
 
 
 def prism_override(mat):
