@@ -272,7 +272,7 @@ def _principled_subsurface(node, m):
       to look like its older profiles) or d' = d sqrt(3 (1 - a')) (Skin: a' inverts the
       dipole's diffuse reflectance for A at the IOR, Jensen et al. 2001). Exported as explicit
       sigma_a / sigma_s with method "random_walk" and boundary "lambertian", Cycles' boundary:
-      no internal Fresnel reflection, diffuse exit.
+      refracted entry, no internal Fresnel reflection, diffuse exit.
     - Christensen-Burley: Prism's diffusion table ("table") with reflectance A and mean free
       path d / (4 pi), Cycles' own radius-to-mean-free-path scaling.
     The boundary's IOR and roughness are the Principled IOR and Roughness (its specular layer)."""

@@ -418,22 +418,16 @@ impl<'a> PathTracer<'a> {
                     }
                     _ => None,
                 };
-                if let (Some(s), true) = (subsurface, walk_medium.is_some()) {
-                    if s.boundary == WalkBoundary::Lambertian {
-                        // Lambertian boundary: the transmitted light enters with a cosine
-                        // distribution and without the refraction's 1/eta^2 radiance factor
-                        // (the Lambertian exit has none either).
-                        if let Bsdf::Dielectric(d) = &bsdf {
-                            beta *= d.eta * d.eta;
-                            let eta = d.eta[0];
-                            eta_scale /= eta * eta;
-                        }
-                        let local = -s.exit_lobe().sample(sampler.next_2d());
-                        let dir = frame.to_world(local);
-                        if !(dir.dot(sp.ng) < 0.0) {
-                            break;
-                        }
-                        next = (sp.p, ng, dir);
+                if subsurface.is_some_and(|s| s.boundary == WalkBoundary::Lambertian)
+                    && walk_medium.is_some()
+                {
+                    // Lambertian walk boundary: the light enters along the refracted direction
+                    // but without the refraction's 1/eta^2 radiance factor (the Lambertian exit
+                    // has no eta^2 either).
+                    if let Bsdf::Dielectric(d) = &bsdf {
+                        beta *= d.eta * d.eta;
+                        let eta = d.eta[0];
+                        eta_scale /= eta * eta;
                     }
                 }
             }
