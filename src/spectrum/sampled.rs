@@ -173,14 +173,14 @@ impl SampledWavelengths {
     /// member the same share (`hero_pdf`, all 1); `integrator::spectral_mis` refines the
     /// weights by the members' path densities where they differ.
     pub fn sample_hero(u: f32, density: WavelengthPdf) -> Self {
-        let lambda: [f32; N_WAVELENGTHS] = std::array::from_fn(|k| {
+        let members: [(f32, f32); N_WAVELENGTHS] = std::array::from_fn(|k| {
             // In [0, 2): one conditional subtraction wraps it exactly (Sterbenz).
             let uk = u + k as f32 / N_WAVELENGTHS as f32;
-            density.sample(if uk >= 1.0 { uk - 1.0 } else { uk })
+            density.sample_with_pdf(if uk >= 1.0 { uk - 1.0 } else { uk })
         });
         SampledWavelengths {
-            lambda,
-            pdf: lambda.map(|l| density.pdf(l)),
+            lambda: members.map(|m| m.0),
+            pdf: members.map(|m| m.1),
             hero_pdf: [1.0; N_WAVELENGTHS],
         }
     }
@@ -188,11 +188,11 @@ impl SampledWavelengths {
     /// One wavelength per path: slot 0 carries it, the other slots are inactive (pdf 0) from
     /// the start. The film's mean over N slots must then see slot 0 with density `p / N`.
     pub fn sample_single(u: f32, density: WavelengthPdf) -> Self {
-        let lambda = density.sample(u);
+        let (lambda, p) = density.sample_with_pdf(u);
         let mut pdf = [0.0; N_WAVELENGTHS];
-        pdf[0] = density.pdf(lambda) / N_WAVELENGTHS as f32;
+        pdf[0] = p / N_WAVELENGTHS as f32;
         let mut hero_pdf = [0.0; N_WAVELENGTHS];
-        hero_pdf[0] = density.pdf(lambda);
+        hero_pdf[0] = p;
         SampledWavelengths {
             lambda: [lambda; N_WAVELENGTHS],
             pdf,
@@ -268,9 +268,19 @@ impl WavelengthPdf {
 
     /// Inverse-CDF sample from `u` in [0, 1).
     pub fn sample(self, u: f32) -> f32 {
+        self.sample_with_pdf(u).0
+    }
+
+    /// `(sample(u), pdf(sample(u)))`, the density computed along with the sample (equal to
+    /// `pdf` up to rounding).
+    #[inline]
+    pub fn sample_with_pdf(self, u: f32) -> (f32, f32) {
         match self {
-            Self::Visible => sample_visible_wavelength(u),
-            Self::Uniform => (LAMBDA_MIN + u * (LAMBDA_MAX - LAMBDA_MIN)).min(LAMBDA_MAX),
+            Self::Visible => sample_visible_wavelength_with_pdf(u),
+            Self::Uniform => (
+                (LAMBDA_MIN + u * (LAMBDA_MAX - LAMBDA_MIN)).min(LAMBDA_MAX),
+                1.0 / (LAMBDA_MAX - LAMBDA_MIN),
+            ),
         }
     }
 }
@@ -305,9 +315,17 @@ pub fn visible_wavelength_pdf(lambda: f32) -> f32 {
 }
 
 pub fn sample_visible_wavelength(u: f32) -> f32 {
+    sample_visible_wavelength_with_pdf(u).0
+}
+
+/// `sample_visible_wavelength(u)` and its density. The density comes from the CDF's tanh
+/// value t itself, sech^2(atanh t) = 1 - t^2, without a cosh: the hero's four members each
+/// need one, on every camera path.
+pub fn sample_visible_wavelength_with_pdf(u: f32) -> (f32, f32) {
     let (t0, t1) = vis_tanh_bounds();
     let t = t0 + u * (t1 - t0);
-    (VIS_CENTER + t.atanh() / VIS_K).clamp(LAMBDA_MIN, LAMBDA_MAX)
+    let lambda = (VIS_CENTER + t.atanh() / VIS_K).clamp(LAMBDA_MIN, LAMBDA_MAX);
+    (lambda, VIS_K * (1.0 - t * t) / (t1 - t0))
 }
 
 #[cfg(test)]
@@ -329,6 +347,19 @@ mod tests {
             .map(|i| visible_wavelength_pdf(LAMBDA_MIN + (i as f32 + 0.5) * h) * h)
             .sum();
         assert!((cdf - 0.5).abs() < 2e-3, "cdf at median {cdf}");
+        // The density computed with the sample is the density at the sample.
+        for i in 0..=1000 {
+            let u = i as f32 / 1000.0;
+            for d in [WavelengthPdf::Visible, WavelengthPdf::Uniform] {
+                let (l, p) = d.sample_with_pdf(u);
+                assert_eq!(l, d.sample(u));
+                assert!(
+                    (p - d.pdf(l)).abs() < 1e-4 * p,
+                    "u {u}: {p} vs {}",
+                    d.pdf(l)
+                );
+            }
+        }
     }
 
     #[test]
@@ -358,7 +389,8 @@ mod tests {
                 );
             }
             for k in 0..N_WAVELENGTHS {
-                assert_eq!(w.pdf[k], visible_wavelength_pdf(w.lambda[k]));
+                let p = visible_wavelength_pdf(w.lambda[k]);
+                assert!((w.pdf[k] - p).abs() < 1e-4 * p, "{} vs {p}", w.pdf[k]);
                 assert_eq!(w.hero_pdf[k], w.hero_pdf[0]);
             }
             assert_eq!(w.lambda[0], sample_visible_wavelength(u));
