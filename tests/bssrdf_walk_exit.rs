@@ -23,7 +23,6 @@ use prism::bsdf::fresnel_dielectric;
 use prism::bssrdf::random_walk::walk;
 use prism::bssrdf::SubsurfaceMaterial;
 use prism::geometry::{Geometry, Ray};
-use prism::math::sampling::sample_cosine_hemisphere;
 use prism::render::{render_quiet, RenderSettings};
 use prism::sampler::Sampler;
 use prism::scene::{
@@ -173,9 +172,8 @@ fn slab_geometry() -> Geometry {
 
 /// Fraction of the light entering the top of the slab that leaves through the top, from `n`
 /// walks of `random_walk::walk`. `fresnel`: internal reflection by the smooth dielectric
-/// boundary (else every boundary hit leaves); `cosine_entry`: entry directions
-/// cosine-distributed about the inward normal (else along it).
-fn walk_reflectance(fresnel: bool, cosine_entry: bool, n: usize) -> f64 {
+/// boundary (else every boundary hit leaves). The light enters along the inward normal.
+fn walk_reflectance(fresnel: bool, n: usize) -> f64 {
     let geometry = slab_geometry();
     let chunks = 16;
     let per = n / chunks;
@@ -186,12 +184,7 @@ fn walk_reflectance(fresnel: bool, cosine_entry: bool, n: usize) -> f64 {
             for k in 0..per {
                 let mut sampler = Sampler::new(c as u64, k as u64, 7);
                 let mut beta = SampledSpectrum::ONE;
-                let dir = if cosine_entry {
-                    -sample_cosine_hemisphere(sampler.next_2d())
-                } else {
-                    -Vec3::Z
-                };
-                let mut ray = Ray::new(Vec3::new(0.0, 0.0, -1e-4), dir);
+                let mut ray = Ray::new(Vec3::new(0.0, 0.0, -1e-4), -Vec3::Z);
                 for _ in 0..256 {
                     let Some((hit, last)) = walk(
                         &geometry,
@@ -229,7 +222,7 @@ fn dielectric_walk_boundary_receives_direct_sun_light() {
     let d = desc("random_walk", "dielectric");
     let t = 1.0 - fresnel_dielectric(1.0, ETA);
     let sw = SubsurfaceMaterial::new(&d).sw().eval(1.0);
-    let r = walk_reflectance(true, false, 1 << 18);
+    let r = walk_reflectance(true, 1 << 18);
     let expected = (t * r as f32) * sw;
     let mean = render_under_sun(&d, 64);
     let table = render_under_sun(&desc("table", "dielectric"), 64);
@@ -252,7 +245,7 @@ fn dielectric_walk_boundary_receives_direct_sun_light() {
 fn lambertian_walk_boundary_receives_direct_sun_light() {
     let d = desc("random_walk", "lambertian");
     let t = 1.0 - fresnel_dielectric(1.0, ETA);
-    let r = walk_reflectance(false, false, 1 << 18);
+    let r = walk_reflectance(false, 1 << 18);
     let expected = t * r as f32 * std::f32::consts::FRAC_1_PI;
     let mean = render_under_sun(&d, 64);
     eprintln!(
