@@ -21,7 +21,7 @@ import numpy as np  # noqa: E402
 
 import common as C  # noqa: E402
 
-OUT = tempfile.mkdtemp(prefix="prism_bundled_gltf_")
+OUT = tempfile.mkdtemp(prefix="prism_addon_test_bundled_")
 
 
 def principled(name, color, **inputs):

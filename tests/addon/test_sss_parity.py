@@ -36,7 +36,7 @@ import bpy  # noqa: E402
 
 import common as C  # noqa: E402
 
-OUT = tempfile.mkdtemp(prefix="prism_sss_test_")
+OUT = tempfile.mkdtemp(prefix="prism_addon_test_sss_")
 CYCLES_SPP = 512
 PRISM_SPP = 256
 
