@@ -324,7 +324,11 @@ pub fn sample_visible_wavelength(u: f32) -> f32 {
 pub fn sample_visible_wavelength_with_pdf(u: f32) -> (f32, f32) {
     let (t0, t1) = vis_tanh_bounds();
     let t = t0 + u * (t1 - t0);
-    let lambda = (VIS_CENTER + t.atanh() / VIS_K).clamp(LAMBDA_MIN, LAMBDA_MAX);
+    // atanh t = ln((1 + t) / (1 - t)) / 2 with `ln` rather than std's `atanh` (log1p): about
+    // 4x cheaper in glibc, and t stays inside the open bounds (t0, t1), so the ratio is finite;
+    // the lost precision near t = 0 is ~1e-7 in atanh, 1e-5 nm in lambda.
+    let atanh_t = 0.5 * ((1.0 + t) / (1.0 - t)).ln();
+    let lambda = (VIS_CENTER + atanh_t / VIS_K).clamp(LAMBDA_MIN, LAMBDA_MAX);
     (lambda, VIS_K * (1.0 - t * t) / (t1 - t0))
 }
 
