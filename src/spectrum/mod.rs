@@ -22,7 +22,10 @@ use glam::Vec3;
 pub fn spectrum_to_xyz(s: &SampledSpectrum, w: &SampledWavelengths) -> Vec3 {
     let mut xyz = Vec3::ZERO;
     for i in 0..N_WAVELENGTHS {
-        if w.pdf[i] > 0.0 {
+        // Zero lanes (secondaries terminated at a smooth dispersive interface, paths that
+        // found no light) skip the matching-function lookup: up to 3 of the 4 per sample.
+        // NaN is not skipped, so the film still sees and discards it.
+        if w.pdf[i] > 0.0 && s.0[i] != 0.0 {
             xyz += cie::cie_xyz_bar(w.lambda[i]) * (s.0[i] / w.pdf[i]);
         }
     }
