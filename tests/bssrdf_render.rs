@@ -10,55 +10,19 @@
 
 mod common;
 
-use common::scenes::{camera, material_with};
+use common::scenes::{camera, material_with, slab_mesh};
 use glam::{Mat4, Vec3};
 use prism::bsdf::fresnel_dielectric;
 use prism::bssrdf::SubsurfaceMaterial;
 use prism::render::{render_quiet, RenderSettings};
 use prism::scene::{
-    GltfMaterialDesc, InstanceDesc, IorDesc, MaterialOverride, MeshDesc, Scene, SceneDesc,
+    GltfMaterialDesc, InstanceDesc, IorDesc, MaterialOverride, Scene, SceneDesc,
     SubsurfaceCoefficients, SubsurfaceDesc, WorldDesc,
 };
 use prism::spectrum::rgb::xyz_to_linear_srgb;
 use prism::spectrum::{spectrum_to_xyz, RgbIlluminantSpectrum, SampledWavelengths, WavelengthPdf};
 
 const ETA: f32 = 1.33;
-
-/// Closed box [-w, w] x [-w, w] x [-depth, 0], outward normals (counter-clockwise winding).
-fn slab_mesh(w: f32, depth: f32) -> MeshDesc {
-    let p = |x: f32, y: f32, z: f32| Vec3::new(x * w, y * w, if z > 0.0 { 0.0 } else { -depth });
-    let positions = vec![
-        p(-1.0, -1.0, -1.0),
-        p(1.0, -1.0, -1.0),
-        p(1.0, 1.0, -1.0),
-        p(-1.0, 1.0, -1.0),
-        p(-1.0, -1.0, 1.0),
-        p(1.0, -1.0, 1.0),
-        p(1.0, 1.0, 1.0),
-        p(-1.0, 1.0, 1.0),
-    ];
-    let quads: [[u32; 4]; 6] = [
-        [4, 5, 6, 7], // top (+z)
-        [0, 3, 2, 1], // bottom (-z)
-        [0, 1, 5, 4], // -y
-        [2, 3, 7, 6], // +y
-        [1, 2, 6, 5], // +x
-        [3, 0, 4, 7], // -x
-    ];
-    let indices = quads
-        .iter()
-        .flat_map(|q| [q[0], q[1], q[2], q[0], q[2], q[3]])
-        .collect();
-    MeshDesc {
-        name: "slab".into(),
-        positions,
-        normals: None,
-        uvs: None,
-        tangents: None,
-        indices,
-        material: Some(0),
-    }
-}
 
 fn subsurface(sigma_a: Vec3, sigma_s: Vec3, method: &str) -> SubsurfaceDesc {
     SubsurfaceDesc {

@@ -17,7 +17,7 @@
 
 mod common;
 
-use common::scenes::material_with;
+use common::scenes::{material_with, slab_mesh};
 use glam::{Mat4, Vec3};
 use prism::bsdf::fresnel_dielectric;
 use prism::bssrdf::random_walk::walk;
@@ -26,8 +26,8 @@ use prism::geometry::{Geometry, Ray};
 use prism::render::{render_quiet, RenderSettings};
 use prism::sampler::Sampler;
 use prism::scene::{
-    CameraDesc, GltfMaterialDesc, InstanceDesc, MaterialOverride, MeshDesc, PunctualKind,
-    PunctualLightDesc, Scene, SceneDesc, SubsurfaceCoefficients, SubsurfaceDesc, WorldDesc,
+    CameraDesc, GltfMaterialDesc, InstanceDesc, MaterialOverride, PunctualKind, PunctualLightDesc,
+    Scene, SceneDesc, SubsurfaceCoefficients, SubsurfaceDesc, WorldDesc,
 };
 use prism::spectrum::SampledSpectrum;
 use rayon::prelude::*;
@@ -38,42 +38,6 @@ const SIGMA_S: f32 = 0.99;
 const SIGMA_A: f32 = 0.01;
 const HALF_WIDTH: f32 = 300.0;
 const DEPTH: f32 = 150.0;
-
-/// Closed box [-w, w] x [-w, w] x [-depth, 0], outward normals (counter-clockwise winding).
-fn slab_mesh(w: f32, depth: f32) -> MeshDesc {
-    let p = |x: f32, y: f32, z: f32| Vec3::new(x * w, y * w, if z > 0.0 { 0.0 } else { -depth });
-    let positions = vec![
-        p(-1.0, -1.0, -1.0),
-        p(1.0, -1.0, -1.0),
-        p(1.0, 1.0, -1.0),
-        p(-1.0, 1.0, -1.0),
-        p(-1.0, -1.0, 1.0),
-        p(1.0, -1.0, 1.0),
-        p(1.0, 1.0, 1.0),
-        p(-1.0, 1.0, 1.0),
-    ];
-    let quads: [[u32; 4]; 6] = [
-        [4, 5, 6, 7],
-        [0, 3, 2, 1],
-        [0, 1, 5, 4],
-        [2, 3, 7, 6],
-        [1, 2, 6, 5],
-        [3, 0, 4, 7],
-    ];
-    let indices = quads
-        .iter()
-        .flat_map(|q| [q[0], q[1], q[2], q[0], q[2], q[3]])
-        .collect();
-    MeshDesc {
-        name: "slab".into(),
-        positions,
-        normals: None,
-        uvs: None,
-        tangents: None,
-        indices,
-        material: Some(0),
-    }
-}
 
 fn desc(method: &str, boundary: &str) -> SubsurfaceDesc {
     SubsurfaceDesc {
