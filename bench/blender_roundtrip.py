@@ -122,12 +122,19 @@ def main():
     ap.add_argument("--size", type=int, default=256)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--rerender", action="store_true",
+                    help="build the scene once and render it --repeat times (re-renders of an unchanged "
+                    "scene: the BVH cache hits after the first); default: a fresh scene per render")
+    ap.add_argument("--no-bvh-cache", action="store_true", help="disable the add-on's BVH cache")
     a = ap.parse_args()
     prism.register()
     bpy.context.preferences.addons  # (binary found through the repository's target/release)
     overheads = []
-    for _ in range(a.repeat):
-        build(a.spp, a.size, a.threads, a.scene)
+    if a.no_bvh_cache:
+        prism.runner.bvh_cache_dir = lambda: None
+    for i in range(a.repeat):
+        if i == 0 or not a.rerender:
+            build(a.spp, a.size, a.threads, a.scene)
         t0 = time.perf_counter()
         bpy.ops.render.render()
         wall = time.perf_counter() - t0

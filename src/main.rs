@@ -68,6 +68,10 @@ struct SceneArgs {
     /// Diagnostic: render every path at this one wavelength (nm, 360-830)
     #[arg(long)]
     lambda: Option<f32>,
+    /// Cache mesh BVHs in this directory and reuse them when a mesh is unchanged (re-renders
+    /// skip the build; entries are validated, the directory is kept under 1 GiB)
+    #[arg(long)]
+    bvh_cache: Option<PathBuf>,
     /// Pixel filter (default: the JSON's render.filter, else blackman-harris, as Cycles)
     #[arg(long, value_enum)]
     filter: Option<FilterArg>,
@@ -207,6 +211,11 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings, f64)> {
         args.camera.as_deref(),
     )?;
     let defaults = desc.render.clone();
+    if let Some(dir) = &args.bvh_cache {
+        prism::geometry::bvh_cache::set_cache_dir(dir).map_err(|e| {
+            PrismError::input(format!("--bvh-cache {}: cannot create: {e}", dir.display()))
+        })?;
+    }
     let build_start = Instant::now();
     let scene = Scene::build(desc)?;
     let build_seconds = build_start.elapsed().as_secs_f64();
@@ -463,6 +472,7 @@ fn run_bench(bench: &BenchArgs) -> Result<()> {
         lambda: None,
         filter: None,
         filter_width: None,
+        bvh_cache: None,
     };
     let (scene, settings, _) = load(&args)?;
     for &t in threads {

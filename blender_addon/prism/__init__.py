@@ -18,7 +18,7 @@ bl_info = {
 import os
 
 import bpy
-from bpy.props import StringProperty
+from bpy.props import BoolProperty, StringProperty
 
 from . import engine, properties, runner, ui
 
@@ -33,9 +33,17 @@ class PrismPreferences(bpy.types.AddonPreferences):
         default="",
     )
 
+    cache_bvh: BoolProperty(
+        name="Cache BVHs Between Renders",
+        description="Keep the acceleration structures of unchanged meshes on disk (in the temporary "
+        "folder, at most 1 GiB) so re-renders skip their build, like Cycles' Persistent Data",
+        default=True,
+    )
+
     def draw(self, context):
         layout = self.layout
         layout.prop(self, "binary_path")
+        layout.prop(self, "cache_bvh")
         try:
             found = runner.find_binary(self.binary_path)
             layout.label(text="Using: " + found, icon="CHECKMARK")

@@ -179,6 +179,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
         args = runner.render_args(
             binary, gltf, mjson, output, preview, settings.samples, width, height,
             settings.max_depth, settings.seed, settings.threads,
+            bvh_cache=runner.bvh_cache_dir() if getattr(prefs, "cache_bvh", True) else None,
         )
         passes = guide_passes(scene, depsgraph.view_layer)
         if passes:

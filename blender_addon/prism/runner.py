@@ -9,6 +9,7 @@ import os
 import queue
 import shutil
 import subprocess
+import tempfile
 import sys
 import threading
 import time
@@ -129,7 +130,14 @@ class PrismProcess:
         return "prism exited with code %d: %s" % (rc, tail)
 
 
-def render_args(binary, gltf, materials, output, preview, spp, width, height, max_depth, seed, threads):
+def bvh_cache_dir():
+    """Where the add-on lets the binary keep mesh BVHs between renders (`--bvh-cache`): the
+    temporary folder, so the OS cleans it; the binary keeps it under 1 GiB."""
+    return os.path.join(tempfile.gettempdir(), "prism-bvh-cache")
+
+
+def render_args(binary, gltf, materials, output, preview, spp, width, height, max_depth, seed, threads,
+                bvh_cache=None):
     args = [
         binary, "render", gltf,
         "--materials", materials,
@@ -144,6 +152,8 @@ def render_args(binary, gltf, materials, output, preview, spp, width, height, ma
     ]
     if threads > 0:
         args += ["--threads", str(threads)]
+    if bvh_cache:
+        args += ["--bvh-cache", bvh_cache]
     return args
 
 

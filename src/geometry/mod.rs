@@ -2,6 +2,7 @@
 //! (bottom level) and one over the instances (top level), so a mesh placed by several glTF
 //! nodes is stored once.
 
+pub mod bvh_cache;
 pub mod shapes;
 mod triangle;
 
@@ -85,6 +86,30 @@ fn build_params(triangles: usize) -> BvhBuildParams {
     }
 }
 
+/// The mesh BVH from the on-disk cache when it is enabled and holds this exact triangle list
+/// (`bvh_cache`), else built (and stored when the cache is enabled).
+fn cached_or_built_bvh(tris: &[TriangleEdges]) -> CwBvh {
+    let large = tris.len() >= LARGE_MESH_TRIANGLES;
+    let key = bvh_cache::enabled().then(|| {
+        let bytes: Vec<u8> = tris
+            .iter()
+            .flat_map(|t| [t.v0, t.e1, t.e2])
+            .flat_map(|v| v.to_array())
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        bvh_cache::key(&bytes, large as u8)
+    });
+    if let Some(bvh) = key.and_then(|k| bvh_cache::load(k, tris.len())) {
+        return bvh;
+    }
+    let mut build_time = Duration::ZERO;
+    let bvh = obvhs::cwbvh::builder::build_cwbvh(tris, build_params(tris.len()), &mut build_time);
+    if let Some(k) = key {
+        bvh_cache::store(k, tris.len(), &bvh);
+    }
+    bvh
+}
+
 impl Mesh {
     /// Builds the mesh and its BVH. Triangles must already be non-degenerate with valid indices
     /// (the scene loader guarantees it); `material` is the runtime material id.
@@ -106,9 +131,7 @@ impl Mesh {
                 }
             })
             .collect();
-        let mut build_time = Duration::ZERO;
-        let bvh =
-            obvhs::cwbvh::builder::build_cwbvh(&tris, build_params(tris.len()), &mut build_time);
+        let bvh = cached_or_built_bvh(&tris);
         // Reorder triangles into leaf order so traversal needs no indirection.
         let tris = bvh
             .primitive_indices
