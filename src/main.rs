@@ -342,15 +342,18 @@ fn run_render(
             _ => eprintln!("prism: warning: {w}"),
         }
     }
+    let (bvh_hits, bvh_misses) = prism::geometry::bvh_cache::counters();
     if mode == ProgressMode::Json {
         eprintln!(
-            "{{\"event\":\"start\",\"width\":{},\"height\":{},\"spp\":{},\"threads\":{},\"load_s\":{:.4},\"build_s\":{:.4}}}",
+            "{{\"event\":\"start\",\"width\":{},\"height\":{},\"spp\":{},\"threads\":{},\"load_s\":{:.4},\"build_s\":{:.4},\"bvh_cache_hits\":{},\"bvh_cache_misses\":{}}}",
             settings.width,
             settings.height,
             settings.spp,
             pool.current_num_threads(),
             load_start.elapsed().as_secs_f64(),
-            build_seconds
+            build_seconds,
+            bvh_hits,
+            bvh_misses
         );
     }
     ctrlc::set_handler(|| CANCEL.store(true, Ordering::SeqCst))

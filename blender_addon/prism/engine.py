@@ -210,6 +210,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
                         timings["to_start_event"] = time.perf_counter() - t_start
                         timings["prism_load"] = float(ev.get("load_s", 0.0))
                         timings["prism_build"] = float(ev.get("build_s", 0.0))
+                        LAST["bvh_cache"] = (int(ev.get("bvh_cache_hits", 0)), int(ev.get("bvh_cache_misses", 0)))
                     elif kind == "preview":
                         try:
                             self._set_pixels(result, read_exr(ev["path"], width, height))

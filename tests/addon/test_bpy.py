@@ -272,6 +272,24 @@ def test_pixel_filter_parity_cycles():
     C.check(box_diff > 0.08, "a 1 px box differs from Cycles' Blackman-Harris (%.3f): the test can see the filter" % box_diff)
 
 
+def test_bvh_cache_rerender():
+    """Re-rendering an unchanged scene reuses the mesh BVHs from the add-on's cache (the
+    binary's start event counts hits) and gives the same image; the preference turns it off."""
+    sc = C.simple_scene()
+    C.use_prism(sc, spp=4)
+    first = C.render_pixels(sc, os.path.join(OUT, "bvh_cache_1.exr"))
+    second = C.render_pixels(sc, os.path.join(OUT, "bvh_cache_2.exr"))
+    hits, misses = prism.engine.LAST["bvh_cache"]
+    C.check(hits == 2 and misses == 0, "second render: both meshes from the cache (hits %d, misses %d)" % (hits, misses))
+    C.check(np.array_equal(first, second), "same image from the cached BVHs")
+    C.prefs().cache_bvh = False
+    try:
+        C.render_pixels(sc, os.path.join(OUT, "bvh_cache_3.exr"))
+        C.check(prism.engine.LAST["bvh_cache"] == (0, 0), "cache off: not consulted (%s)" % (prism.engine.LAST["bvh_cache"],))
+    finally:
+        C.prefs().cache_bvh = True
+
+
 def test_exr_reader():
     """The add-on's numpy EXR reader (used with an interface) equals Blender's loader, bit for bit,
     on Prism's output (RLE, 64x64 tiles) at a size that is not a multiple of the tile size."""
