@@ -10,14 +10,14 @@
 
 mod common;
 
-use common::scenes::{camera, material_with, slab_mesh};
-use glam::{Mat4, Vec3};
+use common::scenes::{material_with, subsurface_slab_scene};
+use glam::Vec3;
 use prism::bsdf::fresnel_dielectric;
 use prism::bssrdf::SubsurfaceMaterial;
 use prism::render::{render_quiet, RenderSettings};
 use prism::scene::{
-    GltfMaterialDesc, InstanceDesc, IorDesc, MaterialOverride, Scene, SceneDesc,
-    SubsurfaceCoefficients, SubsurfaceDesc, WorldDesc,
+    GltfMaterialDesc, IorDesc, MaterialOverride, Scene, SceneDesc, SubsurfaceCoefficients,
+    SubsurfaceDesc,
 };
 use prism::spectrum::rgb::xyz_to_linear_srgb;
 use prism::spectrum::{spectrum_to_xyz, RgbIlluminantSpectrum, SampledWavelengths, WavelengthPdf};
@@ -39,28 +39,7 @@ fn subsurface(sigma_a: Vec3, sigma_s: Vec3, method: &str) -> SubsurfaceDesc {
 }
 
 fn slab_scene(desc: &SubsurfaceDesc) -> SceneDesc {
-    SceneDesc {
-        meshes: vec![slab_mesh(400.0, 200.0)],
-        instances: vec![InstanceDesc {
-            mesh: 0,
-            object_to_world: Mat4::IDENTITY,
-            name: "slab".into(),
-        }],
-        materials: vec![material_with(
-            GltfMaterialDesc {
-                name: "sss".into(),
-                ..Default::default()
-            },
-            Some(MaterialOverride::Subsurface(desc.clone())),
-        )],
-        camera: Some(camera(5.0, 0.05)),
-        world: WorldDesc {
-            color: Vec3::ONE,
-            strength: 1.0,
-            texture: None,
-        },
-        ..Default::default()
-    }
+    subsurface_slab_scene(desc, 400.0, 200.0)
 }
 
 /// Mean RGB over the image and the number of discarded (non-finite) samples.

@@ -17,7 +17,7 @@
 
 mod common;
 
-use common::scenes::{material_with, slab_mesh};
+use common::scenes::{slab_mesh, subsurface_slab_scene};
 use glam::{Mat4, Vec3};
 use prism::bsdf::fresnel_dielectric;
 use prism::bssrdf::random_walk::walk;
@@ -26,8 +26,8 @@ use prism::geometry::{Geometry, Ray};
 use prism::render::{render_quiet, RenderSettings};
 use prism::sampler::Sampler;
 use prism::scene::{
-    CameraDesc, GltfMaterialDesc, InstanceDesc, MaterialOverride, PunctualKind, PunctualLightDesc,
-    Scene, SceneDesc, SubsurfaceCoefficients, SubsurfaceDesc, WorldDesc,
+    InstanceDesc, PunctualKind, PunctualLightDesc, Scene, SceneDesc, SubsurfaceCoefficients,
+    SubsurfaceDesc, WorldDesc,
 };
 use prism::spectrum::SampledSpectrum;
 use rayon::prelude::*;
@@ -60,27 +60,6 @@ fn desc(method: &str, boundary: &str) -> SubsurfaceDesc {
 /// (black world), camera looking straight down.
 fn render_under_sun(desc: &SubsurfaceDesc, spp: u32) -> Vec3 {
     let scene = SceneDesc {
-        meshes: vec![slab_mesh(HALF_WIDTH, DEPTH)],
-        instances: vec![InstanceDesc {
-            mesh: 0,
-            object_to_world: Mat4::IDENTITY,
-            name: "slab".into(),
-        }],
-        materials: vec![material_with(
-            GltfMaterialDesc {
-                name: "sss".into(),
-                ..Default::default()
-            },
-            Some(MaterialOverride::Subsurface(desc.clone())),
-        )],
-        camera: Some(CameraDesc {
-            name: "cam".into(),
-            camera_to_world: Mat4::from_translation(Vec3::new(0.0, 0.0, 5.0)),
-            yfov: 0.05,
-            aspect: None,
-            orthographic: None,
-            lens: None,
-        }),
         world: WorldDesc {
             color: Vec3::ZERO,
             strength: 0.0,
@@ -94,7 +73,7 @@ fn render_under_sun(desc: &SubsurfaceDesc, spp: u32) -> Vec3 {
             position: Vec3::ZERO,
             direction: -Vec3::Z,
         }],
-        ..Default::default()
+        ..subsurface_slab_scene(desc, HALF_WIDTH, DEPTH)
     };
     let scene = Scene::build(scene).expect("scene builds");
     let settings = RenderSettings {

@@ -4,7 +4,7 @@
 use glam::{Mat4, Vec3};
 use prism::scene::{
     CameraDesc, DielectricDesc, GltfMaterialDesc, InstanceDesc, IorDesc, MaterialDesc,
-    MaterialOverride, MeshDesc, SceneDesc, WorldDesc,
+    MaterialOverride, MeshDesc, SceneDesc, SubsurfaceDesc, WorldDesc,
 };
 
 /// UV sphere with smooth normals, radius 1 at the origin.
@@ -119,5 +119,32 @@ pub fn slab_mesh(w: f32, depth: f32) -> MeshDesc {
         tangents: None,
         indices,
         material: Some(0),
+    }
+}
+
+/// A [`slab_mesh`] of the subsurface material `desc` (its top face at z = 0), seen from
+/// (0, 0, 5) looking down with a narrow field of view (only the top face), in a white world.
+pub fn subsurface_slab_scene(desc: &SubsurfaceDesc, half_width: f32, depth: f32) -> SceneDesc {
+    SceneDesc {
+        meshes: vec![slab_mesh(half_width, depth)],
+        instances: vec![InstanceDesc {
+            mesh: 0,
+            object_to_world: Mat4::IDENTITY,
+            name: "slab".into(),
+        }],
+        materials: vec![material_with(
+            GltfMaterialDesc {
+                name: "sss".into(),
+                ..Default::default()
+            },
+            Some(MaterialOverride::Subsurface(desc.clone())),
+        )],
+        camera: Some(camera(5.0, 0.05)),
+        world: WorldDesc {
+            color: Vec3::ONE,
+            strength: 1.0,
+            texture: None,
+        },
+        ..Default::default()
     }
 }
