@@ -272,7 +272,7 @@ pub fn active_wavelengths(w: &SampledWavelengths) -> usize {
     }
 }
 
-/// The exit lobe of the separable BSSRDF: Sw(wi) = (1 - Fr(cos theta_i)) / (c pi), with
+/// The exit lobe of the separable BSSRDF (sampled through [`ExitLobe`]): Sw(wi) = (1 - Fr(cos theta_i)) / (c pi), with
 /// c = 1 - 2 Fm1 so that \int Sw cos dw = 1 (pbrt-v3 section 11.4.1's normalisation).
 #[derive(Clone, Copy, Debug)]
 pub struct SwLobe {
@@ -287,19 +287,6 @@ impl SwLobe {
             return 0.0;
         }
         (1.0 - fresnel_dielectric(cos_theta, self.eta)) * INV_PI / self.norm
-    }
-
-    pub fn pdf(&self, cos_theta: f32) -> f32 {
-        if cos_theta > 0.0 {
-            cosine_hemisphere_pdf(cos_theta)
-        } else {
-            0.0
-        }
-    }
-
-    /// Cosine-weighted direction in the local frame (outward normal = +z).
-    pub fn sample(&self, u: Vec2) -> Vec3 {
-        sample_cosine_hemisphere(u)
     }
 }
 
