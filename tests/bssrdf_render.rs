@@ -10,7 +10,7 @@
 
 mod common;
 
-use common::scenes::{material_with, subsurface_slab_scene};
+use common::scenes::{explicit_subsurface, material_with, subsurface_slab_scene};
 use glam::Vec3;
 use prism::bsdf::fresnel_dielectric;
 use prism::bssrdf::SubsurfaceMaterial;
@@ -25,17 +25,7 @@ use prism::spectrum::{spectrum_to_xyz, RgbIlluminantSpectrum, SampledWavelengths
 const ETA: f32 = 1.33;
 
 fn subsurface(sigma_a: Vec3, sigma_s: Vec3, method: &str) -> SubsurfaceDesc {
-    SubsurfaceDesc {
-        coefficients: SubsurfaceCoefficients::Explicit { sigma_a, sigma_s },
-        scale: 1.0,
-        eta: ETA,
-        ior: None,
-        g: 0.0,
-        roughness: 0.0,
-        method: method.into(),
-        boundary: "dielectric".into(),
-        weight: 1.0,
-    }
+    explicit_subsurface(sigma_a, sigma_s, ETA, method, "dielectric")
 }
 
 fn slab_scene(desc: &SubsurfaceDesc) -> SceneDesc {

@@ -17,7 +17,7 @@
 
 mod common;
 
-use common::scenes::{slab_mesh, subsurface_slab_scene};
+use common::scenes::{explicit_subsurface, slab_mesh, subsurface_slab_scene};
 use glam::{Mat4, Vec3};
 use prism::bsdf::fresnel_dielectric;
 use prism::bssrdf::random_walk::walk;
@@ -26,8 +26,7 @@ use prism::geometry::{Geometry, Ray};
 use prism::render::{render_quiet, RenderSettings};
 use prism::sampler::Sampler;
 use prism::scene::{
-    InstanceDesc, PunctualKind, PunctualLightDesc, Scene, SceneDesc, SubsurfaceCoefficients,
-    SubsurfaceDesc, WorldDesc,
+    InstanceDesc, PunctualKind, PunctualLightDesc, Scene, SceneDesc, SubsurfaceDesc, WorldDesc,
 };
 use prism::spectrum::SampledSpectrum;
 use rayon::prelude::*;
@@ -40,20 +39,8 @@ const HALF_WIDTH: f32 = 300.0;
 const DEPTH: f32 = 150.0;
 
 fn desc(method: &str, boundary: &str) -> SubsurfaceDesc {
-    SubsurfaceDesc {
-        coefficients: SubsurfaceCoefficients::Explicit {
-            sigma_a: Vec3::splat(SIGMA_A),
-            sigma_s: Vec3::splat(SIGMA_S),
-        },
-        scale: 1.0,
-        eta: ETA,
-        ior: None,
-        g: 0.0,
-        roughness: 0.0,
-        method: method.into(),
-        boundary: boundary.into(),
-        weight: 1.0,
-    }
+    let (sigma_a, sigma_s) = (Vec3::splat(SIGMA_A), Vec3::splat(SIGMA_S));
+    explicit_subsurface(sigma_a, sigma_s, ETA, method, boundary)
 }
 
 /// Mean RGB of a 16 x 16 image of the slab under a unit directional light from straight above

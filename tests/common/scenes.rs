@@ -4,7 +4,7 @@
 use glam::{Mat4, Vec3};
 use prism::scene::{
     CameraDesc, DielectricDesc, GltfMaterialDesc, InstanceDesc, IorDesc, MaterialDesc,
-    MaterialOverride, MeshDesc, SceneDesc, SubsurfaceDesc, WorldDesc,
+    MaterialOverride, MeshDesc, SceneDesc, SubsurfaceCoefficients, SubsurfaceDesc, WorldDesc,
 };
 
 /// UV sphere with smooth normals, radius 1 at the origin.
@@ -146,5 +146,27 @@ pub fn subsurface_slab_scene(desc: &SubsurfaceDesc, half_width: f32, depth: f32)
             texture: None,
         },
         ..Default::default()
+    }
+}
+
+/// A subsurface material of explicit coefficients (scale 1, isotropic, smooth boundary of
+/// index `eta`), rendered with `method` ("table" | "random_walk") and walk `boundary`.
+pub fn explicit_subsurface(
+    sigma_a: Vec3,
+    sigma_s: Vec3,
+    eta: f32,
+    method: &str,
+    boundary: &str,
+) -> SubsurfaceDesc {
+    SubsurfaceDesc {
+        coefficients: SubsurfaceCoefficients::Explicit { sigma_a, sigma_s },
+        scale: 1.0,
+        eta,
+        ior: None,
+        g: 0.0,
+        roughness: 0.0,
+        method: method.into(),
+        boundary: boundary.into(),
+        weight: 1.0,
     }
 }
