@@ -13,6 +13,11 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
+mod huge_pages;
+
+#[global_allocator]
+static ALLOCATOR: huge_pages::HugePageHintAllocator = huge_pages::HugePageHintAllocator;
+
 static CANCEL: AtomicBool = AtomicBool::new(false);
 
 #[derive(Parser)]

@@ -286,6 +286,133 @@ fn degenerate_triangles_dropped_and_normals_normalised() {
     assert_eq!(uvs[1], Vec2::new(1.0, 0.0));
 }
 
+/// The accessor encodings the importer must decode besides tightly packed f32: an interleaved
+/// buffer view (byteStride), sparse substitution (on a view and on an all-zero accessor without
+/// one), normalised unsigned-short UVs and unsigned-byte indices (glTF 2.0 spec 3.6.2, 3.6.2.3,
+/// 3.7.2.1). Also a first-use vertex order that is not the identity, so the loader's vertex
+/// compaction reorders instead of moving the arrays.
+#[test]
+fn accessor_encodings_are_decoded() {
+    let dir = test_dir("accessor_encodings");
+    let mut b = GltfBuilder::basic();
+    let quad = [
+        [0.0f32, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ];
+    // Interleaved position + normal, 24-byte stride.
+    let mut interleaved = Vec::new();
+    for p in &quad {
+        interleaved.extend(p.iter().flat_map(|x| x.to_le_bytes()));
+        interleaved.extend([0.0f32, 0.0, 2.0].iter().flat_map(|x| x.to_le_bytes()));
+    }
+    let view = b.push_view(&interleaved);
+    b.buffer_views[view]["byteStride"] = json!(24);
+    // Sparse: vertex 2 moves to (1, 2, 0).
+    let sparse_idx = b.push_view(&[2u8]);
+    let sparse_val = b.push_view(&[1.0f32, 2.0, 0.0].map(f32::to_le_bytes).concat());
+    b.accessors.push(json!({
+        "bufferView": view, "byteOffset": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+        "min": [0.0, 0.0, 0.0], "max": [1.0, 2.0, 0.0],
+        "sparse": { "count": 1,
+            "indices": { "bufferView": sparse_idx, "componentType": 5121 },
+            "values": { "bufferView": sparse_val } }
+    }));
+    let pos = b.accessors.len() - 1;
+    b.accessors.push(json!({
+        "bufferView": view, "byteOffset": 12, "componentType": 5126, "count": 4, "type": "VEC3"
+    }));
+    let nrm = b.accessors.len() - 1;
+    // Normalised u16 UVs: 0, 65535, 32768 (= 0.500008).
+    let uv_u16: [u16; 8] = [0, 0, 65535, 0, 65535, 32768, 0, 65535];
+    let uv_view = b.push_view(&uv_u16.map(u16::to_le_bytes).concat());
+    b.accessors.push(json!({
+        "bufferView": uv_view, "componentType": 5123, "normalized": true, "count": 4,
+        "type": "VEC2"
+    }));
+    let uv = b.accessors.len() - 1;
+    // u8 indices, first use order 3, 2, 1, 0.
+    let idx_view = b.push_view(&[3u8, 2, 1, 3, 1, 0]);
+    b.accessors.push(json!({
+        "bufferView": idx_view, "componentType": 5121, "count": 6, "type": "SCALAR"
+    }));
+    let idx = b.accessors.len() - 1;
+    let mut prim = GltfBuilder::prim(pos, Some(idx), None, TRIANGLES);
+    prim["attributes"]["NORMAL"] = json!(nrm);
+    prim["attributes"]["TEXCOORD_0"] = json!(uv);
+    let m = b.mesh("Encoded", vec![prim]);
+    b.root(json!({ "name": "Encoded", "mesh": m }));
+
+    // Positions only from sparse values on an accessor without a buffer view (zeros elsewhere).
+    let zidx = b.push_view(&[1u16, 2].map(u16::to_le_bytes).concat());
+    let zval = b.push_view(
+        &[1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0]
+            .map(f32::to_le_bytes)
+            .concat(),
+    );
+    b.accessors.push(json!({
+        "componentType": 5126, "count": 3, "type": "VEC3",
+        "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0],
+        "sparse": { "count": 2,
+            "indices": { "bufferView": zidx, "componentType": 5123 },
+            "values": { "bufferView": zval } }
+    }));
+    let zpos = b.accessors.len() - 1;
+    let zm = b.mesh(
+        "SparseOnly",
+        vec![GltfBuilder::prim(zpos, None, None, TRIANGLES)],
+    );
+    b.root(json!({ "name": "SparseOnly", "mesh": zm }));
+
+    let s = load(&b.write_gltf(&dir.join("e.gltf")));
+    let mesh = s
+        .meshes
+        .iter()
+        .find(|m| m.name.contains("Encoded"))
+        .unwrap();
+    let moved = [
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.0, 0.0),
+        Vec3::new(1.0, 2.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+    ];
+    let uvs_expected = [
+        Vec2::new(0.0, 0.0),
+        Vec2::new(1.0, 0.0),
+        Vec2::new(1.0, 32768.0 / 65535.0),
+        Vec2::new(0.0, 1.0),
+    ];
+    let (positions, uvs) = (&mesh.positions, mesh.uvs.as_ref().unwrap());
+    let normals = mesh.normals.as_ref().unwrap();
+    assert_eq!(mesh.indices.len(), 6);
+    // Corner by corner, whatever order the vertices were compacted into.
+    for (k, &original) in [3usize, 2, 1, 3, 1, 0].iter().enumerate() {
+        let v = mesh.indices[k] as usize;
+        assert_eq!(positions[v], moved[original], "corner {k}");
+        assert!(
+            (uvs[v] - uvs_expected[original]).abs().max_element() < 1e-6,
+            "corner {k}"
+        );
+        assert!(
+            approx(normals[v].z, 1.0),
+            "normals normalised: {:?}",
+            normals[v]
+        );
+    }
+    let sparse = s
+        .meshes
+        .iter()
+        .find(|m| m.name.contains("SparseOnly"))
+        .unwrap();
+    let corners: Vec<Vec3> = sparse
+        .indices
+        .iter()
+        .map(|&i| sparse.positions[i as usize])
+        .collect();
+    assert_eq!(corners, [Vec3::ZERO, Vec3::X, Vec3::Y]);
+}
+
 #[test]
 fn material_fields() {
     let dir = test_dir("materials");

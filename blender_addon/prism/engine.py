@@ -226,6 +226,8 @@ class PrismRenderEngine(bpy.types.RenderEngine):
                             self._warn(msg)
                     elif kind == "done":
                         LAST["done"] = ev
+                if proc.finished and proc.events.empty():
+                    break
                 if not proc.running() and proc.events.empty():
                     break
             rc = proc.wait()

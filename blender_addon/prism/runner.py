@@ -54,6 +54,10 @@ def find_binary(configured=""):
     )
 
 
+EOF_EVENT = "_stderr_closed"
+"""Pseudo-event poll() returns once the binary has closed its stderr (at exit)."""
+
+
 class PrismProcess:
     """One `prism render` run. Iterate events with poll(); stop() ends it within a second."""
 
@@ -71,6 +75,7 @@ class PrismProcess:
         except OSError as e:
             raise RunnerError("cannot start %s: %s" % (args[0], e)) from e
         self.events = queue.Queue()
+        self.finished = False
         self.error_lines = []
         self.other_lines = []
         self._reader = threading.Thread(target=self._read, daemon=True)
@@ -92,6 +97,10 @@ class PrismProcess:
             else:
                 self.other_lines.append(line)
         self.proc.stderr.close()
+        # The binary has closed stderr (it is exiting): wake a waiting poll() at once instead of
+        # letting it sit out its timeout.
+        self.finished = True
+        self.events.put({"event": EOF_EVENT})
 
     def poll(self, timeout=0.05):
         """Events received so far (waits up to `timeout` for the first)."""

@@ -764,12 +764,50 @@ impl Importer<'_> {
 
     /// Reads an accessor as `count * dims` f64 components (normalised integers mapped to [0,1] /
     /// [-1,1]), including sparse substitution, with every range checked.
-    fn read_accessor(
+    /// An attribute accessor's components as f32 (floats as stored; integer types converted,
+    /// normalised per the spec when `normalized` is set), `want.multiplicity()` per element.
+    fn read_floats(
         &self,
         acc: &gltf::Accessor,
         want: Dimensions,
         what: &str,
-    ) -> Result<Vec<f64>, String> {
+    ) -> Result<Vec<f32>, String> {
+        let (dt, normalized) = (acc.data_type(), acc.normalized());
+        if dt == DataType::F32 {
+            // The common case (positions, normals, UVs): no per-component type dispatch.
+            self.read_accessor(acc, want, what, |b| {
+                f32::from_le_bytes([b[0], b[1], b[2], b[3]])
+            })
+        } else {
+            self.read_accessor(acc, want, what, |b| {
+                read_component(b, dt, normalized) as f32
+            })
+        }
+    }
+
+    /// An index accessor (unsigned integer scalars; the caller checks the type).
+    fn read_indices(&self, acc: &gltf::Accessor, what: &str) -> Result<Vec<u32>, String> {
+        match acc.data_type() {
+            DataType::U32 => self.read_accessor(acc, Dimensions::Scalar, what, |b| {
+                u32::from_le_bytes([b[0], b[1], b[2], b[3]])
+            }),
+            DataType::U16 => self.read_accessor(acc, Dimensions::Scalar, what, |b| {
+                u16::from_le_bytes([b[0], b[1]]) as u32
+            }),
+            _ => self.read_accessor(acc, Dimensions::Scalar, what, |b| b[0] as u32),
+        }
+    }
+
+    /// Reads an accessor (buffer view and sparse substitution, every bound checked) into
+    /// components of type `T`; `component` converts one stored component's bytes. Generic so
+    /// each caller gets a loop specialised to its stored type: meshes are the largest input.
+    fn read_accessor<T: Copy + Default>(
+        &self,
+        acc: &gltf::Accessor,
+        want: Dimensions,
+        what: &str,
+        component: impl Fn(&[u8]) -> T,
+    ) -> Result<Vec<T>, String> {
         let label = format!("accessor {} ({what})", acc.index());
         if acc.dimensions() != want {
             return Err(format!(
@@ -782,9 +820,8 @@ impl Importer<'_> {
         let cs = dt.size();
         let elem = cs * ncomp;
         let count = acc.count();
-        let normalized = acc.normalized();
-        let read = |b: &[u8]| -> f64 { read_component(b, dt, normalized) };
-        let mut out: Vec<f64>;
+        let read = component;
+        let mut out: Vec<T>;
         match acc.view() {
             Some(view) => {
                 let bytes = self.view_bytes(&view)?;
@@ -805,23 +842,16 @@ impl Importer<'_> {
                         ));
                     }
                 }
-                out = Vec::with_capacity(count * ncomp);
                 let data = &bytes[acc.offset()..];
-                if dt == DataType::F32 {
-                    // Fast path for the common case (positions, normals, UVs): no per-component
-                    // type dispatch. Bounds were checked above.
-                    for i in 0..count {
-                        let element = &data[i * stride..i * stride + elem];
-                        out.extend(
-                            element
-                                .chunks_exact(4)
-                                .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f64),
-                        );
-                    }
+                // Bounds were checked above.
+                if stride == elem {
+                    // Tightly packed: one pass over all components.
+                    out = data[..count * elem].chunks_exact(cs).map(&read).collect();
                 } else {
+                    out = Vec::with_capacity(count * ncomp);
                     for i in 0..count {
                         let element = &data[i * stride..i * stride + elem];
-                        out.extend(element.chunks_exact(cs).map(read));
+                        out.extend(element.chunks_exact(cs).map(&read));
                     }
                 }
             }
@@ -829,7 +859,7 @@ impl Importer<'_> {
                 if count > MAX_SPARSE_BASE_ELEMENTS {
                     return Err(format!("{label}: count {count} is too large"));
                 }
-                out = vec![0.0; count * ncomp];
+                out = vec![T::default(); count * ncomp];
             }
         }
         if let Some(sp) = acc.sparse() {
@@ -884,9 +914,9 @@ impl Importer<'_> {
     }
 
     fn read_vec3(&self, acc: &gltf::Accessor, what: &str) -> Result<Vec<Vec3>, String> {
-        let v = self.read_accessor(acc, Dimensions::Vec3, what)?;
+        let v = self.read_floats(acc, Dimensions::Vec3, what)?;
         Ok(v.chunks_exact(3)
-            .map(|c| Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32))
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
             .collect())
     }
 
@@ -957,7 +987,7 @@ impl Importer<'_> {
         }
         let uvs = match prim.get(&Semantic::TexCoords(0)) {
             Some(a) => {
-                let v = self.read_accessor(&a, Dimensions::Vec2, &format!("{name} TEXCOORD_0"))?;
+                let v = self.read_floats(&a, Dimensions::Vec2, &format!("{name} TEXCOORD_0"))?;
                 if v.len() / 2 != n {
                     return Err(format!(
                         "{name}: TEXCOORD_0 has {} elements but POSITION has {n}",
@@ -967,7 +997,7 @@ impl Importer<'_> {
                 Some(
                     v.chunks_exact(2)
                         .map(|c| {
-                            let uv = Vec2::new(c[0] as f32, c[1] as f32);
+                            let uv = Vec2::new(c[0], c[1]);
                             if uv.is_finite() {
                                 uv
                             } else {
@@ -991,10 +1021,7 @@ impl Importer<'_> {
                 if a.normalized() {
                     return Err(format!("{name}: indices must not be normalized"));
                 }
-                self.read_accessor(&a, Dimensions::Scalar, &format!("{name} indices"))?
-                    .into_iter()
-                    .map(|x| x as u32)
-                    .collect()
+                self.read_indices(&a, &format!("{name} indices"))?
             }
             None => {
                 if n > u32::MAX as usize {
@@ -1030,14 +1057,7 @@ impl Importer<'_> {
             return Ok(None);
         }
         let material = prim.material().index();
-        let mut desc = compact(
-            name,
-            &positions,
-            normals.as_deref(),
-            uvs.as_deref(),
-            tangents.as_deref(),
-            &kept,
-        );
+        let mut desc = compact(name, positions, normals, uvs, tangents, &kept);
         desc.material = material;
         if let Some(normals) = desc.normals.as_mut() {
             fix_normals(normals, &desc.positions, &desc.indices);
@@ -1080,13 +1100,13 @@ impl Importer<'_> {
             ));
             return Ok(None);
         }
-        let v = self.read_accessor(&a, Dimensions::Vec4, &format!("{name} TANGENT"))?;
+        let v = self.read_floats(&a, Dimensions::Vec4, &format!("{name} TANGENT"))?;
         let mut bad = 0usize;
         let tangents = v
             .chunks_exact(4)
             .map(|c| {
-                let t = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32);
-                let w = c[3] as f32;
+                let t = Vec3::new(c[0], c[1], c[2]);
+                let w = c[3];
                 let len = t.length();
                 if t.is_finite() && w.is_finite() && len > 1e-12 && len.is_finite() {
                     // The spec asks for w = +-1; only its sign is meaningful.
@@ -1513,13 +1533,15 @@ pub fn triangulate(mode: Mode, idx: &[u32]) -> Result<Vec<[u32; 3]>, String> {
     Ok(out)
 }
 
-/// Builds a mesh holding only the vertices the kept triangles use.
+/// Builds a mesh holding only the vertices the kept triangles use. When they use every
+/// vertex in first-use order (what exporters write), the attribute arrays are moved, not
+/// copied: a large mesh's arrays are tens of megabytes.
 fn compact(
     name: String,
-    positions: &[Vec3],
-    normals: Option<&[Vec3]>,
-    uvs: Option<&[Vec2]>,
-    tangents: Option<&[Vec4]>,
+    positions: Vec<Vec3>,
+    normals: Option<Vec<Vec3>>,
+    uvs: Option<Vec<Vec2>>,
+    tangents: Option<Vec<Vec4>>,
     tris: &[[u32; 3]],
 ) -> MeshDesc {
     let mut remap = vec![u32::MAX; positions.len()];
@@ -1535,13 +1557,28 @@ fn compact(
             indices.push(*r);
         }
     }
-    let pick3 = |src: &[Vec3]| order.iter().map(|&v| src[v as usize]).collect::<Vec<_>>();
+    let identity =
+        order.len() == positions.len() && order.iter().enumerate().all(|(i, &v)| v as usize == i);
+    if identity {
+        return MeshDesc {
+            name,
+            positions,
+            normals,
+            uvs,
+            tangents,
+            indices,
+            material: None,
+        };
+    }
+    fn pick<T: Copy>(order: &[u32], src: &[T]) -> Vec<T> {
+        order.iter().map(|&v| src[v as usize]).collect()
+    }
     MeshDesc {
         name,
-        positions: pick3(positions),
-        normals: normals.map(pick3),
-        uvs: uvs.map(|u| order.iter().map(|&v| u[v as usize]).collect()),
-        tangents: tangents.map(|t| order.iter().map(|&v| t[v as usize]).collect()),
+        positions: pick(&order, &positions),
+        normals: normals.map(|n| pick(&order, &n)),
+        uvs: uvs.map(|u| pick(&order, &u)),
+        tangents: tangents.map(|t| pick(&order, &t)),
         indices,
         material: None,
     }
