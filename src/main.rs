@@ -199,6 +199,8 @@ fn main() {
         } => to_png(&input, &output, exposure),
         Command::Bench(args) => run_bench(&args),
     };
+    // BVH cache entries are written while the render runs; let them finish before exiting.
+    prism::geometry::bvh_cache::wait_for_stores();
     if let Err(e) = result {
         // One line, whatever the message contained.
         let msg = e.to_string().replace('\n', " ");

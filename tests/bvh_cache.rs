@@ -24,7 +24,10 @@ fn render(desc: prism::scene::SceneDesc) -> Vec<[f32; 4]> {
         .num_threads(1)
         .build()
         .unwrap();
-    pool.install(|| render_quiet(&scene, &settings)).0.to_rgba()
+    let image = pool.install(|| render_quiet(&scene, &settings)).0.to_rgba();
+    // Entries are written in the background; the assertions below look at the directory.
+    bvh_cache::wait_for_stores();
+    image
 }
 
 fn scene(segments: u32) -> prism::scene::SceneDesc {

@@ -15,7 +15,8 @@
 use std::hash::Hasher;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
+use std::thread::JoinHandle;
 
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::{node::CwBvhNode, CwBvh};
@@ -29,6 +30,10 @@ pub const MAX_CACHE_BYTES: u64 = 1 << 30;
 static CACHE_DIR: OnceLock<PathBuf> = OnceLock::new();
 static HITS: AtomicUsize = AtomicUsize::new(0);
 static MISSES: AtomicUsize = AtomicUsize::new(0);
+/// Entries being written in the background: a cold render starts path tracing while its new
+/// entries are encoded, written and the directory pruned (a few ms per 100k triangles, longer
+/// on a slow disk or a large cache directory), instead of waiting for the disk.
+static PENDING_WRITES: Mutex<Vec<JoinHandle<()>>> = Mutex::new(Vec::new());
 
 /// (hits, misses) of this process so far (misses: lookups that had to build).
 pub fn counters() -> (usize, usize) {
@@ -83,12 +88,31 @@ pub fn load(key: u64, triangles: usize) -> Option<CwBvh> {
     found
 }
 
-/// Stores `bvh` under `key` (best effort: a full disk or a read-only directory only costs the
-/// next render a rebuild).
+/// Stores `bvh` under `key` in the background (best effort: a full disk or a read-only
+/// directory only costs the next render a rebuild); see [`wait_for_stores`].
 pub fn store(key: u64, triangles: usize, bvh: &CwBvh) {
     let Some(dir) = cache_dir() else {
         return;
     };
+    let bvh = bvh.clone();
+    let writer = std::thread::spawn(move || write_entry(dir, key, triangles, &bvh));
+    PENDING_WRITES
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push(writer);
+}
+
+/// Waits for the entries [`store`] is still writing. The binary calls it before it exits, so a
+/// process end never cuts a write short (which would only leave a stray temporary file: entries
+/// appear by rename). Library users who need an entry on disk call it too.
+pub fn wait_for_stores() {
+    let writers = std::mem::take(&mut *PENDING_WRITES.lock().unwrap_or_else(|e| e.into_inner()));
+    for w in writers {
+        let _ = w.join();
+    }
+}
+
+fn write_entry(dir: &Path, key: u64, triangles: usize, bvh: &CwBvh) {
     let bytes = encode(bvh, key, triangles);
     let path = entry_path(dir, key);
     let tmp = dir.join(format!(".{key:016x}.{}.partial", std::process::id()));
