@@ -9,6 +9,7 @@ use super::material::Material;
 use crate::error::{PrismError, Result};
 use crate::geometry::{Geometry, Instance, Mesh};
 use glam::{Affine3A, Vec3};
+use rayon::prelude::*;
 
 pub struct Scene {
     pub geometry: Geometry,
@@ -49,44 +50,54 @@ impl Scene {
             },
             sidecar: None,
         }));
-        // Meshes: keep valid triangles only (indices in range, finite, non-zero area).
-        let mut mesh_map = vec![u32::MAX; meshes.len()];
-        let mut runtime_meshes = Vec::new();
-        for (mi, m) in meshes.into_iter().enumerate() {
-            let n = m.positions.len() as u32;
-            let tris: Vec<[u32; 3]> = m
-                .indices
-                .chunks_exact(3)
-                .map(|c| [c[0], c[1], c[2]])
-                .filter(|&[a, b, c]| {
-                    if a >= n || b >= n || c >= n {
-                        return false;
-                    }
-                    let (p0, p1, p2) = (
-                        m.positions[a as usize],
-                        m.positions[b as usize],
-                        m.positions[c as usize],
-                    );
-                    let cross = (p1 - p0).cross(p2 - p0);
-                    p0.is_finite()
-                        && p1.is_finite()
-                        && p2.is_finite()
-                        && cross.length_squared() > 0.0
-                })
-                .collect();
-            if tris.is_empty() {
-                continue;
-            }
-            let normals = m.normals.filter(|v| v.len() == m.positions.len());
-            let uvs = m.uvs.filter(|v| v.len() == m.positions.len());
-            let material = match m.material {
-                Some(i) if i < materials.len() => i as u32,
-                _ => default_material,
-            };
+        // Meshes: keep valid triangles only (indices in range, finite, non-zero area). Each
+        // mesh's BVH build is itself parallel, but its final steps are not, and scenes are
+        // usually many meshes: building them side by side keeps both cores busy.
+        let described_meshes = meshes.len();
+        let built: Vec<(usize, Mesh)> = meshes
+            .into_par_iter()
+            .enumerate()
+            .filter_map(|(mi, m)| {
+                let n = m.positions.len() as u32;
+                let tris: Vec<[u32; 3]> = m
+                    .indices
+                    .chunks_exact(3)
+                    .map(|c| [c[0], c[1], c[2]])
+                    .filter(|&[a, b, c]| {
+                        if a >= n || b >= n || c >= n {
+                            return false;
+                        }
+                        let (p0, p1, p2) = (
+                            m.positions[a as usize],
+                            m.positions[b as usize],
+                            m.positions[c as usize],
+                        );
+                        let cross = (p1 - p0).cross(p2 - p0);
+                        p0.is_finite()
+                            && p1.is_finite()
+                            && p2.is_finite()
+                            && cross.length_squared() > 0.0
+                    })
+                    .collect();
+                if tris.is_empty() {
+                    return None;
+                }
+                let normals = m.normals.filter(|v| v.len() == m.positions.len());
+                let uvs = m.uvs.filter(|v| v.len() == m.positions.len());
+                let material = match m.material {
+                    Some(i) if i < materials.len() => i as u32,
+                    _ => default_material,
+                };
+                let mesh =
+                    Mesh::new(m.positions, normals, uvs, tris, material).with_tangents(m.tangents);
+                Some((mi, mesh))
+            })
+            .collect();
+        let mut mesh_map = vec![u32::MAX; described_meshes];
+        let mut runtime_meshes = Vec::with_capacity(built.len());
+        for (mi, mesh) in built {
             mesh_map[mi] = runtime_meshes.len() as u32;
-            let tangents = m.tangents;
-            runtime_meshes
-                .push(Mesh::new(m.positions, normals, uvs, tris, material).with_tangents(tangents));
+            runtime_meshes.push(mesh);
         }
         let runtime_instances: Vec<Instance> = instances
             .iter()
