@@ -5,12 +5,12 @@
 pub mod bvh_cache;
 pub mod shapes;
 mod triangle;
+pub mod wide_bvh;
 
 pub use triangle::intersect_triangle;
 
 use glam::{Affine3A, Mat3, Vec2, Vec3, Vec3A, Vec4};
 use obvhs::{aabb::Aabb, cwbvh::CwBvh, ray::Ray as BvhRay, BvhBuildParams};
-use std::time::Duration;
 
 /// A ray with an (unnormalised allowed) direction and a parametric extent [0, t_max).
 #[derive(Clone, Copy, Debug)]
@@ -102,8 +102,7 @@ fn cached_or_built_bvh(tris: &[TriangleEdges]) -> CwBvh {
     if let Some(bvh) = key.and_then(|k| bvh_cache::load(k, tris.len())) {
         return bvh;
     }
-    let mut build_time = Duration::ZERO;
-    let bvh = obvhs::cwbvh::builder::build_cwbvh(tris, build_params(tris.len()), &mut build_time);
+    let bvh = wide_bvh::build(tris, build_params(tris.len()));
     if let Some(k) = key {
         bvh_cache::store(k, tris.len(), &bvh);
     }
@@ -324,11 +323,10 @@ impl Geometry {
         for b in &aabbs {
             bounds = bounds.union(b);
         }
-        let mut build_time = Duration::ZERO;
         let tlas = if aabbs.is_empty() {
             CwBvh::default()
         } else {
-            obvhs::cwbvh::builder::build_cwbvh(&aabbs, build_params(aabbs.len()), &mut build_time)
+            wide_bvh::build(&aabbs, build_params(aabbs.len()))
         };
         let tlas_order = tlas.primitive_indices.clone();
         Geometry {

@@ -1,0 +1,549 @@
+//! Binary BVH -> compressed 8-wide BVH collapse, parallel over subtrees.
+//!
+//! The method is that of Ylitie, Karras & Laine 2017, "Efficient Incoherent Ray Traversal on
+//! GPUs Through Compressed Wide BVHs" (HPG 2017):
+//!
+//! 1. A bottom-up dynamic program over (binary node n, sibling slots i) gives the SAH cost
+//!    C(n, i) of representing n's subtree with at most i children of the wide parent:
+//!    C(n, 1) = min(C_leaf(n), C_internal(n)), C(n, i) = min(C(n, i - 1), C_distribute(n, i))
+//!    for i = 2..7, with C_leaf(n) = A(n) p(n) c_prim (p(n) primitives, at most the leaf
+//!    limit), C_internal(n) = C_distribute(n, 8) + A(n) c_node and C_distribute(n, j) the
+//!    cheapest split of j slots between n's two children (A: half area, c_prim = 0.3,
+//!    c_node = 1).
+//! 2. Top-down, every wide node takes the binary descendants that step 1 chose as its up to
+//!    8 children, assigns them to slots so that the slot order sorts them along each of the 8
+//!    ray octants (the paper's child ordering, with a greedy assignment instead of the
+//!    auction), and quantises their boxes to 8 bits per plane relative to the node's origin
+//!    with power-of-two scales.
+//!
+//! The output is obvhs' [`CwBvh`], node for node the tree that
+//! `obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh(bvh2, leaf_limit, true, false)` makes from the
+//! same binary BVH: same cost constants and tie-breaking (the first minimum wins, a leaf only
+//! when strictly cheaper), same slot assignment, same quantisation arithmetic and the same
+//! depth-first memory layout (a node's children contiguous, allocated when the node is
+//! written, its leaf children's primitives contiguous). obvhs' traversal therefore works on
+//! it unchanged, and `tests/wide_bvh.rs` compares the two trees exactly.
+//!
+//! What differs is the cost of getting there. obvhs keeps a 12-byte decision for each of the
+//! 7 slot counts of every binary node (17 MB for 100k triangles, mostly page faults) and runs
+//! on one thread. Here a binary node's 7 decisions pack into one `u32`, stored only for
+//! interior nodes (leaves' decisions follow from their box), the cost table travels up the
+//! recursion by value, and both passes split into rayon tasks: the cost pass over the upper
+//! binary levels, the emission over wide subtrees with many primitives, each emitted into its
+//! own vectors with subtree-relative indices and relocated when they are concatenated.
+
+use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
+
+use glam::Vec3A;
+use obvhs::{
+    aabb::Aabb,
+    bvh2::{node::Bvh2Node, Bvh2},
+    cwbvh::{node::CwBvhNode, CwBvh},
+    Boundable, BvhBuildParams,
+};
+use rayon::prelude::*;
+
+/// SAH cost of intersecting one primitive, relative to one wide-node test (c_node = 1).
+const PRIM_COST: f32 = 0.3;
+/// Children of a wide node.
+const WIDTH: usize = 8;
+/// Slot counts a binary subtree can be given inside its wide parent (1..=7, stored at 0..=6).
+const SLOT_COUNTS: usize = WIDTH - 1;
+/// A 3-bit field that holds no split: `C(n, i)` kept `C(n, i - 1)`'s choice.
+const NO_SPLIT: u32 = 7;
+/// Binary subtrees with at least this many primitives emit their wide children as separate
+/// tasks; smaller ones are emitted sequentially by one task.
+const PARALLEL_PRIMS: u32 = 2048;
+/// Below this many primitives everything runs on the calling thread.
+const SEQUENTIAL_BELOW: usize = 8192;
+/// The cost pass forks at binary depths below this (up to 2^depth tasks; rayon's work
+/// stealing balances them).
+const COST_FORK_DEPTH: u32 = 10;
+
+/// One interior binary node's decisions, packed:
+/// * bit 0: with one slot, the node becomes a wide internal node (1) or a leaf (0);
+/// * bits 1..4: the split k of the 8 slots of the node as a wide node: its left child gets
+///   k + 1 slots, its right child 7 - k;
+/// * bits 4 + 3 (i - 1)..: for i + 1 = 2..7 slots, the split k (left k + 1 slots, right i - k)
+///   if distributing beats C(n, i) (the paper's C_distribute), else [`NO_SPLIT`];
+/// * bit 31: the subtree has at least [`PARALLEL_PRIMS`] primitives.
+#[derive(Clone, Copy)]
+struct Decision(u32);
+
+impl Decision {
+    const INTERNAL: u32 = 1;
+    const LARGE: u32 = 1 << 31;
+
+    fn is_internal(self) -> bool {
+        self.0 & Self::INTERNAL != 0
+    }
+
+    fn is_large(self) -> bool {
+        self.0 & Self::LARGE != 0
+    }
+
+    /// How the node's 8 slots split between its children when it is a wide node.
+    fn wide_split(self) -> (usize, usize) {
+        let k = ((self.0 >> 1) & 7) as usize;
+        (k, SLOT_COUNTS - 1 - k)
+    }
+
+    /// With `slots` + 1 slots (`slots` in 0..7): the split between the children if the node
+    /// distributes its slots to them, None if it takes one slot itself. A count that kept
+    /// the choice of the count below inherits it.
+    fn distribution(self, slots: usize) -> Option<(usize, usize)> {
+        (1..=slots).rev().find_map(|i| {
+            let k = (self.0 >> (4 + 3 * (i - 1))) & 7;
+            (k != NO_SPLIT).then_some((k as usize, i - 1 - k as usize))
+        })
+    }
+}
+
+/// Builds a binary BVH with obvhs' PLOC builder and reinsertion optimiser, as
+/// `obvhs::cwbvh::builder::build_cwbvh` does with the same `params`, and collapses it with
+/// [`collapse`]: the same tree as `build_cwbvh`, built faster.
+pub fn build<T: Boundable>(primitives: &[T], params: BvhBuildParams) -> CwBvh {
+    let mut bvh2 = obvhs::ploc::PlocBuilder::with_capacity(primitives.len()).build(
+        params.ploc_search_distance,
+        primitives,
+        (0..primitives.len() as u32).collect(),
+        params.sort_precision,
+        params.search_depth_threshold,
+    );
+    obvhs::bvh2::reinsertion::ReinsertionOptimizer::default().run(
+        &mut bvh2,
+        params.reinsertion_batch_ratio,
+        None,
+    );
+    collapse(&bvh2, params.max_prims_per_leaf.clamp(1, 3))
+}
+
+/// Collapses a binary BVH with one primitive per leaf (what PLOC builds) into a compressed
+/// wide BVH whose leaves hold at most `max_leaf_prims` (1..=3) primitives, with children
+/// ordered for octant-based traversal: equal to obvhs'
+/// `bvh2_to_cwbvh(bvh2, max_leaf_prims, true, false)`.
+pub fn collapse(bvh2: &Bvh2, max_leaf_prims: u32) -> CwBvh {
+    assert!(
+        (1..=3).contains(&max_leaf_prims),
+        "leaf limit {max_leaf_prims}"
+    );
+    if bvh2.nodes.is_empty() {
+        return CwBvh::default();
+    }
+    let parallel = bvh2.nodes.len() >= 2 * SEQUENTIAL_BELOW && rayon::current_num_threads() > 1;
+    let collapser = Collapser {
+        nodes: &bvh2.nodes,
+        leaf_prims: &bvh2.primitive_indices,
+        max_leaf_prims,
+        // An interior node's children are nodes[first_index] and nodes[first_index + 1], and
+        // every node has one parent, so first_index / 2 differs between interior nodes.
+        decisions: (0..bvh2.nodes.len() / 2 + 1)
+            .map(|_| AtomicU32::new(0))
+            .collect(),
+        cost_fork_depth: if parallel { COST_FORK_DEPTH } else { 0 },
+    };
+    collapser.slot_costs(0, 0);
+
+    let large_root = !bvh2.nodes[0].is_leaf() && collapser.decision(0).is_large();
+    let (nodes, primitive_indices) = if parallel && large_root {
+        let top = collapser.emit_parallel(0);
+        let mut nodes = Vec::with_capacity(1 + top.node_count as usize);
+        let mut prims = Vec::with_capacity(top.prim_count as usize);
+        nodes.push(relocated(top.root, 1, 0));
+        top.body.append_to(&mut nodes, &mut prims);
+        (nodes, prims)
+    } else {
+        let mut nodes = vec![CwBvhNode::default()];
+        let mut prims = Vec::with_capacity(bvh2.primitive_indices.len());
+        nodes[0] = collapser.emit(0, &mut nodes, &mut prims);
+        (nodes, prims)
+    };
+    CwBvh {
+        nodes,
+        primitive_indices,
+        total_aabb: *bvh2.nodes[0].aabb(),
+        exact_node_aabbs: None,
+        uses_spatial_splits: bvh2.uses_spatial_splits,
+    }
+}
+
+struct Collapser<'a> {
+    nodes: &'a [Bvh2Node],
+    leaf_prims: &'a [u32],
+    max_leaf_prims: u32,
+    /// Interior node n's [`Decision`] at `nodes[n].first_index / 2`. Atomics so the cost
+    /// tasks can write their disjoint entries through a shared reference (relaxed: the joins
+    /// order them before the emission reads them).
+    decisions: Vec<AtomicU32>,
+    cost_fork_depth: u32,
+}
+
+/// Ray octant directions in obvhs' slot-ordering convention: bit 2 of the octant flips x,
+/// bit 1 y, bit 0 z.
+const OCTANT_DIRS: [Vec3A; 8] = {
+    let mut dirs = [Vec3A::ZERO; 8];
+    let mut s = 0;
+    while s < 8 {
+        dirs[s] = Vec3A::new(
+            if s & 4 != 0 { -1.0 } else { 1.0 },
+            if s & 2 != 0 { -1.0 } else { 1.0 },
+            if s & 1 != 0 { -1.0 } else { 1.0 },
+        );
+        s += 1;
+    }
+    dirs
+};
+
+/// Absent child in a slot list.
+const EMPTY: u32 = u32::MAX;
+
+impl Collapser<'_> {
+    fn decision(&self, node: u32) -> Decision {
+        Decision(self.decisions[self.nodes[node as usize].first_index as usize / 2].load(Relaxed))
+    }
+
+    /// Step 1 for `node`'s subtree: the costs C(node, 1..=7) (at 0..7) and its primitive
+    /// count; stores the decisions of its interior nodes.
+    fn slot_costs(&self, node: u32, depth: u32) -> ([f32; SLOT_COUNTS], u32) {
+        let n = &self.nodes[node as usize];
+        let area = n.aabb().half_area();
+        if n.is_leaf() {
+            assert_eq!(n.prim_count, 1, "the collapse needs one primitive per leaf");
+            return ([area * 1.0 * PRIM_COST; SLOT_COUNTS], 1);
+        }
+        let first = n.first_index;
+        let ((left, left_prims), (right, right_prims)) = if depth < self.cost_fork_depth {
+            rayon::join(
+                || self.slot_costs(first, depth + 1),
+                || self.slot_costs(first + 1, depth + 1),
+            )
+        } else {
+            (
+                self.slot_costs(first, depth + 1),
+                self.slot_costs(first + 1, depth + 1),
+            )
+        };
+        let prims = left_prims + right_prims;
+
+        // One slot: a leaf, or a wide node whose 8 slots its children share (C_internal).
+        let mut wide = f32::INFINITY;
+        let mut wide_k = 0;
+        for k in 0..SLOT_COUNTS {
+            let c = left[k] + right[SLOT_COUNTS - 1 - k];
+            if c < wide {
+                wide = c;
+                wide_k = k as u32;
+            }
+        }
+        let as_internal = wide + area;
+        let as_leaf = if prims <= self.max_leaf_prims {
+            prims as f32 * area * PRIM_COST
+        } else {
+            f32::INFINITY
+        };
+        let internal = !(as_leaf < as_internal);
+        let mut cost = [0.0; SLOT_COUNTS];
+        cost[0] = if internal { as_internal } else { as_leaf };
+        let mut bits = internal as u32 | wide_k << 1;
+
+        // i + 1 slots: keep C(n, i) unless distributing them to the children is cheaper.
+        for i in 1..SLOT_COUNTS {
+            let mut best = cost[i - 1];
+            let mut split = NO_SPLIT;
+            for k in 0..i {
+                let c = left[k] + right[i - 1 - k];
+                if c < best {
+                    best = c;
+                    split = k as u32;
+                }
+            }
+            cost[i] = best;
+            bits |= split << (4 + 3 * (i - 1));
+        }
+        if prims >= PARALLEL_PRIMS {
+            bits |= Decision::LARGE;
+        }
+        self.decisions[first as usize / 2].store(bits, Relaxed);
+        (cost, prims)
+    }
+
+    /// The binary nodes that become the wide children of `node` (in discovery order).
+    fn wide_children(&self, node: u32, out: &mut [u32; WIDTH], count: &mut usize) {
+        let n = &self.nodes[node as usize];
+        if n.is_leaf() {
+            // Only a single-primitive root gets here: the wide root holds it as a leaf.
+            out[0] = node;
+            *count = 1;
+            return;
+        }
+        self.gather(n.first_index, self.decision(node).wide_split(), out, count);
+    }
+
+    /// Appends the wide children that the binary children `first`, `first + 1` of a node
+    /// contribute with `slots.0 + 1` and `slots.1 + 1` slots.
+    fn gather(&self, first: u32, slots: (usize, usize), out: &mut [u32; WIDTH], count: &mut usize) {
+        for (child, s) in [(first, slots.0), (first + 1, slots.1)] {
+            let c = &self.nodes[child as usize];
+            let split = if c.is_leaf() {
+                None
+            } else {
+                self.decision(child).distribution(s)
+            };
+            match split {
+                Some(split) => self.gather(c.first_index, split, out, count),
+                None => {
+                    out[*count] = child;
+                    *count += 1;
+                }
+            }
+        }
+    }
+
+    /// Is this binary node, taken as a wide child, an internal wide node (else a leaf)?
+    fn is_wide_internal(&self, node: u32) -> bool {
+        !self.nodes[node as usize].is_leaf() && self.decision(node).is_internal()
+    }
+
+    /// Assigns children to slots so that, for each ray octant, sorting by the slot index
+    /// roughly sorts them front to back (the paper's child ordering): the cost of child c
+    /// in slot s is the offset of its centre from the parent's along octant s's diagonal,
+    /// and the cheapest free (child, slot) pair is taken until all children are placed.
+    fn assign_slots(&self, parent: &Aabb, children: &[u32]) -> [u32; WIDTH] {
+        let centre = parent.center();
+        let mut cost = [[0.0f32; WIDTH]; WIDTH];
+        for (row, &c) in cost.iter_mut().zip(children) {
+            let offset = self.nodes[c as usize].aabb().center() - centre;
+            for (v, dir) in row.iter_mut().zip(OCTANT_DIRS) {
+                *v = dir.dot(offset);
+            }
+        }
+        let mut slot_of = [usize::MAX; WIDTH];
+        let mut taken = 0u8;
+        for _ in 0..children.len() {
+            let mut best = f32::MAX;
+            let mut pick = None;
+            for (c, row) in cost.iter().enumerate().take(children.len()) {
+                if slot_of[c] != usize::MAX {
+                    continue;
+                }
+                for (s, &v) in row.iter().enumerate() {
+                    if taken & (1 << s) == 0 && v < best {
+                        best = v;
+                        pick = Some((c, s));
+                    }
+                }
+            }
+            // No pick: NaN or huge offsets (boxes at infinity); those children fill the free
+            // slots in order below.
+            let Some((c, s)) = pick else { break };
+            slot_of[c] = s;
+            taken |= 1 << s;
+        }
+        let mut slots = [EMPTY; WIDTH];
+        for (c, &child) in children.iter().enumerate() {
+            let s = match slot_of[c] {
+                usize::MAX => {
+                    let s = (!taken).trailing_zeros() as usize;
+                    taken |= 1 << s;
+                    s
+                }
+                s => s,
+            };
+            slots[s] = child;
+        }
+        slots
+    }
+
+    /// Appends the primitives of a leaf wide child (a binary subtree of at most 3
+    /// primitives) in depth-first order; returns how many.
+    fn push_leaf_prims(&self, node: u32, prims: &mut Vec<u32>) -> u32 {
+        let n = &self.nodes[node as usize];
+        if n.is_leaf() {
+            prims.push(self.leaf_prims[n.first_index as usize]);
+            1
+        } else {
+            self.push_leaf_prims(n.first_index, prims)
+                + self.push_leaf_prims(n.first_index + 1, prims)
+        }
+    }
+
+    /// The wide node for binary node `node` whose internal children will be stored from
+    /// `child_base` on; appends its leaf children's primitives to `prims` (whose length is
+    /// the node's primitive base). Returns the node and its internal children (binary node
+    /// ids) in slot order, which is also their storage order.
+    fn wide_node(
+        &self,
+        node: u32,
+        child_base: u32,
+        prims: &mut Vec<u32>,
+    ) -> (CwBvhNode, [u32; WIDTH], usize) {
+        let bounds = self.nodes[node as usize].aabb();
+        let mut found = [EMPTY; WIDTH];
+        let mut count = 0;
+        self.wide_children(node, &mut found, &mut count);
+        let slots = self.assign_slots(bounds, &found[..count]);
+
+        // Quantisation frame (the paper's compressed node): origin at the box minimum, per
+        // axis a power-of-two step 2^e with 255 steps covering the box, child planes rounded
+        // outwards to whole steps.
+        let origin = bounds.min;
+        let step = ((bounds.max - bounds.min).max(Vec3A::splat(1e-20)) * (1.0 / 255.0))
+            .log2()
+            .ceil()
+            .exp2();
+        let inv_step = 1.0 / step;
+        let exponent = |s: f32| (s.to_bits() >> 23) as u8;
+        let mut wide = CwBvhNode {
+            p: origin.into(),
+            e: [exponent(step.x), exponent(step.y), exponent(step.z)],
+            child_base_idx: child_base,
+            primitive_base_idx: prims.len() as u32,
+            ..Default::default()
+        };
+        let mut internal = [EMPTY; WIDTH];
+        let mut internal_count = 0;
+        let mut prim_offset = 0u32;
+        for (slot, &child) in slots.iter().enumerate() {
+            if child == EMPTY {
+                continue;
+            }
+            let b = self.nodes[child as usize].aabb();
+            let lo = ((b.min - origin) * inv_step)
+                .floor()
+                .clamp(Vec3A::ZERO, Vec3A::splat(255.0));
+            let hi = ((b.max - origin) * inv_step)
+                .ceil()
+                .clamp(Vec3A::ZERO, Vec3A::splat(255.0));
+            wide.child_min_x[slot] = lo.x as u8;
+            wide.child_min_y[slot] = lo.y as u8;
+            wide.child_min_z[slot] = lo.z as u8;
+            wide.child_max_x[slot] = hi.x as u8;
+            wide.child_max_y[slot] = hi.y as u8;
+            wide.child_max_z[slot] = hi.z as u8;
+            if self.is_wide_internal(child) {
+                // Internal child: high bits 001, low bits 24 + slot.
+                wide.imask |= 1 << slot;
+                wide.child_meta[slot] = 0b0010_0000 | (24 + slot as u8);
+                internal[internal_count] = child;
+                internal_count += 1;
+            } else {
+                // Leaf child: primitive count in unary in the high 3 bits, offset from the
+                // node's primitive base in the low 5.
+                let n = self.push_leaf_prims(child, prims);
+                debug_assert!((1..=3).contains(&n));
+                wide.child_meta[slot] = (((1u8 << n) - 1) << 5) | prim_offset as u8;
+                prim_offset += n;
+            }
+        }
+        (wide, internal, internal_count)
+    }
+
+    /// Writes the descendants of binary node `node` as a wide node depth-first: its
+    /// children block at the end of `nodes`, then each internal child's descendants.
+    /// Returns `node`'s own wide node.
+    fn emit(&self, node: u32, nodes: &mut Vec<CwBvhNode>, prims: &mut Vec<u32>) -> CwBvhNode {
+        let base = nodes.len();
+        let (wide, internal, count) = self.wide_node(node, base as u32, prims);
+        nodes.resize(base + count, CwBvhNode::default());
+        for (j, &child) in internal[..count].iter().enumerate() {
+            nodes[base + j] = self.emit(child, nodes, prims);
+        }
+        wide
+    }
+
+    /// [`Self::emit`] as a tree of tasks: a subtree with many primitives emits each internal
+    /// child's descendants in its own task. Indices are relative to the start of `node`'s
+    /// descendants (node and primitive arrays).
+    fn emit_parallel(&self, node: u32) -> Subtree {
+        if !self.decision(node).is_large() {
+            let mut nodes = Vec::new();
+            let mut prims = Vec::new();
+            let root = self.emit(node, &mut nodes, &mut prims);
+            return Subtree {
+                root,
+                node_count: nodes.len() as u32,
+                prim_count: prims.len() as u32,
+                body: Body::Flat { nodes, prims },
+            };
+        }
+        let mut prims = Vec::new();
+        let (root, internal, count) = self.wide_node(node, 0, &mut prims);
+        let parts: Vec<Subtree> = internal[..count]
+            .par_iter()
+            .map(|&child| self.emit_parallel(child))
+            .collect();
+        let mut block = Vec::with_capacity(count);
+        let (mut node_count, mut prim_count) = (count as u32, prims.len() as u32);
+        for part in &parts {
+            block.push(relocated(part.root, node_count, prim_count));
+            node_count += part.node_count;
+            prim_count += part.prim_count;
+        }
+        Subtree {
+            root,
+            node_count,
+            prim_count,
+            body: Body::Split {
+                block,
+                prims,
+                parts,
+            },
+        }
+    }
+}
+
+/// A wide node and its descendants, emitted by [`Collapser::emit_parallel`].
+struct Subtree {
+    /// The node itself; indices relative to the start of its descendants.
+    root: CwBvhNode,
+    /// Descendant nodes and their primitives.
+    node_count: u32,
+    prim_count: u32,
+    body: Body,
+}
+
+/// The descendants of a [`Subtree`], in layout order.
+enum Body {
+    /// Emitted by one task; indices relative to the start of these vectors.
+    Flat {
+        nodes: Vec<CwBvhNode>,
+        prims: Vec<u32>,
+    },
+    /// The node's children block and its leaf children's primitives (indices relative to
+    /// their start), then each internal child's descendants.
+    Split {
+        block: Vec<CwBvhNode>,
+        prims: Vec<u32>,
+        parts: Vec<Subtree>,
+    },
+}
+
+impl Body {
+    /// Appends these descendants at the end of `nodes` and `prims`, relocating indices.
+    fn append_to(&self, nodes: &mut Vec<CwBvhNode>, prims: &mut Vec<u32>) {
+        let (node_base, prim_base) = (nodes.len() as u32, prims.len() as u32);
+        match self {
+            Body::Flat { nodes: n, prims: p } => {
+                nodes.extend(n.iter().map(|&w| relocated(w, node_base, prim_base)));
+                prims.extend_from_slice(p);
+            }
+            Body::Split {
+                block,
+                prims: p,
+                parts,
+            } => {
+                nodes.extend(block.iter().map(|&w| relocated(w, node_base, prim_base)));
+                prims.extend_from_slice(p);
+                for part in parts {
+                    part.body.append_to(nodes, prims);
+                }
+            }
+        }
+    }
+}
+
+fn relocated(mut node: CwBvhNode, node_offset: u32, prim_offset: u32) -> CwBvhNode {
+    node.child_base_idx += node_offset;
+    node.primitive_base_idx += prim_offset;
+    node
+}
