@@ -513,31 +513,39 @@ def _triangle_materials(me, n_triangles):
     return out
 
 
-def _mesh_arrays(me):
-    """Per-corner positions, split normals, UVs and per-material triangle index lists."""
+def _mesh_triangles(me):
+    """(loop index of every triangle corner as uint32, material slot of every triangle), or
+    None for a mesh without faces."""
     me.calc_loop_triangles()
     nt = len(me.loop_triangles)
-    nl = len(me.loops)
     if nt == 0:
         return None
     # uint32 matches the RNA type of LoopTriangle.loops, so foreach_get copies directly.
     tri_loops = np.empty(nt * 3, np.uint32)
     me.loop_triangles.foreach_get("loops", tri_loops)
-    tri_mat = _triangle_materials(me, nt)
+    return tri_loops, _triangle_materials(me, nt)
+
+
+def _mesh_arrays(me, tri_loops, tri_mat, per_vertex_allowed=True):
+    """Vertex positions, shading normals (None: flat, computed by the renderer), UVs and
+    per-material triangle index lists.
+
+    Per vertex where Blender's normals are per vertex (smooth, no custom normals) or per face
+    (flat: glTF then carries no normals and the renderer uses each triangle's own normal, as
+    Cycles does for flat faces), and every corner of a vertex has the same UV: the arrays are
+    then a quarter of a per-corner export for quad meshes, which the export, the file and the
+    renderer's load all pay for. Otherwise (custom or mixed normals, UV seams, Blender < 4.1,
+    or `per_vertex_allowed` False because tangents are needed) one vertex per corner.
+    """
+    nl = len(me.loops)
     co = np.empty(len(me.vertices) * 3, np.float32)
     position = me.attributes.get("position")
     if position is not None and position.domain == "POINT" and position.data_type == "FLOAT_VECTOR":
         position.data.foreach_get("vector", co)  # 3.5+: a plain copy, unlike vertices.co
     else:
         me.vertices.foreach_get("co", co)
-    pos = co.reshape(-1, 3)[_corner_vertices(me, nl)]
-    nrm = np.empty(nl * 3, np.float32)
-    if hasattr(me, "corner_normals"):  # 4.1+
-        me.corner_normals.foreach_get("vector", nrm)
-    else:  # 3.x / 4.0
-        me.calc_normals_split()
-        me.loops.foreach_get("normal", nrm)
-    nrm = nrm.reshape(-1, 3)
+    co = co.reshape(-1, 3)
+    corner_vert = _corner_vertices(me, nl)
     uv = None
     layer = me.uv_layers.active
     if layer is not None:
@@ -545,8 +553,33 @@ def _mesh_arrays(me):
         layer.data.foreach_get("uv", uv)
         uv = uv.reshape(-1, 2)
         uv[:, 1] = 1.0 - uv[:, 1]
+    domain = getattr(me, "normals_domain", "CORNER")  # 4.1+
+    per_vertex = per_vertex_allowed and domain in {"POINT", "FACE"}
+    vertex_uv = None
+    if per_vertex and uv is not None:
+        vertex_uv = np.zeros((len(co), 2), np.float32)
+        vertex_uv[corner_vert] = uv
+        per_vertex = np.array_equal(vertex_uv[corner_vert], uv)  # no UV seams
+    if per_vertex:
+        nrm = None
+        if domain == "POINT":
+            nrm = np.empty(len(co) * 3, np.float32)
+            me.vertex_normals.foreach_get("vector", nrm)
+            nrm = nrm.reshape(-1, 3)
+        pos, uv = co, vertex_uv
+        tri_index = corner_vert.astype(np.uint32)[tri_loops]
+    else:
+        pos = co[corner_vert]
+        nrm = np.empty(nl * 3, np.float32)
+        if hasattr(me, "corner_normals"):  # 4.1+
+            me.corner_normals.foreach_get("vector", nrm)
+        else:  # 3.x / 4.0
+            me.calc_normals_split()
+            me.loops.foreach_get("normal", nrm)
+        nrm = nrm.reshape(-1, 3)
+        tri_index = tri_loops
     groups = {}
-    tl = tri_loops.reshape(-1, 3)
+    tl = tri_index.reshape(-1, 3)
     for mi in np.unique(tri_mat):
         groups[int(mi)] = tl[tri_mat == mi].reshape(-1)
     return pos, nrm, uv, groups
@@ -696,18 +729,23 @@ class Exporter:
     def _mesh(self, key, me, slots):
         if key in self.mesh_cache:
             return self.mesh_cache[key]
-        arrays = _mesh_arrays(me)
-        if arrays is None:
+        triangles = _mesh_triangles(me)
+        if triangles is None:
             self.mesh_cache[key] = None
             return None
-        pos, nrm, uv, groups = arrays
-        attrs = {
-            "POSITION": self.buf.accessor(pos, "VEC3", minmax=True),
-            "NORMAL": self.buf.accessor(nrm, "VEC3"),
-        }
+        tri_loops, tri_mat = triangles
+        materials = {}
+        for mi in np.unique(tri_mat):
+            mi = int(mi)
+            materials[mi] = self._material(slots[mi] if 0 <= mi < len(slots) else None)
+        # Normal-mapped materials need per-corner MikkTSpace tangents, so per-corner arrays.
+        needs_tangents = any("normalTexture" in self.materials[i] for i in materials.values())
+        pos, nrm, uv, groups = _mesh_arrays(me, tri_loops, tri_mat, per_vertex_allowed=not needs_tangents)
+        attrs = {"POSITION": self.buf.accessor(pos, "VEC3", minmax=True)}
+        if nrm is not None:
+            attrs["NORMAL"] = self.buf.accessor(nrm, "VEC3")
         if uv is not None:
             attrs["TEXCOORD_0"] = self.buf.accessor(uv, "VEC2")
-        materials = {mi: self._material(slots[mi] if 0 <= mi < len(slots) else None) for mi in groups}
         self._mesh_tangent_attribute(me, attrs, [self.materials[i] for i in materials.values()])
         prims = []
         for mi, idx in groups.items():

@@ -406,6 +406,74 @@ def test_export_content():
 
 
 
+def test_vertex_domain_export():
+    """Meshes whose normals are per vertex (smooth) or per face (flat) and whose UVs have no
+    seams are exported with one glTF vertex per Blender vertex (flat: no NORMAL, the renderer's
+    per-triangle normal, as Cycles shades flat faces); UV seams and normal-mapped materials
+    (per-corner tangents) keep one vertex per corner. Either way the image is the same as the
+    per-corner export's: rendered both ways with the same seed, relMSE < 1e-6."""
+    import json
+
+    import bmesh
+
+    from prism import export
+
+    def uv_sphere_with_seams(bm):
+        bm.loops.layers.uv.new("UVMap")
+        bmesh.ops.create_uvsphere(bm, u_segments=24, v_segments=12, radius=0.6, calc_uvs=True)
+
+    def uv_grid(bm):
+        bm.loops.layers.uv.new("UVMap")
+        bmesh.ops.create_grid(bm, x_segments=3, y_segments=3, size=0.8, calc_uvs=True)
+
+    sc = C.simple_scene()  # "Ball": smooth 48 x 24 sphere; "Floor": flat quad
+    red = bpy.data.materials["Red"]
+    C.mesh_object("Faceted", C.sphere(0.6, 24, 12), red, location=(-2.2, 0, 0.6))
+    C.mesh_object("Seams", uv_sphere_with_seams, red, location=(2.2, 0, 0.6), smooth=True)
+    mapped = C.material("Mapped", "ShaderNodeBsdfPrincipled", (0.5, 0.5, 0.5))
+    nt = mapped.node_tree
+    tex = nt.nodes.new("ShaderNodeTexImage")
+    tex.image = bpy.data.images.new("FlatNormals", 4, 4, alpha=True)
+    tex.image.colorspace_settings.name = "Non-Color"
+    tex.image.pixels.foreach_set(np.tile([0.5, 0.5, 1.0, 1.0], 16).astype(np.float32))
+    tex.image.pack()
+    nmap = nt.nodes.new("ShaderNodeNormalMap")
+    nmap.uv_map = "UVMap"
+    nt.links.new(tex.outputs["Color"], nmap.inputs["Color"])
+    nt.links.new(nmap.outputs["Normal"], next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED").inputs["Normal"])
+    C.mesh_object("Tile", uv_grid, mapped, location=(0, -1.5, 0.01), smooth=True)
+    sc.render.engine = "PRISM"
+    dg = bpy.context.evaluated_depsgraph_get()
+    d = tempfile.mkdtemp(dir=OUT)
+    gltf_path, _json, _warnings, _tris = export.export_scene(dg, d)
+    g = json.load(open(gltf_path))
+    by_name = {m["name"]: m["primitives"][0]["attributes"] for m in g["meshes"]}
+
+    def count(mesh_name, attr):
+        return g["accessors"][by_name[mesh_name][attr]]["count"]
+
+    ball, faceted, seams, tile = (bpy.data.objects[n].data for n in ("Ball", "Faceted", "Seams", "Tile"))
+    C.check(count(ball.name, "POSITION") == len(ball.vertices) and count(ball.name, "NORMAL") == len(ball.vertices),
+            "smooth mesh: one vertex per Blender vertex (%d), with normals" % len(ball.vertices))
+    C.check(count(faceted.name, "POSITION") == len(faceted.vertices) and "NORMAL" not in by_name[faceted.name],
+            "flat mesh: one vertex per Blender vertex (%d), no NORMAL" % len(faceted.vertices))
+    C.check(count(seams.name, "POSITION") == len(seams.loops) and count(seams.name, "TEXCOORD_0") == len(seams.loops),
+            "UV seams: one vertex per corner (%d)" % len(seams.loops))
+    C.check(count(tile.name, "POSITION") == len(tile.loops) == count(tile.name, "TANGENT") > len(tile.vertices),
+            "normal-mapped mesh: per-corner vertices and tangents (%d)" % len(tile.loops))
+
+    C.use_prism(sc, spp=4)
+    per_vertex = C.render_pixels(sc, os.path.join(OUT, "per_vertex.exr"))[..., :3]
+    original = export._mesh_arrays
+    export._mesh_arrays = lambda me, loops, mats, per_vertex_allowed=True: original(me, loops, mats, False)
+    try:
+        per_corner = C.render_pixels(sc, os.path.join(OUT, "per_corner.exr"))[..., :3]
+    finally:
+        export._mesh_arrays = original
+    err = C.rel_mse(per_vertex, per_corner)
+    C.check(err < 1e-6, "per-vertex and per-corner exports render the same image (relMSE %.2e)" % err)
+
+
 def test_passes_depth_normal_denoising():
     """Depth, Normal and the denoising passes reach the render result (multilayer EXR), with
     Blender's conventions: Z along the view axis in scene units, world normals with Z up."""
