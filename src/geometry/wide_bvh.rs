@@ -131,9 +131,25 @@ pub fn collapse(bvh2: &Bvh2, max_leaf_prims: u32) -> CwBvh {
         return CwBvh::default();
     }
     let parallel = bvh2.nodes.len() >= 2 * SEQUENTIAL_BELOW && rayon::current_num_threads() > 1;
+    let slim = |n: &Bvh2Node| {
+        let link = if n.is_leaf() {
+            assert_eq!(n.prim_count, 1, "the collapse needs one primitive per leaf");
+            LEAF | bvh2.primitive_indices[n.first_index as usize]
+        } else {
+            n.first_index
+        };
+        Slim {
+            link,
+            half_area: n.aabb().half_area(),
+        }
+    };
     let collapser = Collapser {
         nodes: &bvh2.nodes,
-        leaf_prims: &bvh2.primitive_indices,
+        slim: if parallel {
+            bvh2.nodes.par_iter().map(slim).collect()
+        } else {
+            bvh2.nodes.iter().map(slim).collect()
+        },
         max_leaf_prims,
         // An interior node's children are nodes[first_index] and nodes[first_index + 1], and
         // every node has one parent, so first_index / 2 differs between interior nodes.
@@ -144,9 +160,9 @@ pub fn collapse(bvh2: &Bvh2, max_leaf_prims: u32) -> CwBvh {
     };
     collapser.slot_costs(0, 0);
 
-    let large_root = !bvh2.nodes[0].is_leaf() && collapser.decision(0).is_large();
+    let large_root = !collapser.is_leaf(0) && collapser.decision(0).is_large();
     let (nodes, primitive_indices) = if parallel && large_root {
-        let top = collapser.emit_parallel(0);
+        let top = collapser.emit_parallel(0, bvh2.nodes[0].aabb());
         let mut nodes = Vec::with_capacity(1 + top.node_count as usize);
         let mut prims = Vec::with_capacity(top.prim_count as usize);
         nodes.push(relocated(top.root, 1, 0));
@@ -155,7 +171,7 @@ pub fn collapse(bvh2: &Bvh2, max_leaf_prims: u32) -> CwBvh {
     } else {
         let mut nodes = vec![CwBvhNode::default()];
         let mut prims = Vec::with_capacity(bvh2.primitive_indices.len());
-        nodes[0] = collapser.emit(0, &mut nodes, &mut prims);
+        nodes[0] = collapser.emit(0, bvh2.nodes[0].aabb(), &mut nodes, &mut prims);
         (nodes, prims)
     };
     CwBvh {
@@ -169,7 +185,11 @@ pub fn collapse(bvh2: &Bvh2, max_leaf_prims: u32) -> CwBvh {
 
 struct Collapser<'a> {
     nodes: &'a [Bvh2Node],
-    leaf_prims: &'a [u32],
+    /// What the passes need of each binary node besides child boxes, 8 bytes instead of
+    /// 48: the collapse visits the nodes depth-first, in an order unrelated to their memory
+    /// layout, and this copy (made in one streaming pass) stays in cache where the nodes
+    /// would not.
+    slim: Vec<Slim>,
     max_leaf_prims: u32,
     /// Interior node n's [`Decision`] at `nodes[n].first_index / 2`. Atomics so the cost
     /// tasks can write their disjoint entries through a shared reference (relaxed: the joins
@@ -194,24 +214,39 @@ const OCTANT_DIRS: [Vec3A; 8] = {
     dirs
 };
 
+/// A binary node: its half area, and its primitive (leaf, flagged with [`LEAF`]) or its
+/// first child (interior: the children are `link` and `link + 1`).
+#[derive(Clone, Copy)]
+struct Slim {
+    link: u32,
+    half_area: f32,
+}
+
+const LEAF: u32 = 1 << 31;
+
 /// Absent child in a slot list.
 const EMPTY: u32 = u32::MAX;
 
 impl Collapser<'_> {
     fn decision(&self, node: u32) -> Decision {
-        Decision(self.decisions[self.nodes[node as usize].first_index as usize / 2].load(Relaxed))
+        Decision(self.decisions[self.slim[node as usize].link as usize / 2].load(Relaxed))
+    }
+
+    fn is_leaf(&self, node: u32) -> bool {
+        self.slim[node as usize].link & LEAF != 0
     }
 
     /// Step 1 for `node`'s subtree: the costs C(node, 1..=7) (at 0..7) and its primitive
     /// count; stores the decisions of its interior nodes.
     fn slot_costs(&self, node: u32, depth: u32) -> ([f32; SLOT_COUNTS], u32) {
-        let n = &self.nodes[node as usize];
-        let area = n.aabb().half_area();
-        if n.is_leaf() {
-            assert_eq!(n.prim_count, 1, "the collapse needs one primitive per leaf");
+        let Slim {
+            link,
+            half_area: area,
+        } = self.slim[node as usize];
+        if link & LEAF != 0 {
             return ([area * 1.0 * PRIM_COST; SLOT_COUNTS], 1);
         }
-        let first = n.first_index;
+        let first = link;
         let ((left, left_prims), (right, right_prims)) = if depth < self.cost_fork_depth {
             rayon::join(
                 || self.slot_costs(first, depth + 1),
@@ -228,12 +263,12 @@ impl Collapser<'_> {
         // One slot: a leaf, or a wide node whose 8 slots its children share (C_internal).
         let mut wide = f32::INFINITY;
         let mut wide_k = 0;
+        // (Selects rather than branches: the comparisons are unpredictable.)
         for k in 0..SLOT_COUNTS {
             let c = left[k] + right[SLOT_COUNTS - 1 - k];
-            if c < wide {
-                wide = c;
-                wide_k = k as u32;
-            }
+            let better = c < wide;
+            wide_k = if better { k as u32 } else { wide_k };
+            wide = if better { c } else { wide };
         }
         let as_internal = wide + area;
         let as_leaf = if prims <= self.max_leaf_prims {
@@ -252,10 +287,9 @@ impl Collapser<'_> {
             let mut split = NO_SPLIT;
             for k in 0..i {
                 let c = left[k] + right[i - 1 - k];
-                if c < best {
-                    best = c;
-                    split = k as u32;
-                }
+                let better = c < best;
+                split = if better { k as u32 } else { split };
+                best = if better { c } else { best };
             }
             cost[i] = best;
             bits |= split << (4 + 3 * (i - 1));
@@ -269,28 +303,28 @@ impl Collapser<'_> {
 
     /// The binary nodes that become the wide children of `node` (in discovery order).
     fn wide_children(&self, node: u32, out: &mut [u32; WIDTH], count: &mut usize) {
-        let n = &self.nodes[node as usize];
-        if n.is_leaf() {
+        if self.is_leaf(node) {
             // Only a single-primitive root gets here: the wide root holds it as a leaf.
             out[0] = node;
             *count = 1;
             return;
         }
-        self.gather(n.first_index, self.decision(node).wide_split(), out, count);
+        let first = self.slim[node as usize].link;
+        self.gather(first, self.decision(node).wide_split(), out, count);
     }
 
     /// Appends the wide children that the binary children `first`, `first + 1` of a node
     /// contribute with `slots.0 + 1` and `slots.1 + 1` slots.
     fn gather(&self, first: u32, slots: (usize, usize), out: &mut [u32; WIDTH], count: &mut usize) {
         for (child, s) in [(first, slots.0), (first + 1, slots.1)] {
-            let c = &self.nodes[child as usize];
-            let split = if c.is_leaf() {
+            let link = self.slim[child as usize].link;
+            let split = if link & LEAF != 0 {
                 None
             } else {
-                self.decision(child).distribution(s)
+                Decision(self.decisions[link as usize / 2].load(Relaxed)).distribution(s)
             };
             match split {
-                Some(split) => self.gather(c.first_index, split, out, count),
+                Some(split) => self.gather(link, split, out, count),
                 None => {
                     out[*count] = child;
                     *count += 1;
@@ -301,47 +335,71 @@ impl Collapser<'_> {
 
     /// Is this binary node, taken as a wide child, an internal wide node (else a leaf)?
     fn is_wide_internal(&self, node: u32) -> bool {
-        !self.nodes[node as usize].is_leaf() && self.decision(node).is_internal()
+        !self.is_leaf(node) && self.decision(node).is_internal()
     }
 
     /// Assigns children to slots so that, for each ray octant, sorting by the slot index
     /// roughly sorts them front to back (the paper's child ordering): the cost of child c
     /// in slot s is the offset of its centre from the parent's along octant s's diagonal,
     /// and the cheapest free (child, slot) pair is taken until all children are placed.
-    fn assign_slots(&self, parent: &Aabb, children: &[u32]) -> [u32; WIDTH] {
+    /// `children` are the children's boxes; returns each slot's child (position in
+    /// `children`) or [`EMPTY`].
+    fn assign_slots(parent: &Aabb, children: &[Aabb]) -> [u32; WIDTH] {
         let centre = parent.center();
         let mut cost = [[0.0f32; WIDTH]; WIDTH];
-        for (row, &c) in cost.iter_mut().zip(children) {
-            let offset = self.nodes[c as usize].aabb().center() - centre;
+        for (row, b) in cost.iter_mut().zip(children) {
+            let offset = b.center() - centre;
             for (v, dir) in row.iter_mut().zip(OCTANT_DIRS) {
                 *v = dir.dot(offset);
             }
         }
-        let mut slot_of = [usize::MAX; WIDTH];
+        // Greedy: repeatedly take the globally cheapest (child, free slot) pair, the first
+        // in (child, slot) order on ties. Each child's cheapest free slot is kept, and only
+        // the children whose cheapest slot was just taken look again (for the others
+        // neither the minimum nor its first position can change). A placed child's minimum
+        // becomes f32::MAX, which is never taken. Selects rather than branches: the
+        // comparisons are unpredictable.
+        let n = children.len();
+        let cheapest = |row: &[f32; WIDTH], taken: u8| {
+            let mut best = (f32::MAX, usize::MAX);
+            for (s, &v) in row.iter().enumerate() {
+                let v = if taken & (1 << s) == 0 { v } else { f32::MAX };
+                let better = v < best.0;
+                best = if better { (v, s) } else { best };
+            }
+            best
+        };
         let mut taken = 0u8;
-        for _ in 0..children.len() {
-            let mut best = f32::MAX;
-            let mut pick = None;
-            for (c, row) in cost.iter().enumerate().take(children.len()) {
-                if slot_of[c] != usize::MAX {
-                    continue;
-                }
-                for (s, &v) in row.iter().enumerate() {
-                    if taken & (1 << s) == 0 && v < best {
-                        best = v;
-                        pick = Some((c, s));
-                    }
-                }
+        let mut row_best = [(f32::MAX, usize::MAX); WIDTH];
+        for (best, row) in row_best.iter_mut().zip(&cost).take(n) {
+            *best = cheapest(row, taken);
+        }
+        let mut slot_of = [usize::MAX; WIDTH];
+        for _ in 0..n {
+            let mut pick = (f32::MAX, usize::MAX);
+            for (c, &(v, _)) in row_best.iter().enumerate().take(n) {
+                let better = v < pick.0;
+                pick = if better { (v, c) } else { pick };
             }
             // No pick: NaN or huge offsets (boxes at infinity); those children fill the free
             // slots in order below.
-            let Some((c, s)) = pick else { break };
+            let c = pick.1;
+            if c == usize::MAX {
+                break;
+            }
+            let s = row_best[c].1;
             slot_of[c] = s;
             taken |= 1 << s;
+            row_best[c] = (f32::MAX, usize::MAX);
+            for other in 0..n {
+                if row_best[other].1 == s {
+                    row_best[other] = cheapest(&cost[other], taken);
+                }
+            }
         }
         let mut slots = [EMPTY; WIDTH];
-        for (c, &child) in children.iter().enumerate() {
-            let s = match slot_of[c] {
+        for (c, &slot) in slot_of.iter().enumerate().take(n) {
+            let s = match slot {
                 usize::MAX => {
                     let s = (!taken).trailing_zeros() as usize;
                     taken |= 1 << s;
@@ -349,7 +407,7 @@ impl Collapser<'_> {
                 }
                 s => s,
             };
-            slots[s] = child;
+            slots[s] = c as u32;
         }
         slots
     }
@@ -357,13 +415,12 @@ impl Collapser<'_> {
     /// Appends the primitives of a leaf wide child (a binary subtree of at most 3
     /// primitives) in depth-first order; returns how many.
     fn push_leaf_prims(&self, node: u32, prims: &mut Vec<u32>) -> u32 {
-        let n = &self.nodes[node as usize];
-        if n.is_leaf() {
-            prims.push(self.leaf_prims[n.first_index as usize]);
+        let link = self.slim[node as usize].link;
+        if link & LEAF != 0 {
+            prims.push(link & !LEAF);
             1
         } else {
-            self.push_leaf_prims(n.first_index, prims)
-                + self.push_leaf_prims(n.first_index + 1, prims)
+            self.push_leaf_prims(link, prims) + self.push_leaf_prims(link + 1, prims)
         }
     }
 
@@ -374,14 +431,19 @@ impl Collapser<'_> {
     fn wide_node(
         &self,
         node: u32,
+        bounds: &Aabb,
         child_base: u32,
         prims: &mut Vec<u32>,
-    ) -> (CwBvhNode, [u32; WIDTH], usize) {
-        let bounds = self.nodes[node as usize].aabb();
+    ) -> (CwBvhNode, [(u32, Aabb); WIDTH], usize) {
         let mut found = [EMPTY; WIDTH];
         let mut count = 0;
         self.wide_children(node, &mut found, &mut count);
-        let slots = self.assign_slots(bounds, &found[..count]);
+        // All child boxes in one go, so that their cache misses overlap.
+        let mut boxes = [Aabb::empty(); WIDTH];
+        for (b, &c) in boxes.iter_mut().zip(&found[..count]) {
+            *b = *self.nodes[c as usize].aabb();
+        }
+        let slots = Self::assign_slots(bounds, &boxes[..count]);
 
         // Quantisation frame (the paper's compressed node): origin at the box minimum, per
         // axis a power-of-two step 2^e with 255 steps covering the box, child planes rounded
@@ -400,14 +462,14 @@ impl Collapser<'_> {
             primitive_base_idx: prims.len() as u32,
             ..Default::default()
         };
-        let mut internal = [EMPTY; WIDTH];
+        let mut internal = [(EMPTY, Aabb::empty()); WIDTH];
         let mut internal_count = 0;
         let mut prim_offset = 0u32;
-        for (slot, &child) in slots.iter().enumerate() {
-            if child == EMPTY {
+        for (slot, &c) in slots.iter().enumerate() {
+            if c == EMPTY {
                 continue;
             }
-            let b = self.nodes[child as usize].aabb();
+            let (child, b) = (found[c as usize], &boxes[c as usize]);
             let lo = ((b.min - origin) * inv_step)
                 .floor()
                 .clamp(Vec3A::ZERO, Vec3A::splat(255.0));
@@ -424,7 +486,7 @@ impl Collapser<'_> {
                 // Internal child: high bits 001, low bits 24 + slot.
                 wide.imask |= 1 << slot;
                 wide.child_meta[slot] = 0b0010_0000 | (24 + slot as u8);
-                internal[internal_count] = child;
+                internal[internal_count] = (child, *b);
                 internal_count += 1;
             } else {
                 // Leaf child: primitive count in unary in the high 3 bits, offset from the
@@ -441,12 +503,18 @@ impl Collapser<'_> {
     /// Writes the descendants of binary node `node` as a wide node depth-first: its
     /// children block at the end of `nodes`, then each internal child's descendants.
     /// Returns `node`'s own wide node.
-    fn emit(&self, node: u32, nodes: &mut Vec<CwBvhNode>, prims: &mut Vec<u32>) -> CwBvhNode {
+    fn emit(
+        &self,
+        node: u32,
+        bounds: &Aabb,
+        nodes: &mut Vec<CwBvhNode>,
+        prims: &mut Vec<u32>,
+    ) -> CwBvhNode {
         let base = nodes.len();
-        let (wide, internal, count) = self.wide_node(node, base as u32, prims);
+        let (wide, internal, count) = self.wide_node(node, bounds, base as u32, prims);
         nodes.resize(base + count, CwBvhNode::default());
-        for (j, &child) in internal[..count].iter().enumerate() {
-            nodes[base + j] = self.emit(child, nodes, prims);
+        for (j, (child, b)) in internal[..count].iter().enumerate() {
+            nodes[base + j] = self.emit(*child, b, nodes, prims);
         }
         wide
     }
@@ -454,11 +522,11 @@ impl Collapser<'_> {
     /// [`Self::emit`] as a tree of tasks: a subtree with many primitives emits each internal
     /// child's descendants in its own task. Indices are relative to the start of `node`'s
     /// descendants (node and primitive arrays).
-    fn emit_parallel(&self, node: u32) -> Subtree {
+    fn emit_parallel(&self, node: u32, bounds: &Aabb) -> Subtree {
         if !self.decision(node).is_large() {
             let mut nodes = Vec::new();
             let mut prims = Vec::new();
-            let root = self.emit(node, &mut nodes, &mut prims);
+            let root = self.emit(node, bounds, &mut nodes, &mut prims);
             return Subtree {
                 root,
                 node_count: nodes.len() as u32,
@@ -467,10 +535,10 @@ impl Collapser<'_> {
             };
         }
         let mut prims = Vec::new();
-        let (root, internal, count) = self.wide_node(node, 0, &mut prims);
+        let (root, internal, count) = self.wide_node(node, bounds, 0, &mut prims);
         let parts: Vec<Subtree> = internal[..count]
             .par_iter()
-            .map(|&child| self.emit_parallel(child))
+            .map(|(child, b)| self.emit_parallel(*child, b))
             .collect();
         let mut block = Vec::with_capacity(count);
         let (mut node_count, mut prim_count) = (count as u32, prims.len() as u32);
