@@ -71,9 +71,15 @@ fn entry_path(dir: &Path, key: u64) -> PathBuf {
     dir.join(format!("{key:016x}.bvh"))
 }
 
-/// The key of a BVH built from `triangle_bytes` (the triangles' raw data) with preset `preset`.
-pub fn key(triangle_bytes: &[u8], preset: u8) -> u64 {
-    hash_bytes(&[triangle_bytes, &[preset], &FORMAT_VERSION.to_le_bytes()])
+/// The key of a BVH built with preset `preset` from the data in `parts` (raw bytes that
+/// determine the triangles, e.g. a mesh's positions and indices; native byte order is fine,
+/// the cache lives on one machine).
+pub fn key(parts: &[&[u8]], preset: u8) -> u64 {
+    let mut all = parts.to_vec();
+    let preset = [preset];
+    let version = FORMAT_VERSION.to_le_bytes();
+    all.extend([&preset[..], &version[..]]);
+    hash_bytes(&all)
 }
 
 /// The cached BVH for `key` over `triangles` triangles, if the cache is on and holds a valid

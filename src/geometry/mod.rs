@@ -86,18 +86,20 @@ fn build_params(triangles: usize) -> BvhBuildParams {
     }
 }
 
-/// The mesh BVH from the on-disk cache when it is enabled and holds this exact triangle list
-/// (`bvh_cache`), else built (and stored when the cache is enabled).
-fn cached_or_built_bvh(tris: &[TriangleEdges]) -> CwBvh {
+/// The mesh BVH from the on-disk cache when it is enabled and holds the BVH of these exact
+/// positions and indices (`bvh_cache`), else built (and stored when the cache is enabled).
+/// The key hashes the mesh's own arrays in place (no copy): the triangles are a function of
+/// them, and for meshes that share vertices they are half the bytes.
+fn cached_or_built_bvh(tris: &[TriangleEdges], positions: &[Vec3], indices: &[[u32; 3]]) -> CwBvh {
     let large = tris.len() >= LARGE_MESH_TRIANGLES;
     let key = bvh_cache::enabled().then(|| {
-        let bytes: Vec<u8> = tris
-            .iter()
-            .flat_map(|t| [t.v0, t.e1, t.e2])
-            .flat_map(|v| v.to_array())
-            .flat_map(f32::to_le_bytes)
-            .collect();
-        bvh_cache::key(&bytes, large as u8)
+        bvh_cache::key(
+            &[
+                bytemuck::cast_slice(positions),
+                bytemuck::cast_slice(indices),
+            ],
+            large as u8,
+        )
     });
     if let Some(bvh) = key.and_then(|k| bvh_cache::load(k, tris.len())) {
         return bvh;
@@ -130,7 +132,7 @@ impl Mesh {
                 }
             })
             .collect();
-        let bvh = cached_or_built_bvh(&tris);
+        let bvh = cached_or_built_bvh(&tris, &positions, &indices);
         // Reorder triangles into leaf order so traversal needs no indirection.
         let tris = bvh
             .primitive_indices
