@@ -353,3 +353,45 @@ fn result_does_not_depend_on_thread_count() {
     let reference = bvh2_to_cwbvh(&b, 3, true, false);
     assert!(one == reference);
 }
+
+/// 40,000 coincident triangles: PLOC chains them into a binary tree 40,000 levels deep,
+/// deeper than obvhs' recursive converter survives on a 2 MiB stack. The collapse walks it
+/// with explicit stacks (1 and 2 threads, 2 MiB stacks): every primitive once, every node
+/// reachable.
+#[test]
+fn deep_degenerate_tree_needs_no_deep_stack() {
+    let tris = identical(40_000);
+    let b = bvh2(&tris, &BvhBuildParams::very_fast_build());
+    for threads in [1, 2] {
+        let bvh = std::thread::Builder::new()
+            .stack_size(2 << 20)
+            .spawn({
+                let b = b.clone();
+                move || {
+                    rayon::ThreadPoolBuilder::new()
+                        .num_threads(threads)
+                        .stack_size(2 << 20)
+                        .build()
+                        .unwrap()
+                        .install(|| wide_bvh::collapse(&b, 3))
+                }
+            })
+            .unwrap()
+            .join()
+            .expect("no stack overflow");
+        let mut prims = bvh.primitive_indices.clone();
+        prims.sort_unstable();
+        assert_eq!(prims, (0..40_000).collect::<Vec<u32>>());
+        let mut reachable = 1;
+        let mut stack = vec![0usize];
+        while let Some(n) = stack.pop() {
+            let node = &bvh.nodes[n];
+            for k in 0..node.imask.count_ones() as usize {
+                stack.push(node.child_base_idx as usize + k);
+                reachable += 1;
+            }
+        }
+        assert_eq!(reachable, bvh.nodes.len());
+        assert!(bvh.nodes.len() > 5_000, "{} nodes", bvh.nodes.len());
+    }
+}

@@ -54,6 +54,10 @@ const NO_SPLIT: u32 = 7;
 /// Binary subtrees with at least this many primitives emit their wide children as separate
 /// tasks; smaller ones are emitted sequentially by one task.
 const PARALLEL_PRIMS: u32 = 2048;
+/// Recursion depth (binary levels) from which the passes use explicit stacks instead.
+const DEEP: u32 = 256;
+/// Wide levels below which the emission may fork (a bound on its recursion).
+const EMIT_FORK_DEPTH: u32 = 12;
 /// Below this many primitives everything runs on the calling thread.
 const SEQUENTIAL_BELOW: usize = 8192;
 /// The cost pass forks at binary depths below this (up to 2^depth tasks; rayon's work
@@ -162,7 +166,7 @@ pub fn collapse(bvh2: &Bvh2, max_leaf_prims: u32) -> CwBvh {
 
     let large_root = !collapser.is_leaf(0) && collapser.decision(0).is_large();
     let (nodes, primitive_indices) = if parallel && large_root {
-        let top = collapser.emit_parallel(0, bvh2.nodes[0].aabb());
+        let top = collapser.emit_parallel(0, bvh2.nodes[0].aabb(), 0);
         let mut nodes = Vec::with_capacity(1 + top.node_count as usize);
         let mut prims = Vec::with_capacity(top.prim_count as usize);
         nodes.push(relocated(top.root, 1, 0));
@@ -182,6 +186,9 @@ pub fn collapse(bvh2: &Bvh2, max_leaf_prims: u32) -> CwBvh {
         uses_spatial_splits: bvh2.uses_spatial_splits,
     }
 }
+
+/// C(n, 1..=7) of a binary subtree, and its primitive count.
+type SubtreeCost = ([f32; SLOT_COUNTS], u32);
 
 struct Collapser<'a> {
     nodes: &'a [Bvh2Node],
@@ -237,27 +244,64 @@ impl Collapser<'_> {
     }
 
     /// Step 1 for `node`'s subtree: the costs C(node, 1..=7) (at 0..7) and its primitive
-    /// count; stores the decisions of its interior nodes.
-    fn slot_costs(&self, node: u32, depth: u32) -> ([f32; SLOT_COUNTS], u32) {
-        let Slim {
-            link,
-            half_area: area,
-        } = self.slim[node as usize];
-        if link & LEAF != 0 {
-            return ([area * 1.0 * PRIM_COST; SLOT_COUNTS], 1);
+    /// count; stores the decisions of its interior nodes. Forks into tasks down to
+    /// `cost_fork_depth`, below which [`Self::slot_costs_sequential`] takes over.
+    fn slot_costs(&self, node: u32, depth: u32) -> SubtreeCost {
+        let Slim { link, half_area } = self.slim[node as usize];
+        if depth >= self.cost_fork_depth || link & LEAF != 0 {
+            return self.slot_costs_recursive(node, depth);
         }
-        let first = link;
-        let ((left, left_prims), (right, right_prims)) = if depth < self.cost_fork_depth {
-            rayon::join(
-                || self.slot_costs(first, depth + 1),
-                || self.slot_costs(first + 1, depth + 1),
-            )
-        } else {
-            (
-                self.slot_costs(first, depth + 1),
-                self.slot_costs(first + 1, depth + 1),
-            )
-        };
+        let (left, right) = rayon::join(
+            || self.slot_costs(link, depth + 1),
+            || self.slot_costs(link + 1, depth + 1),
+        );
+        self.combine(link, half_area, left, right)
+    }
+
+    /// [`Self::slot_costs`] on one thread; past [`DEEP`] levels, with an explicit stack.
+    fn slot_costs_recursive(&self, node: u32, depth: u32) -> SubtreeCost {
+        let Slim { link, half_area } = self.slim[node as usize];
+        if link & LEAF != 0 {
+            return ([half_area * 1.0 * PRIM_COST; SLOT_COUNTS], 1);
+        }
+        if depth >= DEEP {
+            return self.slot_costs_sequential(node);
+        }
+        let left = self.slot_costs_recursive(link, depth + 1);
+        let right = self.slot_costs_recursive(link + 1, depth + 1);
+        self.combine(link, half_area, left, right)
+    }
+
+    /// [`Self::slot_costs`] on one thread, children before parents with an explicit stack
+    /// (degenerate inputs, such as many coincident triangles, make binary trees thousands of
+    /// levels deep).
+    fn slot_costs_sequential(&self, root: u32) -> SubtreeCost {
+        let mut todo = vec![(root, false)];
+        let mut done: Vec<SubtreeCost> = Vec::new();
+        while let Some((node, children_done)) = todo.pop() {
+            let Slim { link, half_area } = self.slim[node as usize];
+            if link & LEAF != 0 {
+                done.push(([half_area * 1.0 * PRIM_COST; SLOT_COUNTS], 1));
+            } else if children_done {
+                let right = done.pop().expect("right child's cost");
+                let left = done.pop().expect("left child's cost");
+                done.push(self.combine(link, half_area, left, right));
+            } else {
+                todo.extend([(node, true), (link + 1, false), (link, false)]);
+            }
+        }
+        done.pop().expect("root cost")
+    }
+
+    /// The dynamic program's step at an interior node (half area `area`, children `first`
+    /// and `first + 1`) from its children's results; stores the node's decision.
+    fn combine(
+        &self,
+        first: u32,
+        area: f32,
+        (left, left_prims): SubtreeCost,
+        (right, right_prims): SubtreeCost,
+    ) -> SubtreeCost {
         let prims = left_prims + right_prims;
 
         // One slot: a leaf, or a wide node whose 8 slots its children share (C_internal).
@@ -510,20 +554,30 @@ impl Collapser<'_> {
         nodes: &mut Vec<CwBvhNode>,
         prims: &mut Vec<u32>,
     ) -> CwBvhNode {
-        let base = nodes.len();
-        let (wide, internal, count) = self.wide_node(node, bounds, base as u32, prims);
-        nodes.resize(base + count, CwBvhNode::default());
-        for (j, (child, b)) in internal[..count].iter().enumerate() {
-            nodes[base + j] = self.emit(*child, b, nodes, prims);
+        // An explicit stack of (binary node, its box, where its wide node goes): trees of
+        // degenerate inputs can be very deep. Children are pushed in reverse so that each is
+        // written, with all its descendants, before the next: the recursive order.
+        let mut stack = vec![(node, *bounds, usize::MAX)];
+        let mut root = CwBvhNode::default();
+        while let Some((node, bounds, at)) = stack.pop() {
+            let base = nodes.len();
+            let (wide, internal, count) = self.wide_node(node, &bounds, base as u32, prims);
+            match nodes.get_mut(at) {
+                Some(slot) => *slot = wide,
+                None => root = wide,
+            }
+            nodes.resize(base + count, CwBvhNode::default());
+            let children = internal[..count].iter().enumerate().rev();
+            stack.extend(children.map(|(j, &(child, b))| (child, b, base + j)));
         }
-        wide
+        root
     }
 
     /// [`Self::emit`] as a tree of tasks: a subtree with many primitives emits each internal
     /// child's descendants in its own task. Indices are relative to the start of `node`'s
     /// descendants (node and primitive arrays).
-    fn emit_parallel(&self, node: u32, bounds: &Aabb) -> Subtree {
-        if !self.decision(node).is_large() {
+    fn emit_parallel(&self, node: u32, bounds: &Aabb, depth: u32) -> Subtree {
+        if depth >= EMIT_FORK_DEPTH || !self.decision(node).is_large() {
             let mut nodes = Vec::new();
             let mut prims = Vec::new();
             let root = self.emit(node, bounds, &mut nodes, &mut prims);
@@ -538,7 +592,7 @@ impl Collapser<'_> {
         let (root, internal, count) = self.wide_node(node, bounds, 0, &mut prims);
         let parts: Vec<Subtree> = internal[..count]
             .par_iter()
-            .map(|(child, b)| self.emit_parallel(*child, b))
+            .map(|(child, b)| self.emit_parallel(*child, b, depth + 1))
             .collect();
         let mut block = Vec::with_capacity(count);
         let (mut node_count, mut prim_count) = (count as u32, prims.len() as u32);
