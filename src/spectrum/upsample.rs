@@ -33,6 +33,7 @@
 
 use super::{cie, SampledSpectrum, SampledWavelengths};
 use glam::Vec3;
+use std::borrow::Cow;
 use std::sync::OnceLock;
 
 /// Centre and half width (nm) of the wavelength normalisation `t = (lambda - MID) / HALF`.
@@ -81,7 +82,10 @@ pub struct RgbToSpectrumTable {
     res: usize,
     xy_nodes: Vec<f32>,
     z_nodes: Vec<f32>,
-    coeffs: Vec<f32>,
+    /// The coefficients as little-endian f32 bytes. The embedded table is used in place: a
+    /// decoded copy would cost every process start ~7 ms (9.4 MB converted and faulted in),
+    /// while lookups touch only the pages of the colours a scene uses.
+    coeff_bytes: Cow<'static, [u8]>,
 }
 
 fn smoothstep(x: f64) -> f64 {
@@ -130,23 +134,39 @@ impl RgbToSpectrumTable {
         if let Some(v) = coeffs.iter().find(|v| !v.is_finite()) {
             return Err(format!("non-finite coefficient {v}"));
         }
-        Ok(Self {
+        let bytes = coeffs.iter().flat_map(|c| c.to_le_bytes()).collect();
+        Ok(Self::with_coefficient_bytes(res, Cow::Owned(bytes)))
+    }
+
+    fn with_coefficient_bytes(res: usize, coeff_bytes: Cow<'static, [u8]>) -> Self {
+        Self {
             res,
             xy_nodes: (0..res).map(|i| Self::xy_node(i, res) as f32).collect(),
             z_nodes: (0..res).map(|k| Self::z_node(k, res) as f32).collect(),
-            coeffs,
-        })
+            coeff_bytes,
+        }
     }
 
     pub fn resolution(&self) -> usize {
         self.res
     }
 
-    pub fn coefficients(&self) -> &[f32] {
-        &self.coeffs
+    /// The coefficients in [`Self::index`] order.
+    pub fn coefficients(&self) -> Vec<f32> {
+        self.coeff_bytes
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect()
     }
 
-    pub fn from_bytes(bytes: &[u8]) -> Result<Self, String> {
+    #[inline]
+    fn coefficient(&self, index: usize) -> f32 {
+        let b = &self.coeff_bytes[4 * index..4 * index + 4];
+        f32::from_le_bytes([b[0], b[1], b[2], b[3]])
+    }
+
+    /// (resolution, coefficient bytes) of a table file, header checked.
+    fn parse_header(bytes: &[u8]) -> Result<(usize, &[u8]), String> {
         if bytes.len() < Self::HEADER || bytes[..8] != Self::MAGIC {
             return Err("not an RGB-to-spectrum table (bad magic)".into());
         }
@@ -158,21 +178,32 @@ impl RgbToSpectrumTable {
         if !(2..=1024).contains(&res) || bytes.len() != Self::HEADER + 36 * res * res * res {
             return Err(format!("bad size {} for resolution {res}", bytes.len()));
         }
-        let coeffs = bytes[Self::HEADER..]
+        Ok((res, &bytes[Self::HEADER..]))
+    }
+
+    /// A table from file contents, every coefficient checked.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self, String> {
+        let (res, payload) = Self::parse_header(bytes)?;
+        let coeffs = payload
             .chunks_exact(4)
             .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
             .collect();
         Self::new(res, coeffs)
     }
 
+    /// A table over static file contents (the embedded table), used in place. Only the
+    /// header is checked here; the embedded table's coefficients are checked by a unit test.
+    fn from_static_bytes(bytes: &'static [u8]) -> Result<Self, String> {
+        let (res, payload) = Self::parse_header(bytes)?;
+        Ok(Self::with_coefficient_bytes(res, Cow::Borrowed(payload)))
+    }
+
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(Self::HEADER + 4 * self.coeffs.len());
+        let mut out = Vec::with_capacity(Self::HEADER + self.coeff_bytes.len());
         out.extend_from_slice(&Self::MAGIC);
         out.extend_from_slice(&Self::VERSION.to_le_bytes());
         out.extend_from_slice(&(self.res as u32).to_le_bytes());
-        for c in &self.coeffs {
-            out.extend_from_slice(&c.to_le_bytes());
-        }
+        out.extend_from_slice(&self.coeff_bytes);
         out
     }
 
@@ -232,8 +263,8 @@ impl RgbToSpectrumTable {
                 let base = Self::index(n, l, zi + dz, yi + dy, xi);
                 let w = wz * wy;
                 for (k, ck) in c.iter_mut().enumerate() {
-                    let a = self.coeffs[base + k];
-                    let b = self.coeffs[base + 3 + k];
+                    let a = self.coefficient(base + k);
+                    let b = self.coefficient(base + 3 + k);
                     *ck += w * (a + fx * (b - a));
                 }
             }
@@ -242,12 +273,13 @@ impl RgbToSpectrumTable {
     }
 }
 
-/// The linear-sRGB table, embedded in the binary and parsed on first use.
+static SRGB_TABLE_BYTES: &[u8] = include_bytes!("data/rgb2spec_srgb.bin");
+
+/// The linear-sRGB table, embedded in the binary and used in place (header parsed on first use).
 pub fn srgb_table() -> &'static RgbToSpectrumTable {
-    static BYTES: &[u8] = include_bytes!("data/rgb2spec_srgb.bin");
     static TABLE: OnceLock<RgbToSpectrumTable> = OnceLock::new();
     TABLE.get_or_init(|| {
-        RgbToSpectrumTable::from_bytes(BYTES)
+        RgbToSpectrumTable::from_static_bytes(SRGB_TABLE_BYTES)
             .unwrap_or_else(|e| panic!("embedded sRGB-to-spectrum table: {e}"))
     })
 }
@@ -350,6 +382,25 @@ mod tests {
     /// Linear sRGB of a spectrum lit by normalised D65 (deterministic quadrature).
     fn albedo_rgb(f: impl Fn(f32) -> f32) -> Vec3 {
         rgb::xyz_to_linear_srgb(cie::integrate_xyz(|l| f(l) * cie::d65_normalized(l), 4))
+    }
+
+    /// The embedded table is used without per-coefficient checks (`from_static_bytes`); this
+    /// is where they happen: it parses with full validation (all coefficients finite) into
+    /// the same coefficients, and a lookup reads the same values either way.
+    #[test]
+    fn embedded_table_is_valid_and_read_in_place() {
+        let checked = RgbToSpectrumTable::from_bytes(SRGB_TABLE_BYTES).expect("valid table");
+        let in_place = srgb_table();
+        assert!(matches!(in_place.coeff_bytes, Cow::Borrowed(_)));
+        assert_eq!(checked.coefficients(), in_place.coefficients());
+        for rgb in [
+            Vec3::new(0.8, 0.1, 0.1),
+            Vec3::new(0.2, 0.5, 0.3),
+            Vec3::new(0.05, 0.02, 0.4),
+        ] {
+            assert_eq!(checked.lookup(rgb), in_place.lookup(rgb));
+        }
+        assert_eq!(checked.to_bytes(), SRGB_TABLE_BYTES);
     }
 
     #[test]
