@@ -1,7 +1,12 @@
-//! BVH build and traversal throughput on a dense sphere (closest hit and shadow rays).
+//! BVH build and traversal throughput on a dense sphere (closest hit and shadow rays), and
+//! the binary -> wide BVH collapse alone (obvhs' and `geometry::wide_bvh`).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use glam::{Affine3A, Vec3};
+use glam::{Affine3A, Vec3, Vec3A};
+use obvhs::{
+    aabb::Aabb, bvh2::reinsertion::ReinsertionOptimizer, cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh,
+    ploc::PlocBuilder, BvhBuildParams,
+};
 use prism::geometry::{Geometry, Instance, Mesh, Ray};
 use prism::sampler::Sampler;
 
@@ -41,6 +46,30 @@ fn bench_bvh(c: &mut Criterion) {
     group.sample_size(10);
     group.bench_function("build_160k_tris", |b| {
         b.iter(|| Mesh::new(p.clone(), None, None, idx.clone(), 0))
+    });
+    // The binary -> wide BVH step alone, on the same binary BVH: obvhs' converter and ours
+    // (`geometry::wide_bvh`, which builds the same tree).
+    let boxes: Vec<Aabb> = idx
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| Vec3A::from(p[i as usize]));
+            Aabb::new(a.min(b).min(c), a.max(b).max(c))
+        })
+        .collect();
+    let params = BvhBuildParams::very_fast_build();
+    let mut bvh2 = PlocBuilder::with_capacity(boxes.len()).build(
+        params.ploc_search_distance,
+        &boxes,
+        (0..boxes.len() as u32).collect(),
+        params.sort_precision,
+        params.search_depth_threshold,
+    );
+    ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+    group.bench_function("collapse_160k_tris_obvhs", |b| {
+        b.iter(|| bvh2_to_cwbvh(&bvh2, 3, true, false))
+    });
+    group.bench_function("collapse_160k_tris_wide_bvh", |b| {
+        b.iter(|| prism::geometry::wide_bvh::collapse(&bvh2, 3))
     });
     let g = geometry(1);
     let rs = rays(10_000, 3.0);

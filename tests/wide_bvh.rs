@@ -260,6 +260,11 @@ fn tiny_triangles_match_obvhs_node_for_node() {
 
 #[test]
 fn very_small_inputs_match_obvhs() {
+    for (params, _) in presets() {
+        let empty = bvh2::<Triangle>(&[], &params);
+        assert!(wide_bvh::collapse(&empty, 3) == bvh2_to_cwbvh(&empty, 3, true, false));
+        assert!(wide_bvh::build::<Triangle>(&[], params) == CwBvh::default());
+    }
     let all = soup(9, 7);
     for n in 1..=9 {
         for (params, name) in presets() {

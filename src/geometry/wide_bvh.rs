@@ -267,8 +267,17 @@ impl Collapser<'_> {
         if depth >= DEEP {
             return self.slot_costs_sequential(node);
         }
-        let left = self.slot_costs_recursive(link, depth + 1);
-        let right = self.slot_costs_recursive(link + 1, depth + 1);
+        // Leaf children without a call (half of all nodes are leaves).
+        let cost = |child: u32| {
+            let Slim { link, half_area } = self.slim[child as usize];
+            if link & LEAF != 0 {
+                ([half_area * 1.0 * PRIM_COST; SLOT_COUNTS], 1)
+            } else {
+                self.slot_costs_recursive(child, depth + 1)
+            }
+        };
+        let left = cost(link);
+        let right = cost(link + 1);
         self.combine(link, half_area, left, right)
     }
 
@@ -303,12 +312,16 @@ impl Collapser<'_> {
         (right, right_prims): SubtreeCost,
     ) -> SubtreeCost {
         let prims = left_prims + right_prims;
+        // Two leaf children (a third of the interior nodes) have constant cost tables: every
+        // split costs the same, so only k = 0 can be a strict improvement and the loops
+        // below stop there.
+        let splits = if prims == 2 { 1 } else { SLOT_COUNTS };
 
         // One slot: a leaf, or a wide node whose 8 slots its children share (C_internal).
         let mut wide = f32::INFINITY;
         let mut wide_k = 0;
         // (Selects rather than branches: the comparisons are unpredictable.)
-        for k in 0..SLOT_COUNTS {
+        for k in 0..splits {
             let c = left[k] + right[SLOT_COUNTS - 1 - k];
             let better = c < wide;
             wide_k = if better { k as u32 } else { wide_k };
@@ -329,7 +342,7 @@ impl Collapser<'_> {
         for i in 1..SLOT_COUNTS {
             let mut best = cost[i - 1];
             let mut split = NO_SPLIT;
-            for k in 0..i {
+            for k in 0..i.min(splits) {
                 let c = left[k] + right[i - 1 - k];
                 let better = c < best;
                 split = if better { k as u32 } else { split };
