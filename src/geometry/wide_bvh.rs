@@ -26,11 +26,20 @@
 //!
 //! What differs is the cost of getting there. obvhs keeps a 12-byte decision for each of the
 //! 7 slot counts of every binary node (17 MB for 100k triangles, mostly page faults) and runs
-//! on one thread. Here a binary node's 7 decisions pack into one `u32`, stored only for
-//! interior nodes (leaves' decisions follow from their box), the cost table travels up the
-//! recursion by value, and both passes split into rayon tasks: the cost pass over the upper
-//! binary levels, the emission over wide subtrees with many primitives, each emitted into its
-//! own vectors with subtree-relative indices and relocated when they are concatenated.
+//! on one thread. Here:
+//! * a binary node's 7 decisions pack into one `u32`, stored only for interior nodes
+//!   (leaves' decisions follow from their box), and the cost tables travel up the recursion
+//!   by value;
+//! * the passes walk the binary tree depth-first, in an order unrelated to its memory layout,
+//!   so a streaming pass first copies the 8 bytes per node they need (half area, first child
+//!   or leaf primitive) out of the 48-byte nodes; only the wide children's boxes are read
+//!   from the nodes themselves, all of a node's at once so their cache misses overlap;
+//! * selections (split and slot choices) use selects instead of unpredictable branches;
+//! * both passes split into rayon tasks: the cost pass over the upper binary levels, the
+//!   emission over wide subtrees with many primitives, each emitted into its own vectors
+//!   with subtree-relative indices and relocated when they are concatenated;
+//! * past a few hundred levels (chains of coincident primitives) the walks use explicit
+//!   stacks, so degenerate input cannot overflow the thread's stack.
 
 use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
 
@@ -138,7 +147,9 @@ pub fn collapse(bvh2: &Bvh2, max_leaf_prims: u32) -> CwBvh {
     let slim = |n: &Bvh2Node| {
         let link = if n.is_leaf() {
             assert_eq!(n.prim_count, 1, "the collapse needs one primitive per leaf");
-            LEAF | bvh2.primitive_indices[n.first_index as usize]
+            let prim = bvh2.primitive_indices[n.first_index as usize];
+            assert_eq!(prim & LEAF, 0, "primitive index {prim} too large");
+            LEAF | prim
         } else {
             n.first_index
         };
