@@ -11,6 +11,7 @@ pub use triangle::intersect_triangle;
 
 use glam::{Affine3A, Mat3, Vec2, Vec3, Vec3A, Vec4};
 use obvhs::{aabb::Aabb, cwbvh::CwBvh, ray::Ray as BvhRay, BvhBuildParams};
+use rayon::prelude::*;
 
 /// A ray with an (unnormalised allowed) direction and a parametric extent [0, t_max).
 #[derive(Clone, Copy, Debug)]
@@ -121,8 +122,10 @@ impl Mesh {
         indices: Vec<[u32; 3]>,
         material: u32,
     ) -> Self {
+        // These per-triangle passes are a few ms each for 100k triangles: parallel like the
+        // BVH build between them.
         let tris: Vec<TriangleEdges> = indices
-            .iter()
+            .par_iter()
             .map(|&[a, b, c]| {
                 let v0 = positions[a as usize];
                 TriangleEdges {
@@ -134,16 +137,20 @@ impl Mesh {
             .collect();
         let bvh = cached_or_built_bvh(&tris, &positions, &indices);
         // Reorder triangles into leaf order so traversal needs no indirection.
-        let tris = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| tris[i as usize])
-            .collect();
-        let indices = bvh
-            .primitive_indices
-            .iter()
-            .map(|&i| indices[i as usize])
-            .collect();
+        let (tris, indices) = rayon::join(
+            || {
+                bvh.primitive_indices
+                    .par_iter()
+                    .map(|&i| tris[i as usize])
+                    .collect()
+            },
+            || {
+                bvh.primitive_indices
+                    .par_iter()
+                    .map(|&i| indices[i as usize])
+                    .collect()
+            },
+        );
         Mesh {
             positions,
             normals,

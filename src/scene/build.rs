@@ -61,7 +61,7 @@ impl Scene {
                 let n = m.positions.len() as u32;
                 let tris: Vec<[u32; 3]> = m
                     .indices
-                    .chunks_exact(3)
+                    .par_chunks_exact(3)
                     .map(|c| [c[0], c[1], c[2]])
                     .filter(|&[a, b, c]| {
                         if a >= n || b >= n || c >= n {

@@ -15,6 +15,7 @@
 //! validation can index out of range), so bad input is always a one-line
 //! [`PrismError::Input`] naming the file.
 
+use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -1038,21 +1039,22 @@ impl Importer<'_> {
         let tris = triangulate(mode, &raw_indices).map_err(|e| format!("{name}: {e}"))?;
 
         // Drop degenerate triangles (zero area, non-finite positions).
-        let mut kept: Vec<[u32; 3]> = Vec::with_capacity(tris.len());
-        for t in tris {
-            let (a, b, c) = (
-                positions[t[0] as usize],
-                positions[t[1] as usize],
-                positions[t[2] as usize],
-            );
-            if !(a.is_finite() && b.is_finite() && c.is_finite()) {
-                continue;
-            }
-            let cr = (b - a).cross(c - a);
-            if cr.is_finite() && cr.length_squared() > 0.0 {
-                kept.push(t);
-            }
-        }
+        let kept: Vec<[u32; 3]> = tris
+            .into_par_iter()
+            .filter(|t| {
+                let (a, b, c) = (
+                    positions[t[0] as usize],
+                    positions[t[1] as usize],
+                    positions[t[2] as usize],
+                );
+                let cr = (b - a).cross(c - a);
+                a.is_finite()
+                    && b.is_finite()
+                    && c.is_finite()
+                    && cr.is_finite()
+                    && cr.length_squared() > 0.0
+            })
+            .collect();
         if kept.is_empty() {
             return Ok(None);
         }
