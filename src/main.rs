@@ -3,7 +3,7 @@
 
 use clap::{Parser, Subcommand, ValueEnum};
 use prism::error::{PrismError, Result};
-use prism::film::{FilterKind, PixelFilter};
+use prism::film::{ExrCompression, FilterKind, PixelFilter};
 use prism::integrator::{WavelengthPdf, WavelengthSampling, WavelengthStrategy};
 use prism::render::{render, Progress, RenderSettings, RenderStats};
 use prism::scene::{load_scene, Scene};
@@ -87,6 +87,13 @@ struct SceneArgs {
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum ExrCompressionArg {
+    Rle,
+    Zip,
+    None,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum FilterArg {
     Box,
     Gaussian,
@@ -152,6 +159,10 @@ enum Command {
         /// Depth.Z (distance along the view axis, 1e10 for the background)
         #[arg(long)]
         guides: bool,
+        /// Compression of the EXR output and previews (all lossless): rle (default), zip
+        /// (smallest files) or none (fastest to write and read; the Blender add-on uses it)
+        #[arg(long, value_enum, default_value = "rle")]
+        exr_compression: ExrCompressionArg,
     },
     /// Convert an EXR to an sRGB PNG for viewing (clamped, optional exposure in stops).
     ToPng {
@@ -185,7 +196,23 @@ fn main() {
             progress,
             preview,
             guides,
-        } => run_render(&scene, output, threads, progress, preview, guides),
+            exr_compression,
+        } => {
+            let compression = match exr_compression {
+                ExrCompressionArg::Rle => ExrCompression::Rle,
+                ExrCompressionArg::Zip => ExrCompression::Zip,
+                ExrCompressionArg::None => ExrCompression::None,
+            };
+            run_render(
+                &scene,
+                output,
+                threads,
+                progress,
+                preview,
+                guides,
+                compression,
+            )
+        }
         Command::Compare {
             test,
             reference,
@@ -323,6 +350,7 @@ fn run_render(
     progress: Option<ProgressMode>,
     preview: Option<PathBuf>,
     guides: bool,
+    compression: ExrCompression,
 ) -> Result<()> {
     let mode = progress.unwrap_or(if std::io::stderr().is_terminal() {
         ProgressMode::Bar
@@ -400,7 +428,7 @@ fn run_render(
     let mut on_pass = |film: &prism::film::Film, spp: u32| {
         if let Some(path) = &preview {
             if spp < settings.spp {
-                match write_atomically(path, |tmp| film.write_exr(tmp)) {
+                match write_atomically(path, |tmp| film.write_exr_with(tmp, compression)) {
                     Ok(()) if mode == ProgressMode::Json => {
                         eprintln!(
                             "{{\"event\":\"preview\",\"path\":{},\"spp\":{spp}}}",
@@ -421,7 +449,7 @@ fn run_render(
     if let Some(e) = preview_error {
         return Err(e);
     }
-    write_atomically(&output, |tmp| film.write_exr(tmp))?;
+    write_atomically(&output, |tmp| film.write_exr_with(tmp, compression))?;
     report_done(mode, &stats, &output);
     Ok(())
 }

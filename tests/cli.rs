@@ -135,3 +135,74 @@ fn sigint_stops_quickly_and_writes_partial_image() {
     assert!(px.iter().any(|p| p[0] > 0.0), "partial image is black");
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// `--exr-compression`: the three encodings hold the same pixels (the render is deterministic
+/// per pixel), `none` is the raw size and is what the add-on's numpy reader takes; guides too.
+#[test]
+fn exr_compression_choices_hold_the_same_pixels() {
+    let dir = temp_dir("compression");
+    let mut images = Vec::new();
+    for (c, guides) in [
+        ("rle", false),
+        ("zip", false),
+        ("none", false),
+        ("none", true),
+    ] {
+        let out = dir.join(format!("{c}{guides}.exr"));
+        let mut cmd = prism();
+        cmd.args([
+            "render",
+            "scenes/cornell/cornell.gltf",
+            "--spp",
+            "4",
+            "--width",
+            "48",
+            "--height",
+            "36",
+            "--threads",
+            "2",
+            "--progress",
+            "none",
+            "--exr-compression",
+            c,
+            "-o",
+        ])
+        .arg(&out);
+        if guides {
+            cmd.arg("--guides");
+        }
+        let o = cmd.output().unwrap();
+        assert!(
+            o.status.success(),
+            "{c}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let (w, h, px) = read_exr_rgba(&out).unwrap();
+        assert_eq!((w, h), (48, 36));
+        images.push((c, px, std::fs::metadata(&out).unwrap().len()));
+    }
+    for (c, px, _) in &images[1..] {
+        assert!(px == &images[0].1, "{c} pixels differ from rle");
+    }
+    let raw = 48 * 36 * 4 * 4;
+    let (zip, none, none_guides) = (images[1].2, images[2].2, images[3].2);
+    assert!(
+        none as usize > raw,
+        "uncompressed holds every float: {none} bytes"
+    );
+    assert!(
+        none_guides as usize > 11 * raw / 4,
+        "guides uncompressed: {none_guides} bytes"
+    );
+    assert!(zip < none, "zip {zip} bytes < none {none}");
+    let bad = prism()
+        .args([
+            "render",
+            "scenes/cornell/cornell.gltf",
+            "--exr-compression",
+            "lzma",
+        ])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+}

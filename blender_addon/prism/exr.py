@@ -165,6 +165,28 @@ def read_planes(path):
     return out
 
 
+def _read_raw_float_scanlines(buf, offsets, skip, y0, w, h, chans, planes):
+    """Vectorised read of an uncompressed scanline part whose lines are all float and stored
+    back to back in order (what the Prism binary writes with --exr-compression none): one
+    numpy view instead of a Python loop per line and channel (a 1080p image: ~70 -> ~10 ms).
+    Returns False (and reads nothing) when the file is laid out any other way."""
+    if any(t != 2 for _n, t in chans) or skip:
+        return False
+    nc = len(chans)
+    stride = 8 + 4 * nc * w
+    first = offsets[0]
+    if list(offsets) != [first + k * stride for k in range(h)] or first + h * stride > len(buf):
+        return False
+    block = np.dtype([("y", "<i4"), ("size", "<i4"), ("data", "<f4", (nc, w))])
+    lines = np.frombuffer(buf, block, count=h, offset=first)
+    if not (np.array_equal(lines["y"], np.arange(y0, y0 + h)) and (lines["size"] == 4 * nc * w).all()):
+        return False
+    data = lines["data"]
+    for c, (name, _t) in enumerate(chans):
+        planes[name][:] = data[:, c, :]
+    return True
+
+
 def _read_part(buf, attrs, pos, tiled, part):
     """Decodes one part whose offset table starts at `pos`: (planes, end of the table).
     `part` is the part number that prefixes every chunk of a multi-part file (else None)."""
@@ -213,6 +235,8 @@ def _read_part(buf, attrs, pos, tiled, part):
         lines = _LINES_PER_BLOCK[comp]
         count = (h + lines - 1) // lines
         offsets = struct.unpack_from("<%dQ" % count, buf, pos)
+        if comp == "NONE" and _read_raw_float_scanlines(buf, offsets, skip, y0, w, h, chans, planes):
+            return planes, pos + 8 * count
         for off in offsets:
             off += skip
             y, size = struct.unpack_from("<ii", buf, off)

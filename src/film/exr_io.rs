@@ -1,23 +1,69 @@
 use crate::error::{PrismError, Result};
 use std::path::Path;
 
-/// Writes float32 RGBA (row 0 = top). Values are assumed finite (the film guarantees it).
+/// How EXR files are compressed: all three are lossless on float32 data, and every reader
+/// (Blender, the add-on's numpy reader, `exr`) reads all three.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ExrCompression {
+    /// Run-length encoding in 64x64 tiles (the default): fast, compresses flat regions.
+    #[default]
+    Rle,
+    /// ZIP over 16 scanlines: the smallest files, the slowest to write.
+    Zip,
+    /// Raw scanlines: the fastest to write and read (the Blender add-on's temporary files,
+    /// which numpy reads at memory speed).
+    None,
+}
+
+impl ExrCompression {
+    fn encoding(self) -> exr::prelude::Encoding {
+        use exr::prelude::Encoding;
+        match self {
+            ExrCompression::Rle => Encoding::FAST_LOSSLESS,
+            ExrCompression::Zip => Encoding::SMALL_LOSSLESS,
+            ExrCompression::None => Encoding::UNCOMPRESSED,
+        }
+    }
+}
+
+/// Writes float32 RGBA (row 0 = top), RLE-compressed. Values are assumed finite (the film
+/// guarantees it).
 pub fn write_exr_rgba(path: &Path, width: u32, height: u32, rgba: &[[f32; 4]]) -> Result<()> {
+    write_exr_rgba_with(path, width, height, rgba, ExrCompression::Rle)
+}
+
+/// [`write_exr_rgba`] with a choice of compression.
+pub fn write_exr_rgba_with(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgba: &[[f32; 4]],
+    compression: ExrCompression,
+) -> Result<()> {
+    use exr::prelude::*;
     let w = width as usize;
-    exr::prelude::write_rgba_file(path, w, height as usize, |x, y| {
-        let p = rgba[y * w + x];
-        (p[0], p[1], p[2], p[3])
-    })
-    .map_err(|e| PrismError::internal(format!("{}: cannot write EXR: {e}", path.display())))
+    let layer = Layer::new(
+        (w, height as usize),
+        LayerAttributes::default(),
+        compression.encoding(),
+        SpecificChannels::rgba(|p: Vec2<usize>| {
+            let q = rgba[p.y() * w + p.x()];
+            (q[0], q[1], q[2], q[3])
+        }),
+    );
+    Image::from_layer(layer)
+        .write()
+        .to_file(path)
+        .map_err(|e| PrismError::internal(format!("{}: cannot write EXR: {e}", path.display())))
 }
 
 /// Writes float32 channels of one layer (names like "R", "Albedo.R", "Depth.Z"; row 0 = top).
-/// Same encoding as `write_exr_rgba` (RLE, 64x64 tiles), so readers of one read the other.
 pub fn write_exr_channels(
     path: &Path,
     width: u32,
     height: u32,
     channels: Vec<(&str, Vec<f32>)>,
+    compression: ExrCompression,
 ) -> Result<()> {
     use exr::prelude::*;
     let list: SmallVec<[AnyChannel<FlatSamples>; 4]> = channels
@@ -27,7 +73,7 @@ pub fn write_exr_channels(
     let layer = Layer::new(
         (width as usize, height as usize),
         LayerAttributes::default(),
-        Encoding::FAST_LOSSLESS,
+        compression.encoding(),
         AnyChannels::sort(list),
     );
     Image::from_layer(layer)

@@ -5,7 +5,10 @@ mod exr_io;
 pub mod filter;
 pub mod metrics;
 
-pub use exr_io::{read_exr_channel, read_exr_rgba, write_exr_channels, write_exr_rgba};
+pub use exr_io::{
+    read_exr_channel, read_exr_rgba, write_exr_channels, write_exr_rgba, write_exr_rgba_with,
+    ExrCompression,
+};
 pub use filter::{FilterKind, PixelFilter};
 
 use crate::spectrum::rgb::xyz_to_linear_srgb;
@@ -137,8 +140,23 @@ impl Film {
     }
 
     pub fn write_exr(&self, path: &std::path::Path) -> crate::error::Result<()> {
+        self.write_exr_with(path, ExrCompression::default())
+    }
+
+    /// [`Self::write_exr`] with a choice of compression.
+    pub fn write_exr_with(
+        &self,
+        path: &std::path::Path,
+        compression: ExrCompression,
+    ) -> crate::error::Result<()> {
         if !self.write_guides {
-            return write_exr_rgba(path, self.width, self.height, &self.to_rgba());
+            return write_exr_rgba_with(
+                path,
+                self.width,
+                self.height,
+                &self.to_rgba(),
+                compression,
+            );
         }
         let rgba = self.to_rgba();
         let channel = |f: &dyn Fn(usize) -> f32| -> Vec<f32> { (0..rgba.len()).map(f).collect() };
@@ -156,6 +174,6 @@ impl Film {
             ("Normal.Z", channel(&|i| px[i].normal().z)),
             ("Depth.Z", channel(&|i| px[i].depth())),
         ];
-        write_exr_channels(path, self.width, self.height, channels)
+        write_exr_channels(path, self.width, self.height, channels, compression)
     }
 }

@@ -292,7 +292,9 @@ def test_bvh_cache_rerender():
 
 def test_exr_reader():
     """The add-on's numpy EXR reader (used with an interface) equals Blender's loader, bit for bit,
-    on Prism's output (RLE, 64x64 tiles) at a size that is not a multiple of the tile size."""
+    on Prism's output at a size that is not a multiple of the tile size: RLE in 64x64 tiles (the
+    CLI's default) and raw scanlines (`--exr-compression none`, what the add-on asks for, read by
+    a vectorised path that must equal the general per-line path, also with the guide channels)."""
     from prism import exr
 
     sc = C.simple_scene()
@@ -300,16 +302,30 @@ def test_exr_reader():
     C.use_prism(sc, spp=2)
     d = tempfile.mkdtemp(dir=OUT)
     gltf, mj, _w, _t = prism.export.export_scene(bpy.context.evaluated_depsgraph_get(), d)
-    out = os.path.join(d, "x.exr")
     import subprocess
 
-    subprocess.run([C.BINARY, "render", gltf, "--materials", mj, "-o", out, "--spp", "2", "--progress", "none"], check=True)
-    mine = exr.read_rgba(out)
-    ref = C.read_exr(out)[::-1]
-    C.check(mine.shape == ref.shape == (70, 150, 4), "same size")
-    C.check(np.array_equal(mine, ref), "identical pixels")
-    via_engine = prism.engine.read_exr(out, 150, 70)
-    C.check(np.array_equal(via_engine.reshape(70, 150, 4)[::-1], ref), "engine's loader: bottom row first")
+    for extra in ([], ["--exr-compression", "none"], ["--exr-compression", "none", "--guides"]):
+        out = os.path.join(d, "x%d.exr" % len(extra))
+        subprocess.run([C.BINARY, "render", gltf, "--materials", mj, "-o", out, "--spp", "2", "--progress", "none"] + extra, check=True)
+        if "--guides" not in extra:  # (Blender loads a file with extra layers as multilayer)
+            mine = exr.read_rgba(out)
+            ref = C.read_exr(out)[::-1]
+            C.check(mine.shape == ref.shape == (70, 150, 4), "%s: same size" % extra)
+            C.check(np.array_equal(mine, ref), "%s: identical pixels" % extra)
+            via_engine = prism.engine.read_exr(out, 150, 70)
+            C.check(np.array_equal(via_engine.reshape(70, 150, 4)[::-1], ref), "%s: engine's loader: bottom row first" % extra)
+        if extra:
+            fast = exr.read_planes(out)
+            vectorised = exr._read_raw_float_scanlines
+            exr._read_raw_float_scanlines = lambda *a: False
+            try:
+                general = exr.read_planes(out)
+            finally:
+                exr._read_raw_float_scanlines = vectorised
+            C.check(
+                sorted(fast) == sorted(general) and all(np.array_equal(fast[k], general[k]) for k in fast),
+                "%s: vectorised raw-scanline read equals the per-line read (%d channels)" % (extra, len(fast)),
+            )
 
 
 def test_panels_and_discovery():
