@@ -9,6 +9,7 @@ use glam::Vec3;
 use prism::geometry::bvh_cache;
 use prism::render::{render_quiet, RenderSettings};
 use prism::scene::Scene;
+use rayon::prelude::*;
 
 fn render(desc: prism::scene::SceneDesc) -> Vec<[f32; 4]> {
     let scene = Scene::build(desc).expect("scene builds");
@@ -68,5 +69,24 @@ fn cached_bvh_renders_identically_and_corruption_rebuilds() {
     // Another mesh: its own entry.
     render(scene(64));
     assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 2);
+
+    // Many meshes at once (built in parallel, as a scene's are): one queued writer stores
+    // them all; nothing is left half written.
+    let meshes: Vec<prism::geometry::Mesh> = (0..30)
+        .into_par_iter()
+        .map(|k| {
+            let (p, _, t) = prism::geometry::shapes::uv_sphere(8 + k, 6);
+            prism::geometry::Mesh::new(p, None, None, t, 0)
+        })
+        .collect();
+    bvh_cache::wait_for_stores();
+    assert_eq!(meshes.len(), 30);
+    let names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names.len(), 32, "{names:?}");
+    assert!(names.iter().all(|n| n.ends_with(".bvh")), "{names:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }

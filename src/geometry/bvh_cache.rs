@@ -15,6 +15,7 @@
 use std::hash::Hasher;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc::Sender;
 use std::sync::{Mutex, OnceLock};
 use std::thread::JoinHandle;
 
@@ -30,10 +31,16 @@ pub const MAX_CACHE_BYTES: u64 = 1 << 30;
 static CACHE_DIR: OnceLock<PathBuf> = OnceLock::new();
 static HITS: AtomicUsize = AtomicUsize::new(0);
 static MISSES: AtomicUsize = AtomicUsize::new(0);
-/// Entries being written in the background: a cold render starts path tracing while its new
-/// entries are encoded, written and the directory pruned (a few ms per 100k triangles, longer
-/// on a slow disk or a large cache directory), instead of waiting for the disk.
-static PENDING_WRITES: Mutex<Vec<JoinHandle<()>>> = Mutex::new(Vec::new());
+/// The background writer: a cold render starts path tracing while its new entries are
+/// encoded, written and the directory pruned (a few ms per 100k triangles, longer on a slow
+/// disk or a large cache directory), instead of waiting for the disk. One thread, fed in
+/// order, however many meshes the scene has.
+static WRITER: Mutex<Option<Writer>> = Mutex::new(None);
+
+struct Writer {
+    queue: Sender<(u64, usize, CwBvh)>,
+    thread: JoinHandle<()>,
+}
 
 /// (hits, misses) of this process so far (misses: lookups that had to build).
 pub fn counters() -> (usize, usize) {
@@ -100,21 +107,28 @@ pub fn store(key: u64, triangles: usize, bvh: &CwBvh) {
     let Some(dir) = cache_dir() else {
         return;
     };
-    let bvh = bvh.clone();
-    let writer = std::thread::spawn(move || write_entry(dir, key, triangles, &bvh));
-    PENDING_WRITES
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .push(writer);
+    let mut writer = WRITER.lock().unwrap_or_else(|e| e.into_inner());
+    let writer = writer.get_or_insert_with(|| {
+        let (queue, entries) = std::sync::mpsc::channel::<(u64, usize, CwBvh)>();
+        let thread = std::thread::spawn(move || {
+            for (key, triangles, bvh) in entries {
+                write_entry(dir, key, triangles, &bvh);
+            }
+        });
+        Writer { queue, thread }
+    });
+    // A send fails only if the writer thread died (it panicked); the entry is then skipped.
+    let _ = writer.queue.send((key, triangles, bvh.clone()));
 }
 
-/// Waits for the entries [`store`] is still writing. The binary calls it before it exits, so a
-/// process end never cuts a write short (which would only leave a stray temporary file: entries
-/// appear by rename). Library users who need an entry on disk call it too.
+/// Waits for the entries [`store`] has queued to be written. The binary calls it before it
+/// exits, so a process end never cuts a write short (which would only leave a stray temporary
+/// file: entries appear by rename). Library users who need an entry on disk call it too.
 pub fn wait_for_stores() {
-    let writers = std::mem::take(&mut *PENDING_WRITES.lock().unwrap_or_else(|e| e.into_inner()));
-    for w in writers {
-        let _ = w.join();
+    let writer = WRITER.lock().unwrap_or_else(|e| e.into_inner()).take();
+    if let Some(Writer { queue, thread }) = writer {
+        drop(queue); // ends the writer's loop once the queue is empty
+        let _ = thread.join();
     }
 }
 
