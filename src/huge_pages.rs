@@ -5,7 +5,7 @@
 //! (vertex arrays, the BVH builder's node, Morton and decision arrays). With 4 KiB pages that
 //! is ~19,000 page faults, 20-30 ms of kernel time on a 2-core VM: a fifth of the Blender
 //! round trip's fixed overhead. Most distributions ship THP in `madvise` mode, where only
-//! regions that ask for huge pages get them; with the hint the same load takes ~5,000 faults.
+//! regions that ask for huge pages get them; with the hint the same load takes ~8,000 faults.
 //! Small allocations are untouched, and so is every other platform (the hint is a no-op
 //! there), so this changes only how the kernel backs large buffers, never their contents.
 
