@@ -107,7 +107,8 @@ impl Decision {
     fn distribution(self, slots: usize) -> Option<(usize, usize)> {
         (1..=slots).rev().find_map(|i| {
             let k = (self.0 >> (4 + 3 * (i - 1))) & 7;
-            (k != NO_SPLIT).then_some((k as usize, i - 1 - k as usize))
+            // `then`, not `then_some`: the pair must not be computed for NO_SPLIT (it underflows).
+            (k != NO_SPLIT).then(|| (k as usize, i - 1 - k as usize))
         })
     }
 }
