@@ -205,4 +205,5 @@ fn exr_compression_choices_hold_the_same_pixels() {
         .output()
         .unwrap();
     assert!(!bad.status.success());
+    std::fs::remove_dir_all(dir).ok();
 }
