@@ -7,12 +7,11 @@
 //! \int Sr 2 pi r dr per annulus. The walk is exact Monte Carlo transport; the table is a
 //! diffusion model, so the tolerance is the diffusion error (see the comments on each bound).
 
-use glam::{Affine3A, Vec3};
-use prism::bsdf::fresnel_dielectric;
-use prism::bssrdf::random_walk::walk;
+mod common;
+
+use common::scenes::{slab_geometry, slab_walk_exit};
 use prism::bssrdf::table::BssrdfTable;
 use prism::bssrdf::SeparableBssrdf;
-use prism::geometry::{Geometry, Instance, Mesh, Ray};
 use prism::sampler::Sampler;
 use prism::spectrum::SampledSpectrum;
 use rayon::prelude::*;
@@ -20,34 +19,6 @@ use rayon::prelude::*;
 const ETA: f32 = 1.33;
 /// Annulus edges in mean free paths (sigma_t' = 1).
 const EDGES: [f32; 9] = [0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0];
-
-fn slab_geometry(w: f32, depth: f32) -> Geometry {
-    let p = |x: f32, y: f32, top: bool| Vec3::new(x * w, y * w, if top { 0.0 } else { -depth });
-    let positions = vec![
-        p(-1.0, -1.0, false),
-        p(1.0, -1.0, false),
-        p(1.0, 1.0, false),
-        p(-1.0, 1.0, false),
-        p(-1.0, -1.0, true),
-        p(1.0, -1.0, true),
-        p(1.0, 1.0, true),
-        p(-1.0, 1.0, true),
-    ];
-    let quads: [[u32; 4]; 6] = [
-        [4, 5, 6, 7],
-        [0, 3, 2, 1],
-        [0, 1, 5, 4],
-        [2, 3, 7, 6],
-        [1, 2, 6, 5],
-        [3, 0, 4, 7],
-    ];
-    let tris = quads
-        .iter()
-        .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
-        .collect();
-    let mesh = Mesh::new(positions, None, None, tris, 0);
-    Geometry::new(vec![mesh], vec![Instance::new(0, Affine3A::IDENTITY)])
-}
 
 /// Radial exitance per annulus from `n` random walks (sigma_s, sigma_a per unit length).
 fn walk_exitance(sigma_s: f32, sigma_a: f32, n: usize) -> Vec<f64> {
@@ -60,37 +31,12 @@ fn walk_exitance(sigma_s: f32, sigma_a: f32, n: usize) -> Vec<f64> {
             let mut bins = vec![0.0f64; EDGES.len() - 1];
             for k in 0..per {
                 let mut sampler = Sampler::new(c as u64, k as u64, 99);
-                let mut beta = SampledSpectrum::ONE;
-                let mut ray = Ray::new(Vec3::new(0.0, 0.0, -1e-4), Vec3::new(0.0, 0.0, -1.0));
-                for _bounce in 0..64 {
-                    let Some((hit, last)) = walk(
-                        &geometry,
-                        ray,
-                        SampledSpectrum::splat(sigma_a),
-                        SampledSpectrum::splat(sigma_s),
-                        0.0,
-                        1,
-                        &mut sampler,
-                        &mut beta,
-                    ) else {
-                        break;
-                    };
-                    let p = last.at(hit.t);
-                    if p.z.abs() > 1e-2 {
-                        break; // sides or bottom: gone
-                    }
-                    let cos = last.dir.z; // > 0: leaving through the top, seen from inside
-                    let fr = fresnel_dielectric(-cos, ETA);
-                    if sampler.next_1d() < fr {
-                        let dir = Vec3::new(last.dir.x, last.dir.y, -last.dir.z);
-                        ray = Ray::new(Vec3::new(p.x, p.y, -1e-4), dir);
-                        continue;
-                    }
+                let exit = slab_walk_exit(&geometry, sigma_a, sigma_s, Some(ETA), 64, &mut sampler);
+                if let Some((p, weight)) = exit {
                     let r = (p.x * p.x + p.y * p.y).sqrt();
                     if let Some(b) = EDGES.windows(2).position(|e| r >= e[0] && r < e[1]) {
-                        bins[b] += beta[0] as f64;
+                        bins[b] += weight as f64;
                     }
-                    break;
                 }
             }
             bins

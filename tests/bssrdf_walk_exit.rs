@@ -17,18 +17,13 @@
 
 mod common;
 
-use common::scenes::{explicit_subsurface, slab_mesh, subsurface_slab_scene};
-use glam::{Mat4, Vec3};
+use common::scenes::{explicit_subsurface, slab_geometry, slab_walk_exit, subsurface_slab_scene};
+use glam::Vec3;
 use prism::bsdf::fresnel_dielectric;
-use prism::bssrdf::random_walk::walk;
 use prism::bssrdf::SubsurfaceMaterial;
-use prism::geometry::{Geometry, Ray};
 use prism::render::{render_quiet, RenderSettings};
 use prism::sampler::Sampler;
-use prism::scene::{
-    InstanceDesc, PunctualKind, PunctualLightDesc, Scene, SceneDesc, SubsurfaceDesc, WorldDesc,
-};
-use prism::spectrum::SampledSpectrum;
+use prism::scene::{PunctualKind, PunctualLightDesc, Scene, SceneDesc, SubsurfaceDesc, WorldDesc};
 use rayon::prelude::*;
 
 const ETA: f32 = 1.33;
@@ -80,68 +75,24 @@ fn render_under_sun(desc: &SubsurfaceDesc, spp: u32) -> Vec3 {
         / rgba.len() as f32
 }
 
-fn slab_geometry() -> Geometry {
-    let scene = SceneDesc {
-        meshes: vec![slab_mesh(HALF_WIDTH, DEPTH)],
-        instances: vec![InstanceDesc {
-            mesh: 0,
-            object_to_world: Mat4::IDENTITY,
-            name: "slab".into(),
-        }],
-        materials: vec![common::scenes::diffuse_material("d", Vec3::ONE)],
-        camera: Some(common::scenes::camera(5.0, 0.05)),
-        world: WorldDesc {
-            color: Vec3::ONE,
-            strength: 1.0,
-            texture: None,
-        },
-        ..Default::default()
-    };
-    Scene::build(scene).expect("scene builds").geometry
-}
-
 /// Fraction of the light entering the top of the slab that leaves through the top, from `n`
 /// walks of `random_walk::walk`. `fresnel`: internal reflection by the smooth dielectric
 /// boundary (else every boundary hit leaves). The light enters along the inward normal.
 fn walk_reflectance(fresnel: bool, n: usize) -> f64 {
-    let geometry = slab_geometry();
+    let geometry = slab_geometry(HALF_WIDTH, DEPTH);
     let chunks = 16;
     let per = n / chunks;
+    let eta = fresnel.then_some(ETA);
     let sum: f64 = (0..chunks)
         .into_par_iter()
         .map(|c| {
-            let mut total = 0.0f64;
-            for k in 0..per {
-                let mut sampler = Sampler::new(c as u64, k as u64, 7);
-                let mut beta = SampledSpectrum::ONE;
-                let mut ray = Ray::new(Vec3::new(0.0, 0.0, -1e-4), -Vec3::Z);
-                for _ in 0..256 {
-                    let Some((hit, last)) = walk(
-                        &geometry,
-                        ray,
-                        SampledSpectrum::splat(SIGMA_A),
-                        SampledSpectrum::splat(SIGMA_S),
-                        0.0,
-                        1,
-                        &mut sampler,
-                        &mut beta,
-                    ) else {
-                        break;
-                    };
-                    let p = last.at(hit.t);
-                    if p.z.abs() > 1e-2 {
-                        break; // sides or bottom (hundreds of mean free paths away)
-                    }
-                    if fresnel && sampler.next_1d() < fresnel_dielectric(-last.dir.z, ETA) {
-                        let dir = Vec3::new(last.dir.x, last.dir.y, -last.dir.z);
-                        ray = Ray::new(Vec3::new(p.x, p.y, -1e-4), dir);
-                        continue;
-                    }
-                    total += beta[0] as f64;
-                    break;
-                }
-            }
-            total
+            (0..per)
+                .filter_map(|k| {
+                    let mut sampler = Sampler::new(c as u64, k as u64, 7);
+                    slab_walk_exit(&geometry, SIGMA_A, SIGMA_S, eta, 256, &mut sampler)
+                })
+                .map(|(_, weight)| weight as f64)
+                .sum::<f64>()
         })
         .sum();
     sum / (per * chunks) as f64

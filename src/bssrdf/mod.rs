@@ -272,8 +272,9 @@ pub fn active_wavelengths(w: &SampledWavelengths) -> usize {
     }
 }
 
-/// The exit lobe of the separable BSSRDF (sampled through [`ExitLobe`]): Sw(wi) = (1 - Fr(cos theta_i)) / (c pi), with
-/// c = 1 - 2 Fm1 so that \int Sw cos dw = 1 (pbrt-v3 section 11.4.1's normalisation).
+/// The exit lobe of the separable BSSRDF (sampled through [`ExitLobe`]):
+/// Sw(wi) = (1 - Fr(cos theta_i)) / (c pi), with c = 1 - 2 Fm1 so that \int Sw cos dw = 1
+/// (pbrt-v3 section 11.4.1's normalisation).
 #[derive(Clone, Copy, Debug)]
 pub struct SwLobe {
     eta: f32,

@@ -3,9 +3,9 @@
 Imported inside real Blender (bpy wheel 5.0.1 or Debian's blender 3.4); no mocks.
 """
 
-import math
 import os
 import sys
+import time
 
 import bpy
 import bmesh
@@ -159,6 +159,20 @@ def use_cycles(sc, spp, bounces=8, threads=2):
     sc.render.threads_mode = "FIXED"
     sc.render.threads = threads
     sc.render.film_transparent = False
+
+
+def render_engine(sc, engine, spp, out_dir, name, bounces):
+    """Renders `sc` with "cycles" (`bounces` of every kind) or "prism" (max depth `bounces`)
+    into out_dir/<name>_<engine>.exr, prints the time; returns the (H, W, 3) pixels."""
+    if engine == "cycles":
+        use_cycles(sc, spp, bounces=bounces)
+    else:
+        use_prism(sc, spp)
+        sc.prism.max_depth = bounces
+    t0 = time.perf_counter()
+    px = render_pixels(sc, os.path.join(out_dir, "%s_%s.exr" % (name, engine)))[..., :3]
+    print("  %s %s: %.1f s" % (name, engine, time.perf_counter() - t0), flush=True)
+    return px
 
 
 def blur(img, k=3):

@@ -12,7 +12,6 @@ import math
 import os
 import sys
 import tempfile
-import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bpy  # noqa: E402
@@ -24,15 +23,7 @@ OUT = tempfile.mkdtemp(prefix="prism_addon_test_")
 
 
 def render(sc, engine, spp, name, bounces=4):
-    if engine == "cycles":
-        C.use_cycles(sc, spp, bounces=bounces)
-    else:
-        C.use_prism(sc, spp)
-        sc.prism.max_depth = bounces
-    t0 = time.perf_counter()
-    px = C.render_pixels(sc, os.path.join(OUT, "%s_%s.exr" % (name, engine)))[..., :3]
-    print("  %s %s: %.1f s" % (name, engine, time.perf_counter() - t0), flush=True)
-    return px
+    return C.render_engine(sc, engine, spp, OUT, name, bounces)
 
 
 def emission(name, color, strength=1.0):

@@ -11,7 +11,6 @@ import math
 import os
 import sys
 import tempfile
-import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bpy  # noqa: E402
@@ -130,15 +129,7 @@ def analytic_halves(sc, mapped=True):
 
 
 def render(sc, engine, spp, name):
-    if engine == "cycles":
-        C.use_cycles(sc, spp, bounces=1)
-    else:
-        C.use_prism(sc, spp)
-        sc.prism.max_depth = 1
-    t0 = time.perf_counter()
-    px = C.render_pixels(sc, os.path.join(OUT, "%s_%s.exr" % (name, engine)))[..., :3]
-    print("  %s %s: %.1f s" % (name, engine, time.perf_counter() - t0), flush=True)
-    return px
+    return C.render_engine(sc, engine, spp, OUT, name, bounces=1)
 
 
 def halves(img):

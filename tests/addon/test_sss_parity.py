@@ -29,7 +29,6 @@ within 6% per channel (1.005 / 0.985 / 0.986; it was ~0 with Dirac-only random-w
 import os
 import sys
 import tempfile
-import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bpy  # noqa: E402
@@ -75,16 +74,8 @@ def object_mean(px):
 
 def render_both(name, **kw):
     out = {}
-    for engine in ("cycles", "prism"):
-        sc = scene(**kw)
-        if engine == "cycles":
-            C.use_cycles(sc, CYCLES_SPP, bounces=16)
-        else:
-            C.use_prism(sc, PRISM_SPP)
-            sc.prism.max_depth = 16
-        t0 = time.perf_counter()
-        px = C.render_pixels(sc, os.path.join(OUT, "%s_%s.exr" % (name, engine)))[..., :3]
-        print("  %s %s: %.1f s" % (name, engine, time.perf_counter() - t0), flush=True)
+    for engine, spp in (("cycles", CYCLES_SPP), ("prism", PRISM_SPP)):
+        px = C.render_engine(scene(**kw), engine, spp, OUT, name, bounces=16)
         out[engine] = object_mean(px)
     return out["prism"], out["cycles"]
 

@@ -170,3 +170,63 @@ pub fn explicit_subsurface(
         weight: 1.0,
     }
 }
+
+/// The geometry of a [`slab_mesh`] alone (no scene): what `random_walk::walk` traces against.
+pub fn slab_geometry(w: f32, depth: f32) -> prism::geometry::Geometry {
+    use prism::geometry::{Geometry, Instance, Mesh};
+    let m = slab_mesh(w, depth);
+    let tris = m
+        .indices
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    let mesh = Mesh::new(m.positions, None, None, tris, 0);
+    Geometry::new(vec![mesh], vec![Instance::new(0, glam::Affine3A::IDENTITY)])
+}
+
+/// One pencil-beam random walk in a [`slab_geometry`] (top face at z = 0, sides and bottom
+/// hundreds of mean free paths away): the beam enters at the origin along -z with weight 1,
+/// `prism::bssrdf::random_walk::walk` follows it, and at each hit on the top face a smooth
+/// boundary of relative index `eta` reflects it back in with probability Fresnel (no
+/// reflection when `eta` is None). Returns where it leaves through the top and its weight
+/// (first wavelength), or None when it leaves through the sides or bottom, is absorbed, or
+/// hits the top `max_boundary_hits` times.
+pub fn slab_walk_exit(
+    geometry: &prism::geometry::Geometry,
+    sigma_a: f32,
+    sigma_s: f32,
+    eta: Option<f32>,
+    max_boundary_hits: usize,
+    sampler: &mut prism::sampler::Sampler,
+) -> Option<(Vec3, f32)> {
+    use prism::geometry::Ray;
+    use prism::spectrum::SampledSpectrum;
+    let mut beta = SampledSpectrum::ONE;
+    let mut ray = Ray::new(Vec3::new(0.0, 0.0, -1e-4), -Vec3::Z);
+    for _ in 0..max_boundary_hits {
+        let (hit, last) = prism::bssrdf::random_walk::walk(
+            geometry,
+            ray,
+            SampledSpectrum::splat(sigma_a),
+            SampledSpectrum::splat(sigma_s),
+            0.0,
+            1,
+            sampler,
+            &mut beta,
+        )?;
+        let p = last.at(hit.t);
+        if p.z.abs() > 1e-2 {
+            return None; // sides or bottom
+        }
+        // last.dir.z > 0: leaving through the top, seen from inside.
+        let reflect = eta.is_some_and(|eta| {
+            sampler.next_1d() < prism::bsdf::fresnel_dielectric(-last.dir.z, eta)
+        });
+        if !reflect {
+            return Some((p, beta[0]));
+        }
+        let dir = Vec3::new(last.dir.x, last.dir.y, -last.dir.z);
+        ray = Ray::new(Vec3::new(p.x, p.y, -1e-4), dir);
+    }
+    None
+}
