@@ -5,10 +5,9 @@ mod common;
 
 use common::scenes::{camera, diffuse_material, furnace_scene, material_with};
 use glam::{Mat4, Vec3};
-use prism::render::{render_quiet, RenderSettings};
 use prism::scene::{
     DielectricDesc, GltfMaterialDesc, InstanceDesc, IorDesc, MaterialOverride, MeshDesc,
-    PunctualKind, PunctualLightDesc, Scene, SceneDesc,
+    PunctualKind, PunctualLightDesc, SceneDesc,
 };
 
 const ALBEDO: f32 = 0.5;
@@ -47,18 +46,7 @@ fn plane_scene(light: PunctualLightDesc) -> SceneDesc {
 }
 
 fn mean_rgb(desc: SceneDesc, spp: u32) -> Vec3 {
-    let scene = Scene::build(desc).expect("scene builds");
-    let settings = RenderSettings {
-        width: 8,
-        height: 8,
-        spp,
-        max_depth: 4,
-        seed: 3,
-        ..Default::default()
-    };
-    let (film, _) = render_quiet(&scene, &settings);
-    let px = film.to_rgba();
-    px.iter().map(|p| Vec3::new(p[0], p[1], p[2])).sum::<Vec3>() / px.len() as f32
+    common::scenes::render_mean(desc, 8, spp, 4, 3).0
 }
 
 fn assert_close(got: Vec3, want: f32, tol: f32, what: &str) {

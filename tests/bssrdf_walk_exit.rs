@@ -21,9 +21,8 @@ use common::scenes::{explicit_subsurface, slab_geometry, slab_walk_exit, subsurf
 use glam::Vec3;
 use prism::bsdf::fresnel_dielectric;
 use prism::bssrdf::SubsurfaceMaterial;
-use prism::render::{render_quiet, RenderSettings};
 use prism::sampler::Sampler;
-use prism::scene::{PunctualKind, PunctualLightDesc, Scene, SceneDesc, SubsurfaceDesc, WorldDesc};
+use prism::scene::{PunctualKind, PunctualLightDesc, SceneDesc, SubsurfaceDesc, WorldDesc};
 use rayon::prelude::*;
 
 const ETA: f32 = 1.33;
@@ -57,22 +56,7 @@ fn render_under_sun(desc: &SubsurfaceDesc, spp: u32) -> Vec3 {
         }],
         ..subsurface_slab_scene(desc, HALF_WIDTH, DEPTH)
     };
-    let scene = Scene::build(scene).expect("scene builds");
-    let settings = RenderSettings {
-        width: 16,
-        height: 16,
-        spp,
-        max_depth: 64,
-        seed: 11,
-        ..Default::default()
-    };
-    let (film, stats) = render_quiet(&scene, &settings);
-    assert_eq!(stats.discarded, 0);
-    let rgba = film.to_rgba();
-    rgba.iter()
-        .map(|p| Vec3::new(p[0], p[1], p[2]))
-        .sum::<Vec3>()
-        / rgba.len() as f32
+    common::scenes::render_mean(scene, 16, spp, 64, 11).0
 }
 
 /// Fraction of the light entering the top of the slab that leaves through the top, from `n`

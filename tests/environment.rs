@@ -228,19 +228,7 @@ fn environment_samples_concentrate_on_the_bright_spot() {
 }
 
 fn render_mean(desc: SceneDesc, spp: u32) -> Vec3 {
-    let scene = Scene::build(desc).expect("scene builds");
-    let settings = RenderSettings {
-        width: 32,
-        height: 32,
-        spp,
-        max_depth: 8,
-        seed: 11,
-        ..Default::default()
-    };
-    let (film, stats) = render_quiet(&scene, &settings);
-    assert_eq!(stats.discarded, 0);
-    let px = film.to_rgba();
-    px.iter().map(|p| Vec3::new(p[0], p[1], p[2])).sum::<Vec3>() / px.len() as f32
+    common::scenes::render_mean(desc, 32, spp, 8, 11).0
 }
 
 /// A constant-colour environment texture is the uniform world: same image (means within the

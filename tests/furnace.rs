@@ -6,28 +6,10 @@ mod common;
 
 use common::scenes::{diffuse_material, furnace_scene, glass_material};
 use glam::Vec3;
-use prism::render::{render_quiet, RenderSettings};
-use prism::scene::{IorDesc, Scene, SceneDesc};
+use prism::scene::{IorDesc, SceneDesc};
 
 fn render_mean(desc: SceneDesc, spp: u32) -> (Vec3, Vec<[f32; 4]>) {
-    let scene = Scene::build(desc).expect("scene builds");
-    let settings = RenderSettings {
-        width: 32,
-        height: 32,
-        spp,
-        max_depth: 64,
-        seed: 7,
-        ..Default::default()
-    };
-    let (film, stats) = render_quiet(&scene, &settings);
-    assert_eq!(stats.discarded, 0);
-    let rgba = film.to_rgba();
-    let mean = rgba
-        .iter()
-        .map(|p| Vec3::new(p[0], p[1], p[2]))
-        .sum::<Vec3>()
-        / rgba.len() as f32;
-    (mean, rgba)
+    common::scenes::render_mean(desc, 32, spp, 64, 7)
 }
 
 /// Mean colour of a block of pixels of a 32x32 image (single pixels carry a few percent of

@@ -230,3 +230,33 @@ pub fn slab_walk_exit(
     }
     None
 }
+
+/// Builds and renders `desc` (`size` x `size`, on the current rayon pool), asserts no
+/// sample was discarded as non-finite, and returns the image's mean RGB and its pixels.
+pub fn render_mean(
+    desc: SceneDesc,
+    size: u32,
+    spp: u32,
+    max_depth: u32,
+    seed: u64,
+) -> (Vec3, Vec<[f32; 4]>) {
+    use prism::render::{render_quiet, RenderSettings};
+    let scene = prism::scene::Scene::build(desc).expect("scene builds");
+    let settings = RenderSettings {
+        width: size,
+        height: size,
+        spp,
+        max_depth,
+        seed,
+        ..Default::default()
+    };
+    let (film, stats) = render_quiet(&scene, &settings);
+    assert_eq!(stats.discarded, 0, "non-finite samples");
+    let rgba = film.to_rgba();
+    let mean = rgba
+        .iter()
+        .map(|p| Vec3::new(p[0], p[1], p[2]))
+        .sum::<Vec3>()
+        / rgba.len() as f32;
+    (mean, rgba)
+}
