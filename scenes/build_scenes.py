@@ -14,6 +14,12 @@ Scenes (1 unit = 1 m; the subsurface presets are in mm^-1, so their scale is 100
   rough_glass       four glass spheres, roughness 0 / 0.02 / 0.2 / 0.5, in front of a striped wall
   diamond           a brilliant-cut-like gem with the diamond Cauchy fit, lit by a small spot light
   rgb_vs_spectral   colour patches and a dispersive BK7 prism under a sun, at 1 spp
+  everyday          an artist's everyday setup: three Principled spheres (one chrome) and a monkey on a
+                    floor, lit by a sun, a point light and a grey world (noise-per-second benchmark)
+  sss_cornell       a Cornell box with three Principled subsurface objects: two Christensen-Burley (Prism's
+                    table method) and one random walk (noise-per-second benchmark)
+  many_lights       a 10 m x 10 m hall lit by 400 small coloured emissive panels and 4 point lights
+                    (light-selection benchmark)
 """
 
 import math
@@ -188,7 +194,86 @@ def rgb_vs_spectral():
     settings(sc, 480, 320, 1)
 
 
-SCENES = {f.__name__: f for f in (sss_vs_diffuse, sss_presets, rough_glass, diamond, rgb_vs_spectral)}
+def principled(name, color, **inputs):
+    return material(name, "ShaderNodeBsdfPrincipled", color, **inputs)
+
+
+def monkey(bm):
+    bmesh.ops.create_monkey(bm)
+    bmesh.ops.subdivide_edges(bm, edges=bm.edges, cuts=1, use_grid_fill=True)
+
+
+def everyday():
+    sc = reset()
+    obj("Floor", grid(8, 8), principled("Floor", (0.6, 0.6, 0.6), Roughness=0.5))
+    obj("RedBall", sphere(0.5), principled("RedPlastic", (0.8, 0.08, 0.05), Roughness=0.35), location=(-1.2, 0.3, 0.5), smooth=True)
+    obj("Chrome", sphere(0.5), principled("Chrome", (0.9, 0.9, 0.9), Metallic=1.0, Roughness=0.05), location=(0.0, 0.8, 0.5), smooth=True)
+    obj("BlueBall", sphere(0.5), principled("BlueRough", (0.1, 0.25, 0.7), Roughness=0.7), location=(1.2, 0.3, 0.5), smooth=True)
+    obj("Suzanne", monkey, principled("Clay", (0.75, 0.65, 0.5), Roughness=0.6), location=(0.0, -0.6, 0.45),
+        scale=(0.45, 0.45, 0.45), smooth=True)
+    light("Sun", "SUN", 3.0, (0, 0, 5), rotation=(0.7, 0.2, 0.6))
+    light("Point", "POINT", 300.0, (-2.0, -2.0, 2.5), shadow_soft_size=0.0)
+    world((0.35, 0.35, 0.35))
+    camera((0.0, -5.5, 2.2), (0, 0.2, 0.45), lens=40)
+    settings(sc, 256, 256, 64, max_depth=16)
+
+
+def sss_cornell():
+    sc = reset()
+    white = principled("White", (0.73, 0.73, 0.73), Roughness=1.0)
+    red = principled("Red", (0.63, 0.065, 0.05), Roughness=1.0)
+    green = principled("Green", (0.14, 0.45, 0.09), Roughness=1.0)
+    s = 1.0
+    obj("Floor", grid(s, s), white, location=(0, 0, 0))
+    obj("Ceiling", grid(s, s), white, location=(0, 0, s), rotation=(math.pi, 0, 0))
+    obj("Back", grid(s, s), white, location=(0, s / 2, s / 2), rotation=(math.pi / 2, 0, 0))
+    obj("Left", grid(s, s), red, location=(-s / 2, 0, s / 2), rotation=(0, math.pi / 2, 0))
+    obj("Right", grid(s, s), green, location=(s / 2, 0, s / 2), rotation=(0, -math.pi / 2, 0))
+    # Principled subsurface (radius in m; Subsurface Scale 1): skin-, marble- and jade-like.
+    for i, (name, colour, radius, method) in enumerate((
+            ("Skin", (0.85, 0.55, 0.45), (0.05, 0.02, 0.012), "BURLEY"),
+            ("Marble", (0.83, 0.79, 0.75), (0.03, 0.03, 0.025), "BURLEY"),
+            ("Jade", (0.35, 0.7, 0.4), (0.02, 0.05, 0.025), "RANDOM_WALK"))):
+        m = principled(name, colour, Roughness=0.3)
+        node = m.node_tree.nodes["Principled BSDF"]
+        node.subsurface_method = method
+        node.inputs["Subsurface Weight"].default_value = 1.0
+        node.inputs["Subsurface Radius"].default_value = radius
+        node.inputs["Subsurface Scale"].default_value = 1.0
+        build = monkey if i == 1 else sphere(0.14)
+        obj(name + "Object", build, m, location=(-0.28 + 0.28 * i, -0.05 + 0.1 * (i % 2), 0.15),
+            scale=(0.22, 0.22, 0.22) if i == 1 else (1, 1, 1), smooth=True)
+    light("Ceiling light", "AREA", 6.0, (0, 0, s - 0.002), shape="SQUARE", size=0.25)
+    world((0.0, 0.0, 0.0))
+    camera((0, -2.3, 0.5), (0, 0, 0.5), lens=38)
+    settings(sc, 256, 256, 64, max_depth=16)
+
+
+def many_lights():
+    sc = reset()
+    import random
+    rng = random.Random(7)
+    obj("Floor", grid(12, 12), principled("Floor", (0.5, 0.5, 0.5), Roughness=0.6))
+    for i in range(12):
+        x, y = rng.uniform(-4.5, 4.5), rng.uniform(-4.5, 4.5)
+        obj("Ball%d" % i, sphere(0.3), principled("Ball%d" % i, (rng.uniform(0.2, 0.9), rng.uniform(0.2, 0.9), rng.uniform(0.2, 0.9)),
+            Roughness=rng.uniform(0.2, 0.8)), location=(x, y, 0.3), smooth=True)
+    for j in range(20):
+        for i in range(20):
+            colour = (rng.uniform(0.2, 1.0), rng.uniform(0.2, 1.0), rng.uniform(0.2, 1.0))
+            strength = rng.uniform(5.0, 40.0)
+            m = material("Panel%d_%d" % (i, j), "ShaderNodeEmission", colour, Strength=strength)
+            obj("Panel%d_%d" % (i, j), grid(0.08, 0.08), m, location=(-4.75 + 0.5 * i, -4.75 + 0.5 * j, rng.uniform(0.6, 1.6)),
+                rotation=(math.pi, 0, 0))
+    for k, (x, y) in enumerate(((-3, -3), (3, -3), (-3, 3), (3, 3))):
+        light("Point%d" % k, "POINT", 30.0, (x, y, 1.0), shadow_soft_size=0.0)
+    world((0.0, 0.0, 0.0))
+    camera((0.0, -7.5, 3.0), (0, -1.0, 0.0), lens=30)
+    settings(sc, 256, 256, 64, max_depth=16)
+
+
+SCENES = {f.__name__: f for f in (sss_vs_diffuse, sss_presets, rough_glass, diamond, rgb_vs_spectral, everyday,
+                                  sss_cornell, many_lights)}
 
 
 def main():

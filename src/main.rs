@@ -6,6 +6,7 @@ use prism::error::{PrismError, Result};
 use prism::film::{ExrCompression, FilterKind, PixelFilter};
 use prism::integrator::{WavelengthPdf, WavelengthSampling, WavelengthStrategy};
 use prism::render::{render, Progress, RenderSettings, RenderStats};
+use prism::sampler::SamplerKind;
 use prism::scene::{load_scene, Scene};
 use prism::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
 use std::io::{IsTerminal, Write};
@@ -84,6 +85,16 @@ struct SceneArgs {
     /// blackman-harris +-w (default: the JSON's render.filter.width, else 1.5)
     #[arg(long)]
     filter_width: Option<f32>,
+    /// Random numbers: sobol (Owen-scrambled Sobol, blue-noise pixel order) or independent
+    /// (PCG, for comparisons). Default: the JSON's render.sampler, else sobol
+    #[arg(long, value_enum)]
+    sampler: Option<SamplerArg>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum SamplerArg {
+    Sobol,
+    Independent,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -306,6 +317,15 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings, f64)> {
         },
         guides: false,
         filter,
+        sampler: match args.sampler {
+            Some(SamplerArg::Sobol) => SamplerKind::Sobol,
+            Some(SamplerArg::Independent) => SamplerKind::Independent,
+            None => defaults
+                .sampler
+                .as_deref()
+                .and_then(SamplerKind::from_name)
+                .unwrap_or_default(),
+        },
     };
     if settings.width == 0
         || settings.height == 0
@@ -511,6 +531,7 @@ fn run_bench(bench: &BenchArgs) -> Result<()> {
         filter: None,
         filter_width: None,
         bvh_cache: None,
+        sampler: None,
     };
     let (scene, settings, _) = load(&args)?;
     for &t in threads {

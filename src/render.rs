@@ -6,7 +6,7 @@
 use crate::film::{Film, PixelFilter};
 use crate::geometry::Ray;
 use crate::integrator::{PathTracer, WavelengthSampling};
-use crate::sampler::Sampler;
+use crate::sampler::{ImageSampler, SamplerKind};
 use crate::scene::Scene;
 use crate::spectrum::cie::d65_normalized;
 use crate::spectrum::{spectrum_to_xyz, SampledSpectrum};
@@ -28,6 +28,8 @@ pub struct RenderSettings {
     pub guides: bool,
     /// Pixel reconstruction filter (default: Blackman–Harris 1.5 px, as Cycles).
     pub filter: PixelFilter,
+    /// Where the path's random numbers come from (default: Owen-scrambled Sobol).
+    pub sampler: SamplerKind,
 }
 
 impl Default for RenderSettings {
@@ -41,6 +43,7 @@ impl Default for RenderSettings {
             wavelengths: WavelengthSampling::default(),
             guides: false,
             filter: PixelFilter::default(),
+            sampler: SamplerKind::default(),
         }
     }
 }
@@ -101,6 +104,7 @@ pub fn render(
     let camera = scene.camera_for(settings.width, settings.height);
     let forward = camera.forward();
     let tracer = PathTracer::new(scene, settings.max_depth);
+    let image_sampler = ImageSampler::new(settings.sampler, settings.spp, settings.seed);
     let total = (w * h) as u64 * settings.spp as u64;
     let samples_done = AtomicU64::new(0);
     let rays = AtomicU64::new(0);
@@ -152,19 +156,15 @@ pub fn render(
                             break;
                         }
                         let index = band * w * BAND_ROWS + i;
-                        let (x, y) = ((index % w) as f32, (index / w) as f32);
+                        let (px_x, px_y) = ((index % w) as u32, (index / w) as u32);
+                        let pixel_sampler = image_sampler.pixel(px_x, px_y, w as u32);
+                        let (x, y) = (px_x as f32, px_y as f32);
                         for sample in s0..s1 {
-                            let mut sampler =
-                                Sampler::new(index as u64, sample as u64, settings.seed);
-                            let wavelengths = settings.wavelengths.sample(
-                                index as u64,
-                                sample as u64,
-                                settings.seed,
-                                &mut sampler,
-                            );
-                            let raster =
-                                Vec2::new(x, y) + settings.filter.sample_2d(sampler.next_2d());
-                            let ray: Ray = camera.generate_ray(raster, sampler.next_2d());
+                            let mut sampler = pixel_sampler.sample(sample);
+                            let (u_filter, u_lens) = sampler.camera();
+                            let wavelengths = settings.wavelengths.sample(&mut sampler);
+                            let raster = Vec2::new(x, y) + settings.filter.sample_2d(u_filter);
+                            let ray: Ray = camera.generate_ray(raster, u_lens);
                             let result = tracer.radiance(ray, &wavelengths, &mut sampler);
                             band_rays += result.rays as u64;
                             if !px.add(spectrum_to_xyz(&result.radiance, &wavelengths)) {

@@ -101,6 +101,7 @@ impl<'a> PathTracer<'a> {
         let mut guide_tint = SampledSpectrum::ONE;
 
         for depth in 0..=self.max_depth {
+            sampler.start_bounce(depth);
             rays += 1;
             let next_hit = match walk_medium {
                 // Inside a random-walk medium: free flights until the walk reaches a surface,
@@ -191,7 +192,7 @@ impl<'a> PathTracer<'a> {
                 &scene.textures,
                 sp.uv,
                 &alive,
-                sampler.next_1d(),
+                sampler.material_component(),
                 walk_medium.is_some(),
             );
             // The path reached the boundary of the random-walk medium it travels in: light
@@ -249,8 +250,7 @@ impl<'a> PathTracer<'a> {
             }
 
             // Next-event estimation.
-            let u_light = sampler.next_1d();
-            let u_light2 = sampler.next_2d();
+            let (u_light2, u_light) = sampler.light();
             if !bsdf.is_specular() && walk_exit.is_none() {
                 if let Some(ls) = lights.sample(
                     geometry,
@@ -319,10 +319,13 @@ impl<'a> PathTracer<'a> {
                     transmission: true,
                     pdf_wavelengths: SampledSpectrum::ONE,
                 },
-                _ => match bsdf.sample(wo, sampler.next_1d(), sampler.next_2d()) {
-                    Some(bs) => bs,
-                    None => break,
-                },
+                _ => {
+                    let (u_lobe, u_dir) = sampler.bsdf();
+                    match bsdf.sample(wo, u_lobe, u_dir) {
+                        Some(bs) => bs,
+                        None => break,
+                    }
+                }
             };
             if !(bs.pdf > 0.0) || bs.f.is_black() {
                 break;
@@ -369,9 +372,7 @@ impl<'a> PathTracer<'a> {
                     beta *= d.eta * d.eta;
                 }
                 let bssrdf = ss.bssrdf(&alive);
-                let u_axis = sampler.next_1d();
-                let u_disk = sampler.next_2d();
-                let u_hit = sampler.next_1d();
+                let (u_axis, u_disk, u_hit) = sampler.subsurface_probe();
                 rays += 1;
                 let Some(probe) =
                     bssrdf.sample_probe(geometry, sp.material, sp.p, &frame, u_axis, u_disk, u_hit)
@@ -433,8 +434,7 @@ impl<'a> PathTracer<'a> {
             }
             if let Some((p_exit, ng_i, frame_i, lobe)) = exit {
                 // Next-event estimation at the exit point with the exit lobe.
-                let u_light = sampler.next_1d();
-                let u_light2 = sampler.next_2d();
+                let (u_light2, u_light) = sampler.exit_light();
                 if let Some(ls) = lights.sample(
                     geometry,
                     &scene.materials,
@@ -459,7 +459,7 @@ impl<'a> PathTracer<'a> {
                         }
                     }
                 }
-                let wi = lobe.sample(sampler.next_2d());
+                let wi = lobe.sample(sampler.exit_lobe());
                 let pdf = lobe.pdf(wi.z);
                 if !(pdf > 0.0) {
                     break;
@@ -483,7 +483,7 @@ impl<'a> PathTracer<'a> {
                 let rr = mis.mean_weight(beta) * eta_scale;
                 if rr < 1.0 {
                     let q = (1.0 - rr).clamp(0.0, 0.95);
-                    if sampler.next_1d() < q {
+                    if sampler.russian_roulette() < q {
                         break;
                     }
                     beta /= 1.0 - q;

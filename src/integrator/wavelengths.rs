@@ -6,13 +6,16 @@
 //!   "which one was the hero" techniques (see `integrator::spectral_mis`).
 //! * `Single`: one wavelength per path, drawn independently for every sample.
 //! * `Stratified`: one wavelength per path; the wavelengths of successive samples of a pixel
-//!   are stratified over the spectrum (a per-pixel rotated van der Corput sequence), the
-//!   method of the report this project grew from (Evans and McCool 1999).
+//!   are stratified over the spectrum (the sampler's wavelength dimension), the method of the
+//!   report this project grew from (Evans and McCool 1999).
+//!
+//! `Hero` and `Stratified` take the hero's primary sample from the sampler's wavelength
+//! dimension (stratified over a pixel's samples with the low-discrepancy sampler).
 //!
 //! All three draw from the same wavelength density (`WavelengthPdf`): the visible-range
 //! importance density of `spectrum::sampled` or uniform over 360-830 nm.
 
-use crate::sampler::{stratified_per_pixel, Sampler};
+use crate::sampler::Sampler;
 use crate::spectrum::SampledWavelengths;
 pub use crate::spectrum::WavelengthPdf;
 
@@ -56,30 +59,21 @@ pub struct WavelengthSampling {
 }
 
 impl WavelengthSampling {
-    /// Wavelengths of sample `sample` of pixel `pixel`. `sampler` supplies the independent
-    /// random number of `Single` (drawn before any other dimension of the path).
-    pub fn sample(
-        &self,
-        pixel: u64,
-        sample: u64,
-        seed: u64,
-        sampler: &mut Sampler,
-    ) -> SampledWavelengths {
+    /// Wavelengths of the path `sampler` belongs to. `Single` draws an independent value.
+    pub fn sample(&self, sampler: &mut Sampler) -> SampledWavelengths {
         if let Some(lambda) = self.fixed {
             return SampledWavelengths::fixed(lambda);
         }
         match self.strategy {
-            WavelengthStrategy::Hero => SampledWavelengths::sample_hero(
-                stratified_per_pixel(pixel, sample, seed, 0),
-                self.pdf,
-            ),
+            WavelengthStrategy::Hero => {
+                SampledWavelengths::sample_hero(sampler.wavelength(), self.pdf)
+            }
             WavelengthStrategy::Single => {
                 SampledWavelengths::sample_single(sampler.next_1d(), self.pdf)
             }
-            WavelengthStrategy::Stratified => SampledWavelengths::sample_single(
-                stratified_per_pixel(pixel, sample, seed, 0),
-                self.pdf,
-            ),
+            WavelengthStrategy::Stratified => {
+                SampledWavelengths::sample_single(sampler.wavelength(), self.pdf)
+            }
         }
     }
 }

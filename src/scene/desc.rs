@@ -285,6 +285,8 @@ pub struct RenderDefaults {
     /// `render.filter`: pixel filter type ("box" | "gaussian" | "blackman_harris") and width in
     /// pixels (Cycles' convention; validated by the sidecar parser).
     pub filter: Option<(String, f32)>,
+    /// `render.sampler`: "sobol" or "independent" (validated by the sidecar parser).
+    pub sampler: Option<String>,
 }
 
 #[derive(Clone, Debug, Default)]

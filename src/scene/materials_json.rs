@@ -49,7 +49,8 @@
 //!   the view axis, > 0), both required. Without the block the camera is a pinhole.
 //! * `render`: `spp`, `width`, `height` (positive integers), `max_depth` (integer >= 0),
 //!   `wavelengths` (`"hero"` | `"single"` | `"stratified"`), `wavelength_pdf` (`"visible"` |
-//!   `"uniform"`).
+//!   `"uniform"`), `sampler` (`"sobol"`, the default: Owen-scrambled Sobol with blue-noise
+//!   pixel ordering | `"independent"`: independent random numbers, for comparisons).
 //!
 //! Validation is strict and every error is one line:
 //! `<file>: <json path, e.g. materials.Skin.subsurface.sigma_a[1]>: <what is wrong>`
@@ -91,6 +92,7 @@ pub const SUBSURFACE_PRESETS: &[&str] = &[
 pub const WAVELENGTH_MODES: &[&str] = &["hero", "single", "stratified"];
 
 use crate::film::filter::{FilterKind, MAX_FILTER_WIDTH};
+use crate::sampler::SamplerKind;
 
 /// Accepted values of `render.wavelength_pdf`.
 pub const WAVELENGTH_PDFS: &[&str] = &["visible", "uniform"];
@@ -833,6 +835,7 @@ impl Validator<'_> {
                 "wavelengths",
                 "wavelength_pdf",
                 "filter",
+                "sampler",
             ],
             path,
         )?;
@@ -873,6 +876,13 @@ impl Validator<'_> {
             filter: m
                 .get("filter")
                 .map(|f| self.filter(f, &path.key("filter")))
+                .transpose()?,
+            sampler: m
+                .get("sampler")
+                .map(|x| {
+                    self.string(x, &path.key("sampler"), SamplerKind::NAMES, "sampler")
+                        .map(str::to_string)
+                })
                 .transpose()?,
         })
     }
