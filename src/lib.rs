@@ -9,6 +9,7 @@ pub mod error;
 pub mod film;
 pub mod geometry;
 pub mod integrator;
+pub mod lights;
 pub mod math;
 pub mod render;
 pub mod sampler;

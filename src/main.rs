@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use prism::error::{PrismError, Result};
 use prism::film::{ExrCompression, FilterKind, PixelFilter};
 use prism::integrator::{WavelengthPdf, WavelengthSampling, WavelengthStrategy};
+use prism::lights::LightSelection;
 use prism::render::{render, Progress, RenderSettings, RenderStats};
 use prism::sampler::SamplerKind;
 use prism::scene::{load_scene, Scene};
@@ -89,6 +90,17 @@ struct SceneArgs {
     /// (PCG, for comparisons). Default: the JSON's render.sampler, else sobol
     #[arg(long, value_enum)]
     sampler: Option<SamplerArg>,
+    /// How next-event estimation chooses a light: tree (a light tree: by each light's estimated
+    /// irradiance at the shading point) or power (by emitted power, for comparisons). Default:
+    /// the JSON's render.light_sampler, else tree
+    #[arg(long, value_enum)]
+    light_sampler: Option<LightSamplerArg>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum LightSamplerArg {
+    Tree,
+    Power,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -326,6 +338,15 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings, f64)> {
                 .and_then(SamplerKind::from_name)
                 .unwrap_or_default(),
         },
+        light_selection: match args.light_sampler {
+            Some(LightSamplerArg::Tree) => LightSelection::Tree,
+            Some(LightSamplerArg::Power) => LightSelection::Power,
+            None => defaults
+                .light_sampler
+                .as_deref()
+                .and_then(LightSelection::from_name)
+                .unwrap_or_default(),
+        },
     };
     if settings.width == 0
         || settings.height == 0
@@ -532,6 +553,7 @@ fn run_bench(bench: &BenchArgs) -> Result<()> {
         filter_width: None,
         bvh_cache: None,
         sampler: None,
+        light_sampler: None,
     };
     let (scene, settings, _) = load(&args)?;
     for &t in threads {

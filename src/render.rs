@@ -6,6 +6,7 @@
 use crate::film::{Film, PixelFilter};
 use crate::geometry::Ray;
 use crate::integrator::{PathTracer, WavelengthSampling};
+use crate::lights::LightSelection;
 use crate::sampler::{ImageSampler, SamplerKind};
 use crate::scene::Scene;
 use crate::spectrum::cie::d65_normalized;
@@ -30,6 +31,8 @@ pub struct RenderSettings {
     pub filter: PixelFilter,
     /// Where the path's random numbers come from (default: Owen-scrambled Sobol).
     pub sampler: SamplerKind,
+    /// How next-event estimation chooses a light (default: the light tree).
+    pub light_selection: LightSelection,
 }
 
 impl Default for RenderSettings {
@@ -44,6 +47,7 @@ impl Default for RenderSettings {
             guides: false,
             filter: PixelFilter::default(),
             sampler: SamplerKind::default(),
+            light_selection: LightSelection::default(),
         }
     }
 }
@@ -103,7 +107,7 @@ pub fn render(
     film.write_guides = settings.guides;
     let camera = scene.camera_for(settings.width, settings.height);
     let forward = camera.forward();
-    let tracer = PathTracer::new(scene, settings.max_depth);
+    let tracer = PathTracer::new(scene, settings.max_depth, settings.light_selection);
     let image_sampler = ImageSampler::new(settings.sampler, settings.spp, settings.seed);
     let total = (w * h) as u64 * settings.spp as u64;
     let samples_done = AtomicU64::new(0);

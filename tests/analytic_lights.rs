@@ -67,6 +67,7 @@ fn light(kind: PunctualKind, intensity: f32, position: Vec3, direction: Vec3) ->
         intensity,
         position,
         direction,
+        angle: 0.0,
     }
 }
 

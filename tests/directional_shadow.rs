@@ -92,6 +92,7 @@ fn render_mean(occluder: Occluder) -> Vec3 {
             intensity: 3.0,
             position: Vec3::ZERO,
             direction: -Vec3::Y,
+            angle: 0.0,
         }],
         camera: Some(cam),
         instance_visibility,

@@ -21,13 +21,26 @@ mod gltf_builder;
 use common::scenes::{diffuse_material, furnace_scene};
 use glam::{Mat4, Vec2, Vec3};
 use gltf_builder::{test_dir, GltfBuilder};
+use prism::lights::envmap::EnvironmentMap;
+use prism::lights::{LightSelection, ShadingContext};
 use prism::render::{render_quiet, RenderSettings};
-use prism::scene::envmap::EnvironmentMap;
 use prism::scene::{load_scene, EnvironmentTextureDesc, Scene, SceneDesc, WorldDesc};
-use prism::spectrum::SampledWavelengths;
+use prism::spectrum::{SampledSpectrum, SampledWavelengths};
 use serde_json::json;
 use stats::{chi2_test, Pcg32};
 use std::f64::consts::PI;
+
+/// A shading point at the origin that receives from every direction.
+const ORIGIN: ShadingContext = ShadingContext {
+    p: Vec3::ZERO,
+    n: None,
+};
+
+/// Density with which light sampling at the origin produces the escaping direction `d`
+/// through the world (the world is the scene's last light).
+fn environment_pdf(lights: &prism::lights::Lights, d: Vec3) -> f32 {
+    lights.infinite_pdf(&ORIGIN, lights.len() - 1, d, LightSelection::Tree)
+}
 
 /// A 32 x 16 map with a bright spot, a gradient, a black band and strong colour differences.
 fn test_texture(rotation_z: f32) -> EnvironmentTextureDesc {
@@ -113,23 +126,25 @@ fn environment_sampling_matches_its_pdf_chi_square() {
             &scene.geometry,
             &scene.materials,
             &scene.textures,
-            Vec3::ZERO,
+            &ORIGIN,
             rng.next_f32(),
             u,
             &w,
+            LightSelection::Tree,
         ) else {
             failures += 1;
             continue;
         };
         if k % 16 == 0 {
-            let p = lights.environment_pdf(ls.wi);
+            let p = environment_pdf(lights, ls.wi);
             assert!(
                 (p - ls.pdf).abs() <= 2e-3 * p.max(ls.pdf),
                 "sample pdf {} vs environment_pdf {p} at {}",
                 ls.pdf,
                 ls.wi
             );
-            let le = lights.environment_radiance(ls.wi, &w);
+            let mut le = SampledSpectrum::ZERO;
+            lights.for_each_at_infinity(ls.wi, &w, |_, l| le += l);
             for i in 0..4 {
                 assert!((le.0[i] - ls.li.0[i]).abs() <= 1e-5 * le.0[i].max(1e-3));
             }
@@ -149,7 +164,7 @@ fn environment_sampling_matches_its_pdf_chi_square() {
             );
             let d = map.uv_to_direction(uv);
             let sin_theta = (PI * uv.y as f64).sin();
-            let prob = lights.environment_pdf(d) as f64 * 2.0 * PI * PI * sin_theta
+            let prob = environment_pdf(lights, d) as f64 * 2.0 * PI * PI * sin_theta
                 / (w_bins * h_bins) as f64;
             expected.push(prob * SAMPLES as f64);
         }
@@ -174,7 +189,7 @@ fn environment_sampling_matches_its_pdf_chi_square() {
         for b in 0..n {
             let theta = PI * (a as f64 + 0.5) / n as f64;
             let phi = 2.0 * PI * (b as f64 + 0.5) / n as f64;
-            integral += lights.environment_pdf(dir(theta.cos(), phi)) as f64 * theta.sin();
+            integral += environment_pdf(lights, dir(theta.cos(), phi)) as f64 * theta.sin();
         }
     }
     integral *= 2.0 * PI * PI / (n * n) as f64;
@@ -213,10 +228,11 @@ fn environment_samples_concentrate_on_the_bright_spot() {
             &scene.geometry,
             &scene.materials,
             &scene.textures,
-            Vec3::ZERO,
+            &ORIGIN,
             0.5,
             u,
             &w,
+            LightSelection::Tree,
         ) {
             if ls.wi.dot(spot) > 0.9 {
                 near += 1;

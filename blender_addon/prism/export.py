@@ -8,7 +8,8 @@ file itself from the depsgraph with numpy foreach_get.
 Units (so that Prism renders what Cycles renders; Prism's README "Units"):
 - point/spot light of P W: KHR_lights_punctual intensity = P / (4 pi) * 683 cd (Prism divides
   by 683), spot cone: outer = spot_size / 2, inner = outer - outer * spot_blend;
-- sun of strength S: intensity = S * 683 lux;
+- sun of strength S: intensity = S * 683 lux; its angle (angular diameter) -> the light's
+  extras.prism_angle (radians): a disc of directions of the same irradiance, as Cycles' sun;
 - area light of P W and world-space area A: a one-sided emissive mesh facing the light's -Z
   with radiance P / (pi A) (Cycles' Lambertian area light; checked by the parity test);
 - emission colour x strength is radiance (emissiveFactor x KHR_materials_emissive_strength);
@@ -817,6 +818,11 @@ class Exporter:
                 light["spot"] = {"outerConeAngle": outer, "innerConeAngle": outer - outer * L.spot_blend}
         elif L.type == "SUN":
             light = {"type": "directional", "color": col, "intensity": L.energy * WATTS_TO_LUMENS}
+            # The sun's angular diameter (a soft sun: its disc is seen in glossy reflections and
+            # BSDF samples can hit it, as in Cycles); glTF has no field for it.
+            angle = float(getattr(L, "angle", 0.0))
+            if angle > 0.0:
+                light["extras"] = {"prism_angle": min(angle, math.pi)}
         elif L.type == "AREA":
             self._add_area_light(ob, matrix)
             return

@@ -3,11 +3,11 @@
 
 use super::camera::Camera;
 use super::desc::{CameraDesc, MaterialDesc, RenderDefaults, SceneDesc, TextureDesc};
-use super::envmap::EnvironmentMap;
-use super::lights::{Lights, World};
 use super::material::Material;
 use crate::error::{PrismError, Result};
 use crate::geometry::{Geometry, Instance, Mesh};
+use crate::lights::envmap::EnvironmentMap;
+use crate::lights::{Lights, World};
 use glam::{Affine3A, Vec3};
 use rayon::prelude::*;
 

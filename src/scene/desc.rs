@@ -213,6 +213,9 @@ pub struct PunctualLightDesc {
     pub position: Vec3,
     /// Direction the light points to (spot axis, directional travel direction), unit length.
     pub direction: Vec3,
+    /// Angular diameter of a directional light (radians; Blender's sun angle): 0 for a
+    /// parallel light, else a disc of directions (`lights::SunDisc`).
+    pub angle: f32,
 }
 
 #[derive(Clone, Debug)]
@@ -240,7 +243,7 @@ pub struct LensDesc {
     pub focus_distance: f32,
 }
 
-/// An equirectangular world texture (see `crate::scene::envmap` for the mapping).
+/// An equirectangular world texture (see `crate::lights::envmap` for the mapping).
 #[derive(Clone, Debug)]
 pub struct EnvironmentTextureDesc {
     /// The file, for messages.
@@ -287,6 +290,8 @@ pub struct RenderDefaults {
     pub filter: Option<(String, f32)>,
     /// `render.sampler`: "sobol" or "independent" (validated by the sidecar parser).
     pub sampler: Option<String>,
+    /// `render.light_sampler`: "tree" or "power" (validated by the sidecar parser).
+    pub light_sampler: Option<String>,
 }
 
 #[derive(Clone, Debug, Default)]

@@ -640,6 +640,26 @@ impl Importer<'_> {
                 "{label}: node '{node_name}' has a degenerate transform (no direction)"
             ));
         };
+        // A directional light's angular diameter (Blender's sun angle), written by the add-on
+        // as the light's `extras.prism_angle` (radians); 0 = a parallel light.
+        let angle = match light.extras().as_ref().map(|raw| {
+            serde_json::from_str::<serde_json::Value>(raw.get())
+                .ok()
+                .and_then(|v| v.get("prism_angle").cloned())
+        }) {
+            Some(Some(v)) => match v.as_f64() {
+                Some(a) if a.is_finite() && (0.0..=std::f64::consts::PI).contains(&a) => a as f32,
+                _ => return Err(format!(
+                    "{label}: extras.prism_angle must be a number of radians from 0 to pi, got {v}"
+                )),
+            },
+            _ => 0.0,
+        };
+        let angle = if kind == PunctualKind::Directional {
+            angle
+        } else {
+            0.0
+        };
         self.scene.lights.push(PunctualLightDesc {
             name,
             kind,
@@ -647,6 +667,7 @@ impl Importer<'_> {
             intensity: gltf_light_intensity_to_prism(intensity),
             position,
             direction,
+            angle,
         });
         Ok(())
     }

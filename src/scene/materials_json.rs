@@ -40,7 +40,7 @@
 //!   block is present). Without a `world` block the world is black with strength 0.
 //!   Optional `texture`: an equirectangular image (`.exr`, `.hdr` or `.png`; a path relative to
 //!   the sidecar's folder, or absolute), in Blender's Environment Texture mapping (see
-//!   `crate::scene::envmap`); the radiance is then texture x `color` x `strength`, `color`
+//!   `crate::lights::envmap`); the radiance is then texture x `color` x `strength`, `color`
 //!   defaulting to white. `rotation_z` (radians, any finite number, needs `texture`): the Z
 //!   rotation of a Blender Mapping node on the texture's vector. Example:
 //!   `"world": {"texture": "sky.exr", "strength": 1.5, "rotation_z": 0.5}`.
@@ -50,7 +50,8 @@
 //! * `render`: `spp`, `width`, `height` (positive integers), `max_depth` (integer >= 0),
 //!   `wavelengths` (`"hero"` | `"single"` | `"stratified"`), `wavelength_pdf` (`"visible"` |
 //!   `"uniform"`), `sampler` (`"sobol"`, the default: Owen-scrambled Sobol with blue-noise
-//!   pixel ordering | `"independent"`: independent random numbers, for comparisons).
+//!   pixel ordering | `"independent"`: independent random numbers, for comparisons),
+//!   `light_sampler` (`"tree"`, the default: a light tree | `"power"`: by emitted power).
 //!
 //! Validation is strict and every error is one line:
 //! `<file>: <json path, e.g. materials.Skin.subsurface.sigma_a[1]>: <what is wrong>`
@@ -92,6 +93,7 @@ pub const SUBSURFACE_PRESETS: &[&str] = &[
 pub const WAVELENGTH_MODES: &[&str] = &["hero", "single", "stratified"];
 
 use crate::film::filter::{FilterKind, MAX_FILTER_WIDTH};
+use crate::lights::LightSelection;
 use crate::sampler::SamplerKind;
 
 /// Accepted values of `render.wavelength_pdf`.
@@ -147,7 +149,7 @@ pub fn load_materials_file(
     if let (Some(tex), Some(world)) = (&parsed.world_texture, parsed.world.as_mut()) {
         let dir = path.parent().unwrap_or(Path::new(""));
         let image_path = dir.join(&tex.path);
-        let image = crate::scene::envmap::load_env_image(&image_path).map_err(|e| {
+        let image = crate::lights::envmap::load_env_image(&image_path).map_err(|e| {
             PrismError::input(format!(
                 "{file}: world.texture: {}: {e}",
                 image_path.display()
@@ -836,6 +838,7 @@ impl Validator<'_> {
                 "wavelength_pdf",
                 "filter",
                 "sampler",
+                "light_sampler",
             ],
             path,
         )?;
@@ -882,6 +885,18 @@ impl Validator<'_> {
                 .map(|x| {
                     self.string(x, &path.key("sampler"), SamplerKind::NAMES, "sampler")
                         .map(str::to_string)
+                })
+                .transpose()?,
+            light_sampler: m
+                .get("light_sampler")
+                .map(|x| {
+                    self.string(
+                        x,
+                        &path.key("light_sampler"),
+                        LightSelection::NAMES,
+                        "light sampler",
+                    )
+                    .map(str::to_string)
                 })
                 .transpose()?,
         })

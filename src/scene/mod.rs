@@ -3,9 +3,7 @@
 pub mod build;
 pub mod camera;
 pub mod desc;
-pub mod envmap;
 pub mod gltf_import;
-pub mod lights;
 pub mod load;
 pub mod material;
 pub mod materials_json;

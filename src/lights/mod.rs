@@ -1,0 +1,742 @@
+//! Light sources and their sampling for next-event estimation: emissive triangles (area
+//! lights), KHR_lights_punctual (point, spot, directional with an optional angular diameter)
+//! and the world (a uniform colour or an equirectangular environment map, `envmap`).
+//!
+//! **Choosing a light** (`LightSelection::Tree`, the default) depends on the shading point:
+//! the bounded lights (triangles, points, spots) are organised in a light tree (`tree`) whose
+//! nodes' importances estimate the irradiance they can deliver there; the distant lights (the
+//! suns and the world) get their own irradiance estimates (E cos theta for a sun, pi x the
+//! mean radiance for the world). The first choice is made, in proportion to importance,
+//! among the distant lights and the nodes of the tree's top cut; a tree node then descends to
+//! a light. `pmf` repeats the same arithmetic for MIS. `LightSelection::Power` picks in
+//! proportion to each light's emitted power everywhere (the estimator before the tree, kept
+//! for comparison).
+//!
+//! **The world** with an environment texture is sampled from its importance map. A uniform
+//! world is not sampled at all: its radiance is the same in every direction, so BSDF sampling
+//! alone is already the ideal estimator for it (for a diffuse surface, cosine sampling is
+//! exactly proportional to the integrand; MIS with a second, equally good technique would only
+//! spend a shadow ray and take light samples away from the other lights). Cycles does the same
+//! for a constant world (measured: the same image with world sampling "None" and "Auto").
+
+pub mod envmap;
+pub mod tree;
+
+use crate::geometry::Geometry;
+use crate::math::{sampling, DiscreteDistribution, Frame, PI};
+use crate::scene::desc::{PunctualKind, PunctualLightDesc, TextureDesc};
+use crate::scene::material::Material;
+use crate::spectrum::{RgbIlluminantSpectrum, SampledSpectrum, SampledWavelengths};
+use envmap::EnvironmentMap;
+use glam::{Vec2, Vec3, Vec4Swizzles};
+pub use tree::{LightBounds, LightTree, ShadingContext};
+
+/// How next-event estimation chooses a light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum LightSelection {
+    /// Light tree + distant lights by their importance at the shading point.
+    #[default]
+    Tree,
+    /// In proportion to emitted power, the same everywhere.
+    Power,
+}
+
+impl LightSelection {
+    pub const NAMES: &'static [&'static str] = &["tree", "power"];
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "tree" => Some(Self::Tree),
+            "power" => Some(Self::Power),
+            _ => None,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Tree => "tree",
+            Self::Power => "power",
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub enum Light {
+    /// One emissive triangle of a placed mesh.
+    Triangle { instance: u32, prim: u32 },
+    Point {
+        position: Vec3,
+        intensity: RgbIlluminantSpectrum,
+    },
+    Spot {
+        position: Vec3,
+        frame: Frame,
+        cos_outer: f32,
+        /// Width in cosine of the smooth edge (Blender's spot blend).
+        cos_smooth: f32,
+        intensity: RgbIlluminantSpectrum,
+    },
+    /// Parallel light travelling along -`to_light`, or (with an angular diameter, Blender's
+    /// sun angle) a disc of directions around `to_light` whose irradiance at normal incidence
+    /// is the same.
+    Directional {
+        to_light: Vec3,
+        irradiance: RgbIlluminantSpectrum,
+        disc: Option<SunDisc>,
+    },
+    /// The world: its data is `Lights::world`.
+    Environment,
+}
+
+/// A sun of finite angular size: a cone of directions of half-angle theta around `to_light`,
+/// of uniform radiance E / (pi sin^2 theta), so that the irradiance it delivers at normal
+/// incidence is E (the integral of L cos over the cone).
+#[derive(Clone, Copy, Debug)]
+pub struct SunDisc {
+    frame: Frame,
+    cos_max: f32,
+    /// 1 - cos(theta), computed as 2 sin^2(theta / 2) (the cone of a 0.5 degree sun is too thin
+    /// for 1 - cos in f32).
+    one_minus_cos: f32,
+    /// Radiance per unit irradiance: 1 / (pi sin^2 theta).
+    radiance_scale: f32,
+}
+
+impl SunDisc {
+    fn new(to_light: Vec3, angle: f32) -> Option<Self> {
+        let half = 0.5 * angle.clamp(0.0, PI);
+        if !(half > 1e-6) {
+            return None;
+        }
+        let one_minus_cos = 2.0 * (0.5 * half).sin().powi(2);
+        let sin2 = half.sin().powi(2);
+        Some(SunDisc {
+            frame: Frame::from_normal(to_light),
+            cos_max: half.cos(),
+            one_minus_cos,
+            radiance_scale: 1.0 / (PI * sin2.max(1e-12)),
+        })
+    }
+
+    fn contains(&self, dir: Vec3) -> bool {
+        // 1 - cos(angle to the axis) <= 1 - cos_max, computed without cancellation.
+        let d = (dir - self.frame.n).length_squared();
+        0.5 * d <= self.one_minus_cos
+    }
+
+    fn pdf(&self) -> f32 {
+        1.0 / (2.0 * PI * self.one_minus_cos)
+    }
+
+    fn sample(&self, u: Vec2) -> Vec3 {
+        let one_minus = u.x * self.one_minus_cos;
+        let cos_theta = 1.0 - one_minus;
+        let sin_theta = (one_minus * (2.0 - one_minus)).max(0.0).sqrt();
+        let phi = 2.0 * PI * u.y;
+        self.frame.to_world(Vec3::new(
+            sin_theta * phi.cos(),
+            sin_theta * phi.sin(),
+            cos_theta,
+        ))
+    }
+}
+
+/// What the world emits.
+pub enum World {
+    Black,
+    /// Uniform radiance from every direction (linear RGB, colour x strength).
+    Uniform(Vec3),
+    /// An equirectangular environment map (colour x strength already applied).
+    Map(Box<EnvironmentMap>),
+}
+
+enum WorldLight {
+    Uniform(RgbIlluminantSpectrum),
+    Map(Box<EnvironmentMap>),
+}
+
+/// A sampled light direction as seen from a shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    pub wi: Vec3,
+    /// Shadow-ray extent along `wi` (INFINITY for lights at infinity).
+    pub distance: f32,
+    /// Incident radiance (or, for delta lights, intensity / distance^2 or irradiance).
+    pub li: SampledSpectrum,
+    /// Solid-angle density including the light-selection probability (delta lights: the
+    /// selection probability alone).
+    pub pdf: f32,
+    pub delta: bool,
+}
+
+pub struct Lights {
+    lights: Vec<Light>,
+    /// Power-proportional selection (`LightSelection::Power`).
+    power: DiscreteDistribution,
+    /// The tree over the bounded lights (indices into `lights`), if any.
+    tree: Option<LightTree>,
+    /// Distant lights (suns and the world): index into `lights` and irradiance scale
+    /// (luminance of E for a sun, pi x mean radiance for the world).
+    distant: Vec<(u32, f32)>,
+    /// For each light, its position in `distant` (u32::MAX for bounded lights).
+    distant_slot: Vec<u32>,
+    /// First light index of each instance's triangles (u32::MAX: the instance does not emit).
+    instance_base: Vec<u32>,
+    /// Index of the world in `lights` and its emission.
+    environment: Option<(usize, WorldLight)>,
+    scene_radius: f32,
+}
+
+fn luminance(rgb: Vec3) -> f32 {
+    0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z
+}
+
+fn mean_texture_rgb(tex: &TextureDesc) -> Vec3 {
+    if tex.texels.is_empty() {
+        return Vec3::ONE;
+    }
+    tex.texels.iter().map(|t| t.xyz()).sum::<Vec3>() / tex.texels.len() as f32
+}
+
+/// Cycles' spot-light edge: smoothstep over a cosine band of width (1 - cos_outer) * blend,
+/// with blend = 1 - inner/outer (the glTF importer's mapping of the inner cone).
+fn spot_falloff(cos_theta: f32, cos_outer: f32, cos_smooth: f32) -> f32 {
+    if cos_theta <= cos_outer {
+        return 0.0;
+    }
+    if cos_smooth <= 0.0 {
+        return 1.0;
+    }
+    let t = ((cos_theta - cos_outer) / cos_smooth).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+impl Lights {
+    pub fn build(
+        geometry: &Geometry,
+        materials: &[Material],
+        textures: &[TextureDesc],
+        punctual: &[PunctualLightDesc],
+        world: World,
+    ) -> Self {
+        let mut lights = Vec::new();
+        let mut power = Vec::new();
+        // Bounds of each light for the tree (phi = 0: not in the tree).
+        let mut bounds = Vec::new();
+        let none = LightBounds {
+            lo: Vec3::ZERO,
+            hi: Vec3::ZERO,
+            phi: 0.0,
+            axis: Vec3::Z,
+            cos_theta_o: -1.0,
+            cos_theta_e: 0.0,
+        };
+        let mut instance_base = vec![u32::MAX; geometry.instances.len()];
+        for (ii, inst) in geometry.instances.iter().enumerate() {
+            let mesh = &geometry.meshes[inst.mesh as usize];
+            let mat = &materials[mesh.material as usize];
+            if !mat.is_emissive() {
+                continue;
+            }
+            let mut rgb = mat.emissive_rgb();
+            if let Some(t) = mat.emissive_texture() {
+                rgb *= textures.get(t.texture).map_or(Vec3::ONE, mean_texture_rgb);
+            }
+            let two_sided = mat.double_sided();
+            let sides = if two_sided { 2.0 } else { 1.0 };
+            instance_base[ii] = lights.len() as u32;
+            let xf = &inst.object_to_world;
+            for prim in 0..mesh.triangle_count() as u32 {
+                let sp = geometry.surface_point_at(ii as u32, prim, 1.0 / 3.0, 1.0 / 3.0);
+                let v = mesh.vertices(prim as usize).map(|p| xf.transform_point3(p));
+                lights.push(Light::Triangle {
+                    instance: ii as u32,
+                    prim,
+                });
+                power.push(luminance(rgb) * sp.area * PI * sides);
+                bounds.push(LightBounds {
+                    lo: v[0].min(v[1]).min(v[2]),
+                    hi: v[0].max(v[1]).max(v[2]),
+                    phi: luminance(rgb) * sp.area,
+                    axis: sp.ng,
+                    cos_theta_o: if two_sided { -1.0 } else { 1.0 },
+                    cos_theta_e: 0.0,
+                });
+            }
+        }
+        for p in punctual {
+            let rgb = p.color * p.intensity;
+            let spectrum = RgbIlluminantSpectrum::new(rgb);
+            match p.kind {
+                PunctualKind::Point => {
+                    lights.push(Light::Point {
+                        position: p.position,
+                        intensity: spectrum,
+                    });
+                    power.push(4.0 * PI * luminance(rgb));
+                    bounds.push(LightBounds {
+                        lo: p.position,
+                        hi: p.position,
+                        phi: luminance(rgb),
+                        ..none
+                    });
+                }
+                PunctualKind::Spot {
+                    inner_cone,
+                    outer_cone,
+                } => {
+                    let outer = outer_cone.clamp(1e-4, PI / 2.0);
+                    let cos_outer = outer.cos();
+                    let blend = (1.0 - inner_cone.clamp(0.0, outer) / outer).clamp(0.0, 1.0);
+                    let cos_smooth = (1.0 - cos_outer) * blend;
+                    let axis = p.direction.normalize();
+                    lights.push(Light::Spot {
+                        position: p.position,
+                        frame: Frame::from_normal(axis),
+                        cos_outer,
+                        cos_smooth,
+                        intensity: spectrum,
+                    });
+                    power.push(2.0 * PI * (1.0 - cos_outer) * luminance(rgb));
+                    // Full intensity inside theta_o, falling to 0 at the outer cone.
+                    let theta_o = (cos_outer + cos_smooth).min(1.0).acos();
+                    bounds.push(LightBounds {
+                        lo: p.position,
+                        hi: p.position,
+                        phi: luminance(rgb),
+                        axis,
+                        cos_theta_o: theta_o.cos(),
+                        cos_theta_e: (outer - theta_o).max(0.0).cos(),
+                    });
+                }
+                PunctualKind::Directional => {
+                    let to_light = -p.direction.normalize();
+                    lights.push(Light::Directional {
+                        to_light,
+                        irradiance: spectrum,
+                        disc: SunDisc::new(to_light, p.angle),
+                    });
+                    power.push(0.0); // filled below once the scene radius is known
+                    bounds.push(none);
+                }
+            }
+        }
+        let (lo, hi) = geometry.bounds();
+        let scene_radius = if geometry.is_empty() {
+            1.0
+        } else {
+            (0.5 * (hi - lo).length()).max(1e-3)
+        };
+        let mut distant = Vec::new();
+        for (i, (l, p)) in lights.iter().zip(power.iter_mut()).enumerate() {
+            if let Light::Directional { irradiance, .. } = l {
+                let e = luminance_of(irradiance);
+                *p = PI * scene_radius * scene_radius * e;
+                distant.push((i as u32, e));
+            }
+        }
+        // Power of the world through a disk of the scene's radius: pi r^2 x the integral of
+        // the luminance over the sphere.
+        let world = match world {
+            World::Uniform(rgb) if rgb.max_element() > 0.0 && rgb.is_finite() => Some((
+                WorldLight::Uniform(RgbIlluminantSpectrum::new(rgb)),
+                4.0 * PI * luminance(rgb),
+            )),
+            World::Map(map) if map.luminance_integral() > 0.0 => {
+                let l = map.luminance_integral();
+                Some((WorldLight::Map(map), l))
+            }
+            _ => None,
+        };
+        let environment = world.map(|(light, integral)| {
+            let index = lights.len();
+            lights.push(Light::Environment);
+            // A uniform world is left to BSDF sampling (see the module documentation).
+            let sampled = matches!(light, WorldLight::Map(_));
+            power.push(if sampled {
+                PI * scene_radius * scene_radius * integral
+            } else {
+                0.0
+            });
+            bounds.push(none);
+            if sampled {
+                // Irradiance on a plane from a uniform world of the same mean radiance.
+                distant.push((index as u32, PI * integral / (4.0 * PI)));
+            }
+            (index, light)
+        });
+        let mut distant_slot = vec![u32::MAX; lights.len()];
+        for (slot, &(i, _)) in distant.iter().enumerate() {
+            distant_slot[i as usize] = slot as u32;
+        }
+        Lights {
+            power: DiscreteDistribution::new(&power),
+            tree: LightTree::build(&bounds),
+            lights,
+            distant,
+            distant_slot,
+            instance_base,
+            environment,
+            scene_radius,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty()
+    }
+
+    pub fn len(&self) -> usize {
+        self.lights.len()
+    }
+
+    pub fn light(&self, index: usize) -> &Light {
+        &self.lights[index]
+    }
+
+    pub fn scene_radius(&self) -> f32 {
+        self.scene_radius
+    }
+
+    /// Importance of distant light `slot` at `ctx`.
+    fn distant_importance(&self, slot: usize, ctx: &ShadingContext) -> f32 {
+        let (light, e) = self.distant[slot];
+        let Some(n) = ctx.n else {
+            return e;
+        };
+        match &self.lights[light as usize] {
+            Light::Directional { to_light, disc, .. } => {
+                let cos_i = n.dot(*to_light);
+                match disc {
+                    // cos(max(0, theta_i - theta_disc)).
+                    Some(d) => {
+                        let sin_i = (1.0 - cos_i * cos_i).max(0.0).sqrt();
+                        let sin_d = (1.0 - d.cos_max * d.cos_max).max(0.0).sqrt();
+                        let c = if cos_i > d.cos_max {
+                            1.0
+                        } else {
+                            cos_i * d.cos_max + sin_i * sin_d
+                        };
+                        e * c.max(0.0)
+                    }
+                    None => e * cos_i.max(0.0),
+                }
+            }
+            _ => e,
+        }
+    }
+
+    /// Chooses a light for `ctx`: its index and probability (equal to `pmf`).
+    pub fn select(
+        &self,
+        ctx: &ShadingContext,
+        u: f32,
+        selection: LightSelection,
+    ) -> Option<(usize, f32)> {
+        if selection == LightSelection::Power {
+            let (index, p, _) = self.power.sample(u);
+            return (p > 0.0).then_some((index, p));
+        }
+        let mut cut = [0f32; 8];
+        let k = self
+            .tree
+            .as_ref()
+            .map_or(0, |t| t.cut_importances(ctx, &mut cut));
+        let local: f32 = cut[..k].iter().sum();
+        let distant: f32 = (0..self.distant.len())
+            .map(|s| self.distant_importance(s, ctx))
+            .sum();
+        let total = local + distant;
+        if !(total > 0.0) || !total.is_finite() {
+            return None;
+        }
+        let target = u * total;
+        if target < local {
+            let tree = self.tree.as_ref()?;
+            let mut acc = 0.0;
+            for (c, &w) in cut[..k].iter().enumerate() {
+                if w > 0.0 && (target < acc + w || c == k - 1) {
+                    let u_below = ((target - acc) / w).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
+                    let (light, p) = tree.sample_below(c, ctx, u_below)?;
+                    return Some((light as usize, w / total * p));
+                }
+                acc += w;
+            }
+            return None;
+        }
+        let mut acc = local;
+        let last = self.distant.len().checked_sub(1)?;
+        for s in 0..self.distant.len() {
+            let w = self.distant_importance(s, ctx);
+            if w > 0.0 && (target < acc + w || s == last) {
+                return Some((self.distant[s].0 as usize, w / total));
+            }
+            acc += w;
+        }
+        None
+    }
+
+    /// Probability that `select` chooses light `index` at `ctx`.
+    pub fn pmf(&self, ctx: &ShadingContext, index: usize, selection: LightSelection) -> f32 {
+        if selection == LightSelection::Power {
+            return self.power.pmf(index);
+        }
+        let mut cut = [0f32; 8];
+        let k = self
+            .tree
+            .as_ref()
+            .map_or(0, |t| t.cut_importances(ctx, &mut cut));
+        let local: f32 = cut[..k].iter().sum();
+        let distant: f32 = (0..self.distant.len())
+            .map(|s| self.distant_importance(s, ctx))
+            .sum();
+        let total = local + distant;
+        if !(total > 0.0) || !total.is_finite() {
+            return 0.0;
+        }
+        match self.distant_slot.get(index) {
+            Some(&slot) if slot != u32::MAX => self.distant_importance(slot as usize, ctx) / total,
+            Some(_) => match &self.tree {
+                Some(tree) => {
+                    let (c, p) = tree.pmf_below(index as u32, ctx);
+                    cut[c] / total * p
+                }
+                None => 0.0,
+            },
+            None => 0.0,
+        }
+    }
+
+    /// Radiance of the world and of every sun disc seen along the escaping world-space
+    /// direction `dir` (unit): calls `f(light index, radiance)` for each that is not black.
+    pub fn for_each_at_infinity(
+        &self,
+        dir: Vec3,
+        w: &SampledWavelengths,
+        mut f: impl FnMut(usize, SampledSpectrum),
+    ) {
+        for &(i, _) in &self.distant {
+            if let Light::Directional {
+                irradiance,
+                disc: Some(d),
+                ..
+            } = &self.lights[i as usize]
+            {
+                if d.contains(dir) {
+                    f(i as usize, irradiance.sample(w) * d.radiance_scale);
+                }
+            }
+        }
+        let le = match &self.environment {
+            Some((i, WorldLight::Uniform(radiance))) => Some((*i, radiance.sample(w))),
+            Some((i, WorldLight::Map(map))) => Some((*i, map.radiance(dir, w))),
+            None => None,
+        };
+        if let Some((i, le)) = le.filter(|(_, le)| !le.is_black()) {
+            f(i, le);
+        }
+    }
+
+    /// Solid-angle density with which `sample` at `ctx` produces the escaping direction
+    /// `dir` through light `index` (a sun disc or the world).
+    pub fn infinite_pdf(
+        &self,
+        ctx: &ShadingContext,
+        index: usize,
+        dir: Vec3,
+        selection: LightSelection,
+    ) -> f32 {
+        let direction_pdf = match &self.lights[index] {
+            Light::Directional { disc: Some(d), .. } => d.pdf(),
+            Light::Environment => match &self.environment {
+                Some((_, WorldLight::Map(map))) => map.pdf(dir),
+                // Never light-sampled.
+                _ => 0.0,
+            },
+            _ => 0.0,
+        };
+        if direction_pdf > 0.0 {
+            self.pmf(ctx, index, selection) * direction_pdf
+        } else {
+            0.0
+        }
+    }
+
+    /// Density with which `sample` at `ctx` produces the direction towards triangle `prim` of
+    /// `instance`, hit at distance `dist` with cosine `cos_light` at the light.
+    #[allow(clippy::too_many_arguments)]
+    pub fn triangle_pdf(
+        &self,
+        ctx: &ShadingContext,
+        instance: u32,
+        prim: u32,
+        area: f32,
+        dist: f32,
+        cos_light: f32,
+        selection: LightSelection,
+    ) -> f32 {
+        let base = self
+            .instance_base
+            .get(instance as usize)
+            .copied()
+            .unwrap_or(u32::MAX);
+        if base == u32::MAX || cos_light.abs() < 1e-7 || area <= 0.0 {
+            return 0.0;
+        }
+        self.pmf(ctx, (base + prim) as usize, selection) * dist * dist / (cos_light.abs() * area)
+    }
+
+    /// Picks a light and a direction towards it from the shading point `ctx`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn sample(
+        &self,
+        geometry: &Geometry,
+        materials: &[Material],
+        textures: &[TextureDesc],
+        ctx: &ShadingContext,
+        u_select: f32,
+        u: Vec2,
+        w: &SampledWavelengths,
+        selection: LightSelection,
+    ) -> Option<LightSample> {
+        if self.lights.is_empty() {
+            return None;
+        }
+        let (index, p_select) = self.select(ctx, u_select, selection)?;
+        if !(p_select > 0.0) {
+            return None;
+        }
+        let p = ctx.p;
+        match &self.lights[index] {
+            Light::Triangle { instance, prim } => {
+                let (b1, b2) = sampling::sample_uniform_triangle(u);
+                let sp = geometry.surface_point_at(*instance, *prim, b1, b2);
+                let d = sp.p - p;
+                let dist2 = d.length_squared();
+                if dist2 <= 0.0 || sp.area <= 0.0 {
+                    return None;
+                }
+                let dist = dist2.sqrt();
+                let wi = d / dist;
+                let cos_light = sp.ng.dot(-wi);
+                let mat = &materials[sp.material as usize];
+                let le = mat.emitted(textures, sp.uv, cos_light > 0.0, w);
+                if le.is_black() || cos_light.abs() < 1e-7 {
+                    return None;
+                }
+                Some(LightSample {
+                    wi,
+                    distance: dist * (1.0 - 1e-4),
+                    li: le,
+                    pdf: p_select * dist2 / (cos_light.abs() * sp.area),
+                    delta: false,
+                })
+            }
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                let d = *position - p;
+                let dist2 = d.length_squared();
+                (dist2 > 0.0).then(|| {
+                    let dist = dist2.sqrt();
+                    LightSample {
+                        wi: d / dist,
+                        distance: dist,
+                        li: intensity.sample(w) / dist2,
+                        pdf: p_select,
+                        delta: true,
+                    }
+                })
+            }
+            Light::Spot {
+                position,
+                frame,
+                cos_outer,
+                cos_smooth,
+                intensity,
+            } => {
+                let d = *position - p;
+                let dist2 = d.length_squared();
+                if dist2 <= 0.0 {
+                    return None;
+                }
+                let dist = dist2.sqrt();
+                let wi = d / dist;
+                let falloff = spot_falloff(frame.n.dot(-wi), *cos_outer, *cos_smooth);
+                (falloff > 0.0).then(|| LightSample {
+                    wi,
+                    distance: dist,
+                    li: intensity.sample(w) * (falloff / dist2),
+                    pdf: p_select,
+                    delta: true,
+                })
+            }
+            Light::Directional {
+                to_light,
+                irradiance,
+                disc,
+            } => Some(match disc {
+                None => LightSample {
+                    wi: *to_light,
+                    distance: f32::INFINITY,
+                    li: irradiance.sample(w),
+                    pdf: p_select,
+                    delta: true,
+                },
+                Some(d) => LightSample {
+                    wi: d.sample(u),
+                    distance: f32::INFINITY,
+                    li: irradiance.sample(w) * d.radiance_scale,
+                    pdf: p_select * d.pdf(),
+                    delta: false,
+                },
+            }),
+            Light::Environment => match &self.environment {
+                Some((_, WorldLight::Uniform(_))) => None,
+                Some((_, WorldLight::Map(map))) => {
+                    let (wi, pdf) = map.sample(u)?;
+                    let li = map.radiance(wi, w);
+                    (!li.is_black()).then_some(LightSample {
+                        wi,
+                        distance: f32::INFINITY,
+                        li,
+                        pdf: p_select * pdf,
+                        delta: false,
+                    })
+                }
+                None => None,
+            },
+        }
+    }
+}
+
+fn luminance_of(s: &RgbIlluminantSpectrum) -> f32 {
+    // Y of the illuminant over the visible range, by a coarse quadrature.
+    let mut y = 0.0;
+    let mut n = 0.0;
+    for l in (380..=780).step_by(10) {
+        let l = l as f32;
+        y += s.eval(l) * crate::spectrum::cie::cie_xyz_bar(l).y;
+        n += crate::spectrum::cie::cie_xyz_bar(l).y;
+    }
+    if n > 0.0 {
+        y / n
+    } else {
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spot_edge_is_smooth_and_bounded() {
+        let (co, cs) = (0.8f32, 0.05f32);
+        assert_eq!(spot_falloff(0.79, co, cs), 0.0);
+        assert_eq!(spot_falloff(0.9, co, cs), 1.0);
+        let mid = spot_falloff(0.825, co, cs);
+        assert!((mid - 0.5).abs() < 1e-5);
+        assert_eq!(spot_falloff(0.81, co, 0.0), 1.0);
+    }
+}

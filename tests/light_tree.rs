@@ -1,0 +1,379 @@
+//! Light selection: the light tree's choices follow its own pmf (chi-square), the density of a
+//! light that a BSDF ray hits equals the density with which light sampling produces that
+//! direction from the same shading point (so MIS weights sum to one), and on 1000 small
+//! emitters the tree beats power-proportional selection by a wide margin at equal spp.
+
+mod common;
+#[path = "common/stats.rs"]
+mod stats;
+
+use common::scenes::diffuse_material;
+use glam::{Mat4, Vec2, Vec3};
+use prism::geometry::Ray;
+use prism::lights::{Light, LightSelection, ShadingContext};
+use prism::render::{render_quiet, RenderSettings};
+use prism::sampler::Pcg32;
+use prism::scene::{
+    EnvironmentTextureDesc, GltfMaterialDesc, InstanceDesc, MaterialDesc, MeshDesc, PunctualKind,
+    PunctualLightDesc, Scene, SceneDesc, WorldDesc,
+};
+use prism::spectrum::SampledWavelengths;
+
+fn quad(name: &str, c: Vec3, u: Vec3, v: Vec3, material: usize) -> MeshDesc {
+    MeshDesc {
+        name: name.into(),
+        positions: vec![c - u - v, c + u - v, c + u + v, c - u + v],
+        normals: None,
+        uvs: None,
+        tangents: None,
+        indices: vec![0, 1, 2, 0, 2, 3],
+        material: Some(material),
+    }
+}
+
+fn emitter(name: &str, rgb: Vec3, double_sided: bool) -> MaterialDesc {
+    MaterialDesc {
+        gltf: GltfMaterialDesc {
+            name: name.into(),
+            base_color: glam::Vec4::new(0.0, 0.0, 0.0, 1.0),
+            emissive: rgb,
+            double_sided,
+            ..Default::default()
+        },
+        sidecar: None,
+    }
+}
+
+/// A floor at y = 0 seen from above, and `n` small square emitters facing down (one-sided)
+/// spread over it at heights 0.3-2, with powers spanning two decades; plus, optionally, a
+/// point light, a spot, a sun with a disc and an environment map.
+fn many_emitters(n: usize, extras: bool) -> SceneDesc {
+    let mut rng = Pcg32::new(1, 2, 3);
+    let mut meshes = vec![quad(
+        "floor",
+        Vec3::ZERO,
+        Vec3::X * 10.0,
+        Vec3::Z * -10.0,
+        0,
+    )];
+    let mut materials = vec![diffuse_material("floor", Vec3::splat(0.5))];
+    for i in 0..n {
+        let c = Vec3::new(
+            (rng.next_1d() - 0.5) * 19.0,
+            0.3 + 1.7 * rng.next_1d(),
+            (rng.next_1d() - 0.5) * 19.0,
+        );
+        let s = 0.03 + 0.05 * rng.next_1d();
+        let strength = 10f32.powf(1.0 + 2.0 * rng.next_1d());
+        let colour = Vec3::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 0.8 + 0.2;
+        materials.push(emitter(&format!("e{i}"), colour * strength, false));
+        // Normal (u x v = x x z = -y) pointing down: the front face lights the floor.
+        meshes.push(quad(&format!("e{i}"), c, Vec3::X * s, Vec3::Z * s, i + 1));
+    }
+    let mut cam = common::scenes::camera(0.0, 1.2);
+    cam.camera_to_world = Mat4::from_translation(Vec3::new(0.0, 12.0, 0.0))
+        * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+    let mut desc = SceneDesc {
+        instances: (0..meshes.len())
+            .map(|i| InstanceDesc {
+                mesh: i,
+                object_to_world: Mat4::IDENTITY,
+                name: format!("i{i}"),
+            })
+            .collect(),
+        meshes,
+        materials,
+        camera: Some(cam),
+        ..Default::default()
+    };
+    if extras {
+        let light = |kind, intensity, position, direction, angle| PunctualLightDesc {
+            name: "l".into(),
+            kind,
+            color: Vec3::new(1.0, 0.9, 0.8),
+            intensity,
+            position,
+            direction,
+            angle,
+        };
+        desc.lights = vec![
+            light(
+                PunctualKind::Point,
+                30.0,
+                Vec3::new(2.0, 1.0, 1.0),
+                Vec3::NEG_Y,
+                0.0,
+            ),
+            light(
+                PunctualKind::Spot {
+                    inner_cone: 0.3,
+                    outer_cone: 0.6,
+                },
+                50.0,
+                Vec3::new(-3.0, 2.0, 0.0),
+                Vec3::new(0.3, -1.0, 0.1).normalize(),
+                0.0,
+            ),
+            light(
+                PunctualKind::Directional,
+                2.0,
+                Vec3::ZERO,
+                Vec3::new(0.4, -1.0, 0.3).normalize(),
+                0.2,
+            ),
+        ];
+        // A small environment map: a bright patch on a dim sky.
+        let (w, h) = (32u32, 16u32);
+        let texels = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                if (4..7).contains(&x) && (3..5).contains(&y) {
+                    Vec3::new(20.0, 18.0, 15.0)
+                } else {
+                    Vec3::new(0.2, 0.3, 0.5)
+                }
+            })
+            .collect();
+        desc.world = WorldDesc {
+            color: Vec3::ONE,
+            strength: 1.0,
+            texture: Some(EnvironmentTextureDesc {
+                name: "sky".into(),
+                width: w,
+                height: h,
+                texels,
+                rotation_z: 0.0,
+            }),
+        };
+    }
+    desc
+}
+
+/// Shading points on the floor (reflecting: normal +y) and in the air (no normal).
+fn contexts(n: usize) -> Vec<ShadingContext> {
+    let mut rng = Pcg32::new(9, 9, 9);
+    (0..n)
+        .map(|i| {
+            let p = Vec3::new(
+                (rng.next_1d() - 0.5) * 18.0,
+                if i % 3 == 0 { 0.8 * rng.next_1d() } else { 0.0 },
+                (rng.next_1d() - 0.5) * 18.0,
+            );
+            ShadingContext {
+                p,
+                n: (i % 3 != 0).then_some(Vec3::Y),
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn light_choices_follow_the_pmf() {
+    let scene = Scene::build(many_emitters(60, true)).expect("scene builds");
+    let lights = &scene.lights;
+    let n_lights = lights.len();
+    let mut failures = Vec::new();
+    for ctx in contexts(6) {
+        let pmf: Vec<f64> = (0..n_lights)
+            .map(|i| lights.pmf(&ctx, i, LightSelection::Tree) as f64)
+            .collect();
+        let total: f64 = pmf.iter().sum();
+        assert!(total <= 1.0 + 1e-4, "pmf sums to {total} at {:?}", ctx.p);
+        let draws = 200_000;
+        // The last cell: no light chosen (a tree node whose bounds reach the point while
+        // none of its children's do), with probability 1 - sum(pmf).
+        let mut counts = vec![0f64; n_lights + 1];
+        let mut rng = Pcg32::new(5, 6, 7);
+        for _ in 0..draws {
+            match lights.select(&ctx, rng.next_1d(), LightSelection::Tree) {
+                Some((i, p)) => {
+                    // The returned probability is the pmf.
+                    let want = pmf[i];
+                    assert!(
+                        (p as f64 - want).abs() <= 1e-5 + 1e-4 * want,
+                        "light {i}: {p} vs {want}"
+                    );
+                    counts[i] += 1.0;
+                }
+                None => counts[n_lights] += 1.0,
+            }
+        }
+        for i in 0..n_lights {
+            assert!(
+                pmf[i] > 0.0 || counts[i] == 0.0,
+                "light {i} drawn with pmf 0"
+            );
+        }
+        let mut expected: Vec<f64> = pmf.iter().map(|p| p * draws as f64).collect();
+        expected.push((1.0 - total).max(0.0) * draws as f64);
+        failures.push(1.0 - total);
+        let p = stats::chi2_test(&counts, &expected, 5.0).p_value;
+        assert!(p > 1e-4, "chi-square p = {p:.2e} at {:?}", ctx.p);
+    }
+    // Failed descents are rare: they waste light samples.
+    println!("probability of choosing no light: {failures:?}");
+    assert!(failures.iter().all(|&f| f < 0.02), "{failures:?}");
+}
+
+#[test]
+fn a_wrong_pmf_fails_the_chi_square() {
+    // The test above can fail: the same draws against a flattened pmf are rejected.
+    let scene = Scene::build(many_emitters(60, true)).expect("scene builds");
+    let lights = &scene.lights;
+    let ctx = contexts(2)[1];
+    let n = lights.len();
+    let mut counts = vec![0f64; n];
+    let mut rng = Pcg32::new(1, 1, 1);
+    let draws = 100_000;
+    for _ in 0..draws {
+        if let Some((i, _)) = lights.select(&ctx, rng.next_1d(), LightSelection::Tree) {
+            counts[i] += 1.0;
+        }
+    }
+    let expected = vec![draws as f64 / n as f64; n];
+    assert!(stats::chi2_test(&counts, &expected, 5.0).p_value < 1e-6);
+}
+
+#[test]
+fn a_hit_light_has_the_density_that_sampled_it() {
+    // For every light sample, the integrator's density of reaching that direction by hitting
+    // the light (triangle_pdf / infinite_pdf, what MIS uses for BSDF samples) equals the
+    // density light sampling reported. Then the power-heuristic weights of the two techniques
+    // sum to one for any BSDF density.
+    let scene = Scene::build(many_emitters(40, true)).expect("scene builds");
+    let lights = &scene.lights;
+    let w = SampledWavelengths::sample_hero(0.3, Default::default());
+    let mut rng = Pcg32::new(3, 1, 4);
+    let mut checked = [0usize; 3];
+    for selection in [LightSelection::Tree, LightSelection::Power] {
+        for ctx in contexts(30) {
+            for _ in 0..40 {
+                let u_select = rng.next_1d();
+                let chosen = lights.select(&ctx, u_select, selection).map(|(i, _)| i);
+                let Some(ls) = lights.sample(
+                    &scene.geometry,
+                    &scene.materials,
+                    &scene.textures,
+                    &ctx,
+                    u_select,
+                    Vec2::new(rng.next_1d(), rng.next_1d()),
+                    &w,
+                    selection,
+                ) else {
+                    continue;
+                };
+                // Delta lights cannot be hit; at the map's poles its density (1 / sin theta)
+                // is too ill-conditioned in f32 to compare.
+                if ls.delta || ls.wi.y.abs() > 0.9999 {
+                    continue;
+                }
+                let origin = ctx.p + ls.wi * 1e-4;
+                let density = match scene
+                    .geometry
+                    .intersect(&Ray::new(origin, ls.wi), f32::INFINITY)
+                {
+                    Some(hit) if ls.distance.is_finite() => {
+                        // Near a shared edge the ray may hit the neighbouring triangle, whose
+                        // selection probability differs: compare the sampled one only.
+                        let same = matches!(
+                            chosen.map(|i| lights.light(i)),
+                            Some(Light::Triangle { instance, prim })
+                                if *instance == hit.instance && *prim == hit.prim
+                        );
+                        if !same {
+                            continue;
+                        }
+                        let sp = scene.geometry.surface_point(&hit);
+                        let cos = sp.ng.dot(-ls.wi);
+                        checked[0] += 1;
+                        lights.triangle_pdf(
+                            &ctx,
+                            hit.instance,
+                            hit.prim,
+                            sp.area,
+                            hit.t + 1e-4,
+                            cos,
+                            selection,
+                        )
+                    }
+                    Some(_) => continue, // an occluded sun or sky sample
+                    None => {
+                        // Each light at infinity is its own technique (the sun disc lies in
+                        // the sky): the one sampled must be among those seen, with the same
+                        // density.
+                        let chosen = chosen.expect("a light was sampled");
+                        let mut seen = false;
+                        lights.for_each_at_infinity(ls.wi, &w, |i, _| seen |= i == chosen);
+                        assert!(seen, "light {chosen} not seen along its own sample");
+                        let sky = matches!(lights.light(chosen), Light::Environment);
+                        checked[if sky { 1 } else { 2 }] += 1;
+                        lights.infinite_pdf(&ctx, chosen, ls.wi, selection)
+                    }
+                };
+                assert!(
+                    (density - ls.pdf).abs() <= 2e-3 * ls.pdf,
+                    "{selection:?} at {:?}: hit density {density} vs sampled {} (light {:?}, {:?})",
+                    ctx.p,
+                    ls.pdf,
+                    chosen.map(|i| lights.light(i)),
+                    ls.wi
+                );
+                let bsdf = rng.next_1d() * 2.0;
+                let (wl, wb) = (
+                    prism::math::power_heuristic(ls.pdf, bsdf),
+                    prism::math::power_heuristic(bsdf, density),
+                );
+                assert!((wl + wb - 1.0).abs() < 1e-3);
+            }
+        }
+    }
+    assert!(
+        checked.iter().all(|&c| c > 20),
+        "triangles, sky, sun checked: {checked:?}"
+    );
+}
+
+fn rel_mse(img: &[[f32; 4]], reference: &[[f32; 4]]) -> f64 {
+    img.iter()
+        .zip(reference)
+        .map(|(a, r)| {
+            (0..3)
+                .map(|c| ((a[c] - r[c]) as f64).powi(2) / ((r[c] as f64).powi(2) + 1e-2))
+                .sum::<f64>()
+                / 3.0
+        })
+        .sum::<f64>()
+        / img.len() as f64
+}
+
+#[test]
+fn the_tree_beats_power_selection_on_1000_emitters() {
+    let scene = Scene::build(many_emitters(1000, false)).expect("scene builds");
+    let render = |selection, spp, seed| {
+        let settings = RenderSettings {
+            width: 48,
+            height: 48,
+            spp,
+            max_depth: 1,
+            seed,
+            light_selection: selection,
+            ..Default::default()
+        };
+        let (film, stats) = render_quiet(&scene, &settings);
+        assert_eq!(stats.discarded, 0);
+        film.to_rgba()
+    };
+    let reference = render(LightSelection::Tree, 1024, 77);
+    let mean = |selection| -> f64 {
+        (1..=2)
+            .map(|s| rel_mse(&render(selection, 16, s), &reference))
+            .sum::<f64>()
+            / 2.0
+    };
+    let (tree, power) = (mean(LightSelection::Tree), mean(LightSelection::Power));
+    println!(
+        "16 spp relMSE on 1000 emitters: tree {tree:.3e}, power {power:.3e}, ratio {:.1}",
+        power / tree
+    );
+    assert!(power >= 5.0 * tree, "tree {tree:.3e} vs power {power:.3e}");
+}
