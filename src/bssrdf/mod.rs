@@ -8,9 +8,10 @@
 //!   Sp from a photon-beam-diffusion table (`table.rs`). The path tracer samples the rough
 //!   dielectric boundary at the entry point; a transmission sample triggers `sample_probe`,
 //!   which finds an exit point with probe rays (axis 0.5/0.25/0.25 along normal/tangents, a
-//!   segment of length 2 r_max, every hit on the same material, one chosen uniformly) and
-//!   returns Sp / pdf, the pdf combining all three axes and all of the path's wavelengths
-//!   (spectral MIS: one-sample balance heuristic over the wavelength that drove the radius).
+//!   segment of length 2 r_max, every hit on the same material, one chosen in proportion to
+//!   its estimate) and returns the sum of the hits' Sp / pdf, the pdf combining all three axes
+//!   and all of the path's wavelengths (spectral MIS: one-sample balance heuristic over the
+//!   wavelength that drove the radius, chosen in proportion to its effective albedo).
 //!   The exit point then gets next-event estimation with the Sw lobe (`SwLobe`).
 //! * `"random_walk"`: a volumetric random walk inside the closed mesh (`random_walk.rs`). Where
 //!   the walk reaches the boundary from inside, what the boundary does is `WalkBoundary`: in
@@ -389,8 +390,22 @@ impl<'a> SeparableBssrdf<'a> {
         (value * st * st / eff).max(0.0)
     }
 
+    /// Probability that wavelength `ch` drives the radius: in proportion to its effective
+    /// albedo, the integral of its profile, so the mixture density over the channels is the
+    /// sum of the profiles (normalised) and every channel's weight Sr / pdf stays below the sum
+    /// of the albedos; uniform when every albedo is 0.
+    fn channel_probability(&self, ch: usize) -> f32 {
+        let eff = self.rho_eff();
+        let total: f32 = eff.0[..self.n_active].iter().sum();
+        if total > 0.0 {
+            eff[ch] / total
+        } else {
+            1.0 / self.n_active as f32
+        }
+    }
+
     /// Area density of an exit point `pi` (with geometric normal `ni`) over the three probe
-    /// axes and the active wavelengths (before the 1 / count factor of the chosen hit).
+    /// axes and the active wavelengths (before the choice among a probe's hits).
     pub fn pdf_sp(&self, po: Vec3, frame: &Frame, pi: Vec3, ni: Vec3) -> f32 {
         let d = pi - po;
         let dl = frame.to_local(d);
@@ -401,14 +416,22 @@ impl<'a> SeparableBssrdf<'a> {
             (dl.x * dl.x + dl.y * dl.y).sqrt(),
         ];
         let mut pdf = 0.0;
-        let ch_prob = 1.0 / self.n_active as f32;
+        let ch_prob: [f32; N_WAVELENGTHS] = std::array::from_fn(|ch| {
+            if ch < self.n_active {
+                self.channel_probability(ch)
+            } else {
+                0.0
+            }
+        });
         for axis in 0..3 {
             let cos = nl[axis].abs();
             if cos == 0.0 {
                 continue;
             }
-            for ch in 0..self.n_active {
-                pdf += self.pdf_sr(ch, r_proj[axis]) * cos * AXIS_PROB[axis] * ch_prob;
+            for (ch, &p) in ch_prob.iter().enumerate().take(self.n_active) {
+                if p > 0.0 {
+                    pdf += self.pdf_sr(ch, r_proj[axis]) * cos * AXIS_PROB[axis] * p;
+                }
             }
         }
         pdf
@@ -435,9 +458,21 @@ impl<'a> SeparableBssrdf<'a> {
         } else {
             (frame.n, frame.s, frame.t, (u_axis - 0.75) * 4.0)
         };
-        // Wavelength whose profile drives the radius.
-        let ch = ((u * self.n_active as f32) as usize).min(self.n_active - 1);
-        u = (u * self.n_active as f32 - ch as f32).clamp(0.0, 1.0 - f32::EPSILON);
+        // Wavelength whose profile drives the radius (`channel_probability`).
+        let mut ch = None;
+        let mut acc = 0.0f32;
+        for c in 0..self.n_active {
+            let p = self.channel_probability(c);
+            if p > 0.0 {
+                ch = Some((c, acc, p));
+                if u < acc + p {
+                    break;
+                }
+            }
+            acc += p;
+        }
+        let (ch, start, p) = ch?;
+        u = ((u - start) / p).clamp(0.0, 1.0 - f32::EPSILON);
         let r = self.sample_sr(ch, u)?;
         // The probe spans the sphere of radius r_max around po. The rare radii beyond r_max
         // (0.1%) still get a short probe rather than failing: the radius density stays exactly
@@ -473,13 +508,48 @@ impl<'a> SeparableBssrdf<'a> {
         if count == 0 {
             return None;
         }
-        let k = ((u_hit * count as f32) as usize).min(count - 1);
-        let point = hits[k]?;
-        let pdf = self.pdf_sp(po, frame, point.p, point.ng) / count as f32;
-        if !(pdf > 0.0) || !pdf.is_finite() {
+        // Every hit's estimate Sr / pdf; the path continues from one of them, chosen in
+        // proportion to its (wavelength-averaged) estimate, with weight sum / chosen share: the
+        // estimator is then the sum over all hits (what evaluating every hit would give) for
+        // the cost of one continuation. Choosing uniformly (weight = count x the hit's
+        // estimate) made a hit's share of the sum, not the sum, the noise: on curved and
+        // folded objects most probes see 2-4 hits of very different weights (Cycles resamples
+        // its disk hits the same way).
+        let mut weights = [SampledSpectrum::ZERO; MAX_PROBE_HITS];
+        let mut shares = [0f32; MAX_PROBE_HITS];
+        let mut total = 0.0f32;
+        for i in 0..count {
+            let hit = hits[i]?;
+            let pdf = self.pdf_sp(po, frame, hit.p, hit.ng);
+            if !(pdf > 0.0) || !pdf.is_finite() {
+                continue;
+            }
+            let w = self.sr((hit.p - po).length()) / pdf;
+            if !w.is_finite() {
+                continue;
+            }
+            let share = w.0[..self.n_active].iter().sum::<f32>().max(0.0);
+            weights[i] = w;
+            shares[i] = share;
+            total += share;
+        }
+        if !(total > 0.0) || !total.is_finite() {
             return None;
         }
-        let weight = self.sr((point.p - po).length()) / pdf;
+        let target = u_hit * total;
+        let mut acc = 0.0;
+        let mut k = count;
+        for (i, &share) in shares.iter().enumerate().take(count) {
+            if share > 0.0 {
+                k = i;
+                if target < acc + share {
+                    break;
+                }
+            }
+            acc += share;
+        }
+        let point = hits.get(k).copied().flatten()?;
+        let weight = weights[k] * (total / shares[k]);
         weight.is_finite().then_some(ProbeSample { point, weight })
     }
 }

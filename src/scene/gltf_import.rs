@@ -649,9 +649,11 @@ impl Importer<'_> {
         }) {
             Some(Some(v)) => match v.as_f64() {
                 Some(a) if a.is_finite() && (0.0..=std::f64::consts::PI).contains(&a) => a as f32,
-                _ => return Err(format!(
+                _ => {
+                    return Err(format!(
                     "{label}: extras.prism_angle must be a number of radians from 0 to pi, got {v}"
-                )),
+                ))
+                }
             },
             _ => 0.0,
         };
