@@ -3,9 +3,10 @@
 
 For every scene (scenes/NAME/NAME.gltf for Prism, the .blend beside it for Cycles) both renderers render
 2 x ROUNDS images at the same spp with different seeds, interleaved, 2 threads. Cycles is set unbiased: no
-clamping, Filter Glossy 0, every bounce limit max_depth - 1 (15), no adaptive sampling, no denoising, unless
---adaptive is given (then both renderers use adaptive sampling at their defaults: noise threshold 0.01,
-min samples 0 = automatic, and the same spp as the maximum).
+clamping, Filter Glossy 0, every bounce limit max_depth - 1 (15), no adaptive sampling, no denoising.
+With --adaptive both renderers use adaptive sampling at Cycles' defaults (noise threshold 0.01, min samples
+0 = automatic, max samples --spp, default 4096 then) and the same time limit (--time-limit seconds): equal
+wall time, compared by their noise.
 
 Noise is the variance between two independent renders of the same renderer, E[(A - B)^2] / 2 per pixel and
 channel, divided by (ref^2 + 0.01) with ref a high-spp Prism render (the same normalisation for both
@@ -16,7 +17,7 @@ Prism reaches a given noise level sooner. Times: Prism's whole process (scene lo
 render call (Blender start-up and file load excluded).
 
 usage: .venv-bpy/bin/python bench/noise_vs_cycles.py [SCENE ...] [--spp 64] [--rounds 3] [--size 256]
-       [--ref-spp 2048] [--adaptive] [--work DIR] [-- extra prism render flags]
+       [--ref-spp 2048] [--adaptive [--time-limit 5]] [--work DIR] [-- extra prism render flags]
 Scenes default to: everyday sss_cornell rough_glass many_lights. Prints one JSON line per scene, then a table.
 Needs the bpy 5.0.1 wheel, numpy and OpenEXR in the running Python, and target/release/prism.
 """
@@ -36,13 +37,13 @@ PRISM = os.path.join(REPO, "target", "release", "prism")
 
 CYCLES_SCRIPT = r"""
 import sys, time, bpy
-blend, out, spp, seed, size, adaptive = sys.argv[-6:]
+blend, out, spp, seed, size, adaptive, time_limit = sys.argv[-7:]
 bpy.ops.wm.open_mainfile(filepath=blend)
 s = bpy.context.scene; c = s.cycles
 s.render.engine = "CYCLES"; c.device = "CPU"; c.samples = int(spp); c.seed = int(seed)
 c.use_denoising = False
 c.use_adaptive_sampling = adaptive == "1"
-c.adaptive_threshold = 0.01; c.adaptive_min_samples = 0
+c.adaptive_threshold = 0.01; c.adaptive_min_samples = 0; c.time_limit = float(time_limit)
 c.sample_clamp_direct = 0; c.sample_clamp_indirect = 0; c.blur_glossy = 0
 for k in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces", "volume_bounces",
           "transparent_max_bounces"):
@@ -66,7 +67,7 @@ def prism(args, gltf, out, seed, spp, extra):
     cmd = [PRISM, "render", gltf, "-o", out, "--spp", str(spp), "--width", str(args.size), "--height",
            str(args.size), "--threads", "2", "--seed", str(seed), "--progress", "none"] + extra
     if args.adaptive:
-        cmd += ["--noise-threshold", "0.01"]
+        cmd += ["--noise-threshold", "0.01", "--time-limit", str(args.time_limit)]
     t = time.time()
     subprocess.run(cmd, check=True, capture_output=True)
     return time.time() - t
@@ -74,7 +75,8 @@ def prism(args, gltf, out, seed, spp, extra):
 
 def cycles(args, blend, out, seed, script):
     p = subprocess.run([sys.executable, script, blend, out, str(args.spp), str(seed), str(args.size),
-                        "1" if args.adaptive else "0"], check=True, capture_output=True, text=True)
+                        "1" if args.adaptive else "0", str(args.time_limit if args.adaptive else 0.0)],
+                       check=True, capture_output=True, text=True)
     return float([l for l in p.stdout.splitlines() if l.startswith("CYCLES_SECONDS")][0].split()[1])
 
 
@@ -94,13 +96,16 @@ def main():
         sys.argv, extra = sys.argv[:i], sys.argv[i + 1:]
     ap = argparse.ArgumentParser()
     ap.add_argument("scenes", nargs="*", default=["everyday", "sss_cornell", "rough_glass", "many_lights"])
-    ap.add_argument("--spp", type=int, default=64)
+    ap.add_argument("--spp", type=int)
+    ap.add_argument("--time-limit", type=float, default=5.0)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--size", type=int, default=256)
     ap.add_argument("--ref-spp", type=int, default=2048)
     ap.add_argument("--adaptive", action="store_true")
     ap.add_argument("--work")
     args = ap.parse_args()
+    if args.spp is None:
+        args.spp = 4096 if args.adaptive else 64
     work = args.work or tempfile.mkdtemp(prefix="prism_nvc_")
     os.makedirs(work, exist_ok=True)
     script = os.path.join(work, "cycles_render.py")
@@ -112,7 +117,7 @@ def main():
         blend = os.path.join(REPO, "scenes", name, name + ".blend")
         ref = os.path.join(work, "%s_ref%d_%d.exr" % (name, args.ref_spp, args.size))
         if not os.path.exists(ref):
-            prism(argparse.Namespace(size=args.size, adaptive=False), gltf, ref, 1000, args.ref_spp, [])
+            prism(argparse.Namespace(size=args.size, adaptive=False, time_limit=0), gltf, ref, 1000, args.ref_spp, [])
         den = read(ref) ** 2 + 1e-2
         imgs, times = {"prism": [], "cycles": []}, {"prism": [], "cycles": []}
         for r in range(args.rounds):

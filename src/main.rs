@@ -6,7 +6,7 @@ use prism::error::{PrismError, Result};
 use prism::film::{ExrCompression, FilterKind, PixelFilter};
 use prism::integrator::{WavelengthPdf, WavelengthSampling, WavelengthStrategy};
 use prism::lights::LightSelection;
-use prism::render::{render, Progress, RenderSettings, RenderStats};
+use prism::render::{render, AdaptiveSampling, Progress, RenderSettings, RenderStats};
 use prism::sampler::SamplerKind;
 use prism::scene::{load_scene, Scene};
 use prism::spectrum::{LAMBDA_MAX, LAMBDA_MIN};
@@ -95,6 +95,19 @@ struct SceneArgs {
     /// the JSON's render.light_sampler, else tree
     #[arg(long, value_enum)]
     light_sampler: Option<LightSamplerArg>,
+    /// Adaptive sampling: pixels whose estimated error (Cycles' definition) is below this stop
+    /// early; --spp becomes the maximum. 0 = off (default: the JSON's render.noise_threshold,
+    /// else 0)
+    #[arg(long)]
+    noise_threshold: Option<f32>,
+    /// Samples every pixel takes before adaptive sampling tests it; 0 = automatic (default:
+    /// the JSON's render.min_samples, else 0)
+    #[arg(long)]
+    min_samples: Option<u32>,
+    /// Stop after the pass during which this many seconds of rendering have passed; 0 = no
+    /// limit (default: the JSON's render.time_limit, else 0)
+    #[arg(long)]
+    time_limit: Option<f64>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -347,7 +360,35 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings, f64)> {
                 .and_then(LightSelection::from_name)
                 .unwrap_or_default(),
         },
+        adaptive: None,
+        time_limit: None,
     };
+    let threshold = args
+        .noise_threshold
+        .or(defaults.noise_threshold)
+        .unwrap_or(0.0);
+    if !(threshold.is_finite() && threshold >= 0.0) {
+        return Err(PrismError::input(format!(
+            "--noise-threshold must be a number >= 0, got {threshold}"
+        )));
+    }
+    let min_samples = args.min_samples.or(defaults.min_samples).unwrap_or(0);
+    let mut settings = settings;
+    if threshold > 0.0 {
+        settings.adaptive = Some(AdaptiveSampling {
+            threshold,
+            min_samples,
+        });
+    }
+    let time_limit = args.time_limit.or(defaults.time_limit).unwrap_or(0.0);
+    if !(time_limit.is_finite() && time_limit >= 0.0) {
+        return Err(PrismError::input(format!(
+            "--time-limit must be a number of seconds >= 0, got {time_limit}"
+        )));
+    }
+    if time_limit > 0.0 {
+        settings.time_limit = Some(std::time::Duration::from_secs_f64(time_limit));
+    }
     if settings.width == 0
         || settings.height == 0
         || settings.width > 32768
@@ -451,16 +492,19 @@ fn run_render(
             let mut err = std::io::stderr().lock();
             let _ = writeln!(
                 err,
-                "{{\"event\":\"progress\",\"fraction\":{:.6},\"samples_done\":{},\"elapsed_s\":{:.3}{}}}",
+                "{{\"event\":\"progress\",\"fraction\":{:.6},\"samples_done\":{},\"elapsed_s\":{:.3}{}{}}}",
                 p.fraction,
                 p.samples_done,
                 p.elapsed.as_secs_f64(),
-                p.pass_spp.map(|s| format!(",\"pass_spp\":{s}")).unwrap_or_default()
+                p.pass_spp.map(|s| format!(",\"pass_spp\":{s}")).unwrap_or_default(),
+                p.active_fraction
+                    .map(|a| format!(",\"active\":{a:.4}"))
+                    .unwrap_or_default()
             );
         }
         ProgressMode::Bar => {
             if let Some(b) = &bar {
-                b.set_position(p.samples_done);
+                b.set_position((p.fraction * total as f64) as u64);
             }
         }
         ProgressMode::None => {}
@@ -554,6 +598,9 @@ fn run_bench(bench: &BenchArgs) -> Result<()> {
         bvh_cache: None,
         sampler: None,
         light_sampler: None,
+        noise_threshold: None,
+        min_samples: None,
+        time_limit: None,
     };
     let (scene, settings, _) = load(&args)?;
     for &t in threads {

@@ -3,7 +3,7 @@
 //! parallel with rayon. Random numbers depend only on (pixel, sample, seed), and each pixel
 //! accumulates its samples in order, so the image is bit-identical for any thread count.
 
-use crate::film::{Film, PixelFilter};
+use crate::film::{self, Film, PixelFilter};
 use crate::geometry::Ray;
 use crate::integrator::{PathTracer, WavelengthSampling};
 use crate::lights::LightSelection;
@@ -33,6 +33,38 @@ pub struct RenderSettings {
     pub sampler: SamplerKind,
     /// How next-event estimation chooses a light (default: the light tree).
     pub light_selection: LightSelection,
+    /// Adaptive sampling (`None`: every pixel gets `spp` samples).
+    pub adaptive: Option<AdaptiveSampling>,
+    /// Stop after the pass during which this much rendering time has passed (Cycles' Time
+    /// Limit); the image then has fewer samples than `spp`.
+    pub time_limit: Option<Duration>,
+}
+
+/// Adaptive sampling settings (`film::adaptive`): `spp` becomes the maximum.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdaptiveSampling {
+    /// Noise threshold (Cycles' convention, e.g. 0.01); > 0.
+    pub threshold: f32,
+    /// Samples every pixel gets before convergence is tested; 0 = automatic
+    /// (`AdaptiveSampling::min_samples_for`).
+    pub min_samples: u32,
+}
+
+impl AdaptiveSampling {
+    /// The minimum spp actually used for a render of at most `spp`: the given one, or
+    /// automatically max(16, sqrt(spp)) rounded up to a power of two (so the first test sees a
+    /// stratified prefix), never more than `spp`.
+    pub fn min_samples_for(&self, spp: u32) -> u32 {
+        let auto = ((spp as f32).sqrt().ceil() as u32)
+            .max(16)
+            .next_power_of_two();
+        let m = if self.min_samples > 0 {
+            self.min_samples
+        } else {
+            auto
+        };
+        m.clamp(1, spp.max(1))
+    }
 }
 
 impl Default for RenderSettings {
@@ -48,6 +80,8 @@ impl Default for RenderSettings {
             filter: PixelFilter::default(),
             sampler: SamplerKind::default(),
             light_selection: LightSelection::default(),
+            adaptive: None,
+            time_limit: None,
         }
     }
 }
@@ -59,8 +93,10 @@ pub struct Progress {
     /// Pixel samples finished so far (over the whole image).
     pub samples_done: u64,
     pub elapsed: Duration,
-    /// Set when a whole pass has finished: every pixel has `pass_spp` samples.
+    /// Set when a whole pass has finished: every active pixel has `pass_spp` samples.
     pub pass_spp: Option<u32>,
+    /// With adaptive sampling: the fraction of pixels still sampling.
+    pub active_fraction: Option<f64>,
 }
 
 #[derive(Clone, Debug, Default)]
@@ -77,17 +113,29 @@ pub struct RenderStats {
 /// to amortise scheduling.
 const BAND_ROWS: usize = 4;
 
-/// Sample counts of successive passes: 1, 1, 2, 4, ... doubling up to 64 per pass.
+/// Samples of the pass after `done` of `spp`: 1, 1, 2, 4, ... doubling up to 64 per pass (so
+/// passes end at stratified prefixes of every pixel's sequence). With adaptive sampling the
+/// passes land exactly on `min_samples` and continue in steps of a quarter of the samples
+/// done (4 to 64), so converged pixels stop soon after they converge.
+fn next_pass(done: u32, spp: u32, adaptive_min: Option<u32>) -> u32 {
+    let doubling = if done <= 1 { 1 } else { done.min(64) };
+    let n = match adaptive_min {
+        Some(min) if done < min => doubling.min(min - done),
+        Some(_) => (done / 4).clamp(4, 64),
+        None => doubling,
+    };
+    n.min(spp - done)
+}
+
+/// Sample counts of successive passes of a fixed-spp render.
+#[cfg(test)]
 fn pass_sizes(spp: u32) -> Vec<u32> {
     let mut sizes = Vec::new();
-    let (mut done, mut next) = (0u32, 1u32);
+    let mut done = 0;
     while done < spp {
-        let n = next.min(spp - done);
+        let n = next_pass(done, spp, None);
         sizes.push(n);
         done += n;
-        if sizes.len() > 1 {
-            next = (next * 2).min(64);
-        }
     }
     sizes
 }
@@ -113,6 +161,16 @@ pub fn render(
     let samples_done = AtomicU64::new(0);
     let rays = AtomicU64::new(0);
     let discarded = AtomicU64::new(0);
+    // Samples that pixels which stopped early (adaptive sampling) will not take: counted as
+    // done for the progress fraction.
+    let skipped = AtomicU64::new(0);
+    let adaptive_min = settings
+        .adaptive
+        .filter(|a| a.threshold > 0.0)
+        .map(|a| a.min_samples_for(settings.spp));
+    // Pixels still sampling.
+    let mut active = vec![true; w * h];
+    let mut active_count = w * h;
     let start = Instant::now();
     // The reporter waits on this channel: it wakes every 20 ms to check the time, and at once
     // when the sender is dropped at the end of the render (so finishing never waits on a sleep).
@@ -124,6 +182,7 @@ pub fn render(
         let _stop_reporter = stop_reporter;
         // Reporter: decoupled from the workers so they never block on I/O.
         let samples_done = &samples_done;
+        let skipped = &skipped;
         s.spawn(move || {
             let mut last_report = Instant::now();
             while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
@@ -135,29 +194,35 @@ pub fn render(
                 last_report = Instant::now();
                 let done = samples_done.load(Ordering::Relaxed);
                 on_progress(&Progress {
-                    fraction: done as f64 / total.max(1) as f64,
+                    fraction: (done + skipped.load(Ordering::Relaxed)) as f64 / total.max(1) as f64,
                     samples_done: done,
                     elapsed: start.elapsed(),
                     pass_spp: None,
+                    active_fraction: None,
                 });
             }
         });
 
         let mut spp_done = 0u32;
-        for pass in pass_sizes(settings.spp) {
+        while spp_done < settings.spp && active_count > 0 {
             if cancel.load(Ordering::Relaxed) {
                 break;
             }
+            let pass = next_pass(spp_done, settings.spp, adaptive_min);
             let (s0, s1) = (spp_done, spp_done + pass);
             film.pixels
                 .par_chunks_mut(w * BAND_ROWS)
+                .zip(active.par_chunks(w * BAND_ROWS))
                 .enumerate()
-                .for_each(|(band, pixels)| {
+                .for_each(|(band, (pixels, band_active))| {
                     let mut band_rays = 0u64;
                     let mut band_discarded = 0u64;
                     for (i, px) in pixels.iter_mut().enumerate() {
                         if cancel.load(Ordering::Relaxed) {
                             break;
+                        }
+                        if !band_active[i] {
+                            continue;
                         }
                         let index = band * w * BAND_ROWS + i;
                         let (px_x, px_y) = ((index % w) as u32, (index / w) as u32);
@@ -171,7 +236,7 @@ pub fn render(
                             let ray: Ray = camera.generate_ray(raster, u_lens);
                             let result = tracer.radiance(ray, &wavelengths, &mut sampler);
                             band_rays += result.rays as u64;
-                            if !px.add(spectrum_to_xyz(&result.radiance, &wavelengths)) {
+                            if !px.add(spectrum_to_xyz(&result.radiance, &wavelengths), sample) {
                                 band_discarded += 1;
                             }
                             if !settings.guides {
@@ -195,14 +260,39 @@ pub fn render(
                     discarded.fetch_add(band_discarded, Ordering::Relaxed);
                 });
             spp_done = s1;
-            if !cancel.load(Ordering::Relaxed) {
-                on_progress(&Progress {
-                    fraction: samples_done.load(Ordering::Relaxed) as f64 / total.max(1) as f64,
-                    samples_done: samples_done.load(Ordering::Relaxed),
-                    elapsed: start.elapsed(),
-                    pass_spp: Some(spp_done),
-                });
-                on_pass(&film, spp_done);
+            if cancel.load(Ordering::Relaxed) {
+                break;
+            }
+            let mut active_fraction = None;
+            if let (Some(min), Some(a)) = (adaptive_min, settings.adaptive) {
+                if spp_done >= min && spp_done < settings.spp {
+                    let mut now = vec![false; w * h];
+                    film::adaptive::update_active(&film, a.threshold, &mut now);
+                    // A pixel that stopped stays stopped (its neighbours' later convergence
+                    // tests must not restart it with a gap in its sequence).
+                    let mut newly_stopped = 0u64;
+                    for (i, (was, is)) in active.iter().zip(&now).enumerate() {
+                        if *was && !*is {
+                            newly_stopped += (settings.spp - film.pixels[i].samples) as u64;
+                        }
+                    }
+                    active = active.iter().zip(&now).map(|(a, b)| *a && *b).collect();
+                    active_count = active.iter().filter(|&&a| a).count();
+                    skipped.fetch_add(newly_stopped, Ordering::Relaxed);
+                    active_fraction = Some(active_count as f64 / (w * h).max(1) as f64);
+                }
+            }
+            let done = samples_done.load(Ordering::Relaxed);
+            on_progress(&Progress {
+                fraction: (done + skipped.load(Ordering::Relaxed)) as f64 / total.max(1) as f64,
+                samples_done: done,
+                elapsed: start.elapsed(),
+                pass_spp: Some(spp_done),
+                active_fraction,
+            });
+            on_pass(&film, spp_done);
+            if settings.time_limit.is_some_and(|t| start.elapsed() >= t) {
+                break;
             }
         }
     });

@@ -29,7 +29,8 @@ fn points_2d(s: &mut Sampler) -> Vec<Vec2> {
 
 /// Every 1D value of one path that the layout defines.
 fn values_1d(s: &mut Sampler) -> Vec<f32> {
-    let mut out = vec![s.wavelength()];
+    let wl = s.wavelength();
+    let mut out = vec![wl.x, wl.y];
     for depth in [0, 3] {
         s.start_bounce(depth);
         out.push(s.light().1);
@@ -307,39 +308,47 @@ fn pixel_errors_are_blue_noise() {
     // Estimate a discontinuous integrand (a visibility edge across the light's square) with 4
     // samples per pixel over 64 x 64 pixels. White-noise errors average over a 2 x 2 block to
     // a quarter of the per-pixel variance; blue-noise errors (neighbours negatively
-    // correlated, the error pushed to high frequencies) to much less.
+    // correlated, the error pushed to high frequencies) to less. One image shares one
+    // scramble, so one render is one draw of the error pattern (from 0.1 to 1.4 here): the
+    // ratio is averaged over 16 seeds and 4 dimension groups.
     let f = |u: Vec2| if u.x < 0.3 + 0.4 * u.y { 1.0f64 } else { 0.0 };
     let exact = 0.5f64;
     let block_ratio = |kind: SamplerKind| -> f64 {
         let mut ratios = Vec::new();
-        for seed in 0..4 {
-            let image = ImageSampler::new(kind, 4, seed);
-            let n = 64usize;
-            let mut err = vec![0.0f64; n * n];
-            for y in 0..n {
-                for x in 0..n {
-                    let pixel = image.pixel(x as u32, y as u32, n as u32);
-                    let mean = (0..4)
-                        .map(|s| {
-                            let mut smp = pixel.sample(s);
-                            smp.start_bounce(1);
-                            f(smp.light().0)
-                        })
-                        .sum::<f64>()
-                        / 4.0;
-                    err[y * n + x] = mean - exact;
+        for seed in 0..16 {
+            for group in 0..4u32 {
+                let image = ImageSampler::new(kind, 4, seed);
+                let n = 64usize;
+                let mut err = vec![0.0f64; n * n];
+                for y in 0..n {
+                    for x in 0..n {
+                        let pixel = image.pixel(x as u32, y as u32, n as u32);
+                        let mean = (0..4)
+                            .map(|s| {
+                                let mut smp = pixel.sample(s);
+                                smp.start_bounce(group / 2);
+                                f(if group % 2 == 0 {
+                                    smp.light().0
+                                } else {
+                                    smp.bsdf().1
+                                })
+                            })
+                            .sum::<f64>()
+                            / 4.0;
+                        err[y * n + x] = mean - exact;
+                    }
                 }
-            }
-            let var = err.iter().map(|e| e * e).sum::<f64>() / err.len() as f64;
-            let mut block = Vec::new();
-            for by in 0..n / 2 {
-                for bx in 0..n / 2 {
-                    let i = 2 * by * n + 2 * bx;
-                    block.push((err[i] + err[i + 1] + err[i + n] + err[i + n + 1]) / 4.0);
+                let var = err.iter().map(|e| e * e).sum::<f64>() / err.len() as f64;
+                let mut block = Vec::new();
+                for by in 0..n / 2 {
+                    for bx in 0..n / 2 {
+                        let i = 2 * by * n + 2 * bx;
+                        block.push((err[i] + err[i + 1] + err[i + n] + err[i + n + 1]) / 4.0);
+                    }
                 }
+                let block_var = block.iter().map(|e| e * e).sum::<f64>() / block.len() as f64;
+                ratios.push(block_var / (var / 4.0));
             }
-            let block_var = block.iter().map(|e| e * e).sum::<f64>() / block.len() as f64;
-            ratios.push(block_var / (var / 4.0));
         }
         ratios.iter().sum::<f64>() / ratios.len() as f64
     };
@@ -351,9 +360,9 @@ fn pixel_errors_are_blue_noise() {
         "2x2 block variance / (pixel variance / 4): sobol {sobol:.3}, independent {independent:.3}"
     );
     assert!(
-        (0.8..1.25).contains(&independent),
+        (0.85..1.15).contains(&independent),
         "independent {independent:.3}"
     );
     // A 16-point net over the block: (16^-1.5) / (4^-1.5 / 4) = 0.5 for an edge integrand.
-    assert!(sobol < 0.6, "sobol {sobol:.3}");
+    assert!(sobol < 0.7, "sobol {sobol:.3}");
 }

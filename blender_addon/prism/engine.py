@@ -110,7 +110,10 @@ class PrismRenderEngine(bpy.types.RenderEngine):
         scene = depsgraph.scene
         width, height = export.render_size(scene)
         LAST.clear()
-        LAST.update(error=None, warnings=[], cancelled=False, width=width, height=height, timings={}, previews=0, progress=[])
+        LAST.update(
+            error=None, warnings=[], cancelled=False, width=width, height=height, timings={}, previews=0, progress=[],
+            active=None,
+        )
         result = self.begin_result(0, 0, width, height)
         tmp = tempfile.mkdtemp(prefix="prism_")
         LAST["tmpdir"] = tmp
@@ -205,7 +208,13 @@ class PrismRenderEngine(bpy.types.RenderEngine):
                         frac = float(ev.get("fraction", 0.0))
                         self.update_progress(min(max(frac, 0.0), 1.0))
                         LAST["progress"].append(frac)
-                        self.update_stats("", "Prism: %.0f%% | %.1f s" % (100.0 * frac, float(ev.get("elapsed_s", 0.0))))
+                        status = "Prism: %.0f%% | %.1f s" % (100.0 * frac, float(ev.get("elapsed_s", 0.0)))
+                        if "active" in ev:
+                            # Adaptive sampling: the share of pixels still sampling.
+                            LAST["active"] = float(ev["active"])
+                        if LAST.get("active") is not None:
+                            status += " | %.0f%% of pixels sampling" % (100.0 * LAST["active"])
+                        self.update_stats("", status)
                     elif kind == "start":
                         timings["to_start_event"] = time.perf_counter() - t_start
                         timings["prism_load"] = float(ev.get("load_s", 0.0))

@@ -1129,6 +1129,11 @@ def render_settings(scene):
             out["wavelength_pdf"] = p.wavelength_pdf.lower()
         if hasattr(p, "filter_type"):
             out["filter"] = {"type": p.filter_type.lower(), "width": float(p.filter_width)}
+        if getattr(p, "use_adaptive_sampling", False):
+            out["noise_threshold"] = float(p.adaptive_threshold)
+            out["min_samples"] = int(p.adaptive_min_samples)
+        if getattr(p, "time_limit", 0.0) > 0.0:
+            out["time_limit"] = float(p.time_limit)
     return out
 
 

@@ -23,7 +23,43 @@ GLASS_PRESET_ITEMS = [
 
 
 class PrismRenderSettings(bpy.types.PropertyGroup):
-    samples: IntProperty(name="Samples", description="Samples per pixel", default=64, min=1, max=1 << 20)
+    samples: IntProperty(
+        name="Samples",
+        description="Samples per pixel (the maximum when the noise threshold is on)",
+        default=64,
+        min=1,
+        max=1 << 20,
+    )
+    use_adaptive_sampling: BoolProperty(
+        name="Noise Threshold",
+        description="Adaptive sampling: stop sampling pixels whose estimated noise is below the threshold "
+        "(the same error measure and threshold scale as Cycles)",
+        default=True,
+    )
+    adaptive_threshold: FloatProperty(
+        name="Noise Threshold",
+        description="Noise level at which a pixel stops sampling (Cycles' default: 0.01); lower is cleaner "
+        "and slower",
+        default=0.01,
+        min=0.0001,
+        max=1.0,
+        precision=4,
+    )
+    adaptive_min_samples: IntProperty(
+        name="Min Samples",
+        description="Samples every pixel takes before the noise threshold is tested (0 = automatic)",
+        default=0,
+        min=0,
+        max=1 << 20,
+    )
+    time_limit: FloatProperty(
+        name="Time Limit",
+        description="Stop rendering after this time (0 = no limit); the image then has fewer samples",
+        default=0.0,
+        min=0.0,
+        subtype="TIME_ABSOLUTE",
+        unit="TIME_ABSOLUTE",
+    )
     max_depth: IntProperty(
         name="Max Depth",
         description="Maximum path depth: 1 = direct light only (pbrt's maxdepth); "

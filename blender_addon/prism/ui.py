@@ -21,9 +21,22 @@ class RENDER_PT_prism_sampling(PrismPanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
+        layout.use_property_decorate = False
         p = context.scene.prism
+        # As Cycles' Sampling > Render: Noise Threshold, Max Samples, Min Samples, Time Limit.
+        heading = layout.column(align=True, heading="Noise Threshold")
+        row = heading.row(align=True)
+        row.prop(p, "use_adaptive_sampling", text="")
+        sub = row.row()
+        sub.active = p.use_adaptive_sampling
+        sub.prop(p, "adaptive_threshold", text="")
+        col = layout.column(align=True)
+        col.prop(p, "samples", text="Max Samples" if p.use_adaptive_sampling else "Samples")
+        sub = col.column(align=True)
+        sub.active = p.use_adaptive_sampling
+        sub.prop(p, "adaptive_min_samples", text="Min Samples")
+        layout.prop(p, "time_limit")
         col = layout.column()
-        col.prop(p, "samples")
         col.prop(p, "max_depth")
         col.prop(p, "wavelengths")
         col.prop(p, "wavelength_pdf")

@@ -1,6 +1,7 @@
 //! The film: accumulates CIE XYZ per pixel (box filter over the pixel area), converts to
 //! linear Rec.709 (Blender's scene-linear default) and writes OpenEXR.
 
+pub mod adaptive;
 mod exr_io;
 pub mod filter;
 pub mod metrics;
@@ -20,28 +21,65 @@ use glam::Vec3;
 pub struct FilmPixel {
     pub xyz: [f64; 3],
     pub samples: u32,
+    /// Sum over half of the samples (`in_half`), for adaptive sampling's error estimate.
+    half_xyz: [f64; 3],
     albedo_xyz: [f32; 3],
     normal: [f32; 3],
     depth_sum: f32,
     depth_hits: u32,
 }
 
+/// Which samples of a pixel form the half whose mean adaptive sampling compares with the
+/// mean of all: those whose index has an odd number of bits set at odd positions. Every
+/// aligned block of four consecutive indices puts two samples in each half, and so does every
+/// larger aligned block at every scale, so each half of a stratified (0, 2)-sequence prefix is
+/// itself spread over the whole domain. The odd indices alone would be a single stratum of
+/// the sequence (in the first dimension, all of them lie in one half of [0, 1)): their mean
+/// would differ from the full mean by far more than the noise. Cycles splits its samples the
+/// same way.
+#[inline]
+pub fn in_half(index: u32) -> bool {
+    (index & 0xaaaa_aaaa).count_ones() & 1 == 1
+}
+
 /// Depth written where no sample hit a surface (Blender's background Z).
 pub const BACKGROUND_DEPTH: f32 = 1e10;
 
 impl FilmPixel {
-    /// Adds one sample; non-finite estimates are rejected so no NaN/Inf reaches the image.
-    /// Returns false if the sample was discarded.
+    /// Adds sample number `index` of the pixel; non-finite estimates are rejected so no
+    /// NaN/Inf reaches the image. Returns false if the sample was discarded.
     #[inline]
-    pub fn add(&mut self, xyz: Vec3) -> bool {
+    pub fn add(&mut self, xyz: Vec3, index: u32) -> bool {
         self.samples += 1;
         if !xyz.is_finite() {
             return false;
         }
-        self.xyz[0] += xyz.x as f64;
-        self.xyz[1] += xyz.y as f64;
-        self.xyz[2] += xyz.z as f64;
+        let v = [xyz.x as f64, xyz.y as f64, xyz.z as f64];
+        for (s, x) in self.xyz.iter_mut().zip(v) {
+            *s += x;
+        }
+        if in_half(index) {
+            for (s, x) in self.half_xyz.iter_mut().zip(v) {
+                *s += x;
+            }
+        }
         true
+    }
+
+    /// Mean of half of the samples (`in_half`) as linear Rec.709 (`None` before the second
+    /// sample).
+    pub fn half_rgb(&self) -> Option<Vec3> {
+        let n = (0..self.samples).filter(|&i| in_half(i)).count();
+        if n == 0 || self.samples < 2 {
+            return None;
+        }
+        let k = 1.0 / n as f64;
+        let xyz = Vec3::new(
+            (self.half_xyz[0] * k) as f32,
+            (self.half_xyz[1] * k) as f32,
+            (self.half_xyz[2] * k) as f32,
+        );
+        Some(xyz_to_linear_srgb(xyz)).filter(|c| c.is_finite())
     }
 
     /// Adds one sample's guides; `depth` is `None` when the camera ray escaped. Non-finite

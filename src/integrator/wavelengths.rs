@@ -10,14 +10,19 @@
 //!   report this project grew from (Evans and McCool 1999).
 //!
 //! `Hero` and `Stratified` take the hero's primary sample from the sampler's wavelength
-//! dimension (stratified over a pixel's samples with the low-discrepancy sampler).
+//! dimensions (stratified over a pixel's samples with the low-discrepancy sampler). For `Hero`
+//! the N members sit at u + k/N, so the set depends only on frac(N u): u is built as
+//! (v + floor(N w)) / N from the stratified pair (v, w), which makes the set itself follow the
+//! stratified v (a pixel's 2^m samples fill 2^m strata of it, not 2^m / N as a stratified u
+//! would) while the hero's quarter stays uniform (w), so each member is the hero with the same
+//! density, as the MIS over hero choices requires.
 //!
 //! All three draw from the same wavelength density (`WavelengthPdf`): the visible-range
 //! importance density of `spectrum::sampled` or uniform over 360-830 nm.
 
 use crate::sampler::Sampler;
-use crate::spectrum::SampledWavelengths;
 pub use crate::spectrum::WavelengthPdf;
+use crate::spectrum::{SampledWavelengths, N_WAVELENGTHS};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum WavelengthStrategy {
@@ -66,13 +71,17 @@ impl WavelengthSampling {
         }
         match self.strategy {
             WavelengthStrategy::Hero => {
-                SampledWavelengths::sample_hero(sampler.wavelength(), self.pdf)
+                let uv = sampler.wavelength();
+                let n = N_WAVELENGTHS as f32;
+                let quarter = (uv.y * n).floor().min(n - 1.0);
+                let u = ((uv.x + quarter) / n).min(1.0 - f32::EPSILON / 2.0);
+                SampledWavelengths::sample_hero(u, self.pdf)
             }
             WavelengthStrategy::Single => {
                 SampledWavelengths::sample_single(sampler.next_1d(), self.pdf)
             }
             WavelengthStrategy::Stratified => {
-                SampledWavelengths::sample_single(sampler.wavelength(), self.pdf)
+                SampledWavelengths::sample_single(sampler.wavelength().x, self.pdf)
             }
         }
     }

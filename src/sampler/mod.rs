@@ -28,8 +28,9 @@
 //!
 //! | group | 0-1 | 2 | 3 |
 //! | --- | --- | --- | --- |
-//! | camera | pixel filter offset | hero wavelength | - |
+//! | camera | pixel filter offset | - | - |
 //! | lens | point on the lens | - | - |
+//! | wavelength | hero wavelength: position within a quarter / which quarter | - | - |
 //! | per bounce `light` | point on the light | light choice | material component |
 //! | per bounce `bsdf` | BSDF direction | BSDF lobe | Russian roulette |
 //! | per bounce `probe` | BSSRDF disk point | projection axis | probe hit choice |
@@ -222,7 +223,8 @@ impl PixelSampler {
 /// Groups of the layout (see the module documentation).
 const GROUP_CAMERA: u32 = 0;
 const GROUP_LENS: u32 = 1;
-const FIRST_BOUNCE_GROUP: u32 = 2;
+const GROUP_WAVELENGTH: u32 = 2;
+const FIRST_BOUNCE_GROUP: u32 = 3;
 const GROUPS_PER_BOUNCE: u32 = 5;
 const LIGHT: u32 = 0;
 const BSDF: u32 = 1;
@@ -307,9 +309,11 @@ impl Sampler {
         (Vec2::new(a, b), Vec2::new(c, d))
     }
 
-    /// The hero wavelength's primary sample (jointly stratified with the pixel position).
-    pub fn wavelength(&mut self) -> f32 {
-        self.dims::<1>(GROUP_CAMERA, 2)[0]
+    /// The hero wavelength's primary samples: (position, choice) — see
+    /// `integrator::wavelengths` for how they make the hero's sample.
+    pub fn wavelength(&mut self) -> Vec2 {
+        let [a, b] = self.dims::<2>(GROUP_WAVELENGTH, 0);
+        Vec2::new(a, b)
     }
 
     /// Selects the dimension groups of bounce `depth` (0 = the camera ray's hit).

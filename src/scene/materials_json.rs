@@ -51,7 +51,9 @@
 //!   `wavelengths` (`"hero"` | `"single"` | `"stratified"`), `wavelength_pdf` (`"visible"` |
 //!   `"uniform"`), `sampler` (`"sobol"`, the default: Owen-scrambled Sobol with blue-noise
 //!   pixel ordering | `"independent"`: independent random numbers, for comparisons),
-//!   `light_sampler` (`"tree"`, the default: a light tree | `"power"`: by emitted power).
+//!   `light_sampler` (`"tree"`, the default: a light tree | `"power"`: by emitted power),
+//!   `noise_threshold` (>= 0: adaptive sampling's noise threshold, Cycles' convention, 0 = off),
+//!   `min_samples` (integer >= 0, 0 = automatic) and `time_limit` (seconds >= 0, 0 = none).
 //!
 //! Validation is strict and every error is one line:
 //! `<file>: <json path, e.g. materials.Skin.subsurface.sigma_a[1]>: <what is wrong>`
@@ -839,6 +841,9 @@ impl Validator<'_> {
                 "filter",
                 "sampler",
                 "light_sampler",
+                "noise_threshold",
+                "min_samples",
+                "time_limit",
             ],
             path,
         )?;
@@ -885,6 +890,18 @@ impl Validator<'_> {
                 .map(|x| {
                     self.string(x, &path.key("sampler"), SamplerKind::NAMES, "sampler")
                         .map(str::to_string)
+                })
+                .transpose()?,
+            noise_threshold: m
+                .get("noise_threshold")
+                .map(|x| self.number(x, &path.key("noise_threshold"), Range::NonNeg))
+                .transpose()?,
+            min_samples: get("min_samples", 0)?,
+            time_limit: m
+                .get("time_limit")
+                .map(|x| {
+                    self.number(x, &path.key("time_limit"), Range::NonNeg)
+                        .map(|v| v as f64)
                 })
                 .transpose()?,
             light_sampler: m

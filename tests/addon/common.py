@@ -74,6 +74,8 @@ def simple_scene():
 def use_prism(sc, spp=16, threads=2):
     sc.render.engine = "PRISM"
     sc.prism.samples = spp
+    # Fixed spp, as use_cycles (the parity tests compare equally sampled images).
+    sc.prism.use_adaptive_sampling = False
     sc.prism.threads = threads
     sc.prism.max_depth = 8
     # The parity tests set Cycles to a 1 px box filter (use_cycles); match it.

@@ -404,6 +404,8 @@ def test_export_content():
     C.check(abs(spot["spot"]["outerConeAngle"] - 0.5) < 1e-6 and abs(spot["spot"]["innerConeAngle"] - 0.375) < 1e-6, "spot cone")
     sun = next(x for x in lights if x["type"] == "directional")
     C.check(abs(sun["intensity"] - 3 * 683) < 1e-3, "sun S*683 lux")
+    angle = bpy.data.objects["Sun"].data.angle
+    C.check(angle > 0 and abs(sun["extras"]["prism_angle"] - angle) < 1e-7, "sun angle -> extras.prism_angle")
     area = next(m for m in g["materials"] if m["name"].startswith("PrismAreaLight_Disk"))
     L = area["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"]
     C.check(abs(L - 100 / (math.pi * math.pi)) / L < 0.01, "disk light radiance P/(pi A) = %.3f" % L)
@@ -420,6 +422,48 @@ def test_export_content():
     exp = 2 * math.atan(36.0 / 2 / 50.0 * 100 / 160)
     C.check(abs(yfov - exp) < 1e-6, "yfov from lens, sensor and aspect")
 
+
+
+def test_adaptive_sampling():
+    """Render > Sampling mirrors Cycles: Noise Threshold (on by default), Max/Min Samples, Time Limit
+    reach the renderer; pixels stop sampling and the status bar says how many still sample."""
+    import json
+
+    sc = C.simple_scene()
+    C.use_prism(sc, spp=512)
+    p = sc.prism
+    C.check(type(p).bl_rna.properties["use_adaptive_sampling"].default, "noise threshold on by default, as Cycles")
+    C.check(abs(type(p).bl_rna.properties["adaptive_threshold"].default - 0.01) < 1e-9, "default threshold 0.01")
+    p.use_adaptive_sampling = True
+    p.adaptive_threshold = 0.05
+    p.adaptive_min_samples = 8
+    p.time_limit = 30.0
+    from prism import export
+
+    d = tempfile.mkdtemp(dir=OUT)
+    dg = bpy.context.evaluated_depsgraph_get()
+    _, json_path, _, _ = export.export_scene(dg, d)
+    r = json.load(open(json_path))["render"]
+    C.check(abs(r.get("noise_threshold", 0) - 0.05) < 1e-6 and r.get("min_samples") == 8
+            and abs(r.get("time_limit", 0) - 30.0) < 1e-6, "render block: %s" % r)
+    t = time.time()
+    px = C.render_pixels(sc, os.path.join(OUT, "adaptive.exr"))
+    adaptive_s = time.time() - t
+    C.check(np.isfinite(px).all(), "finite pixels")
+    last = prism.engine.LAST
+    C.check(last.get("error") is None, "no error: %s" % last.get("error"))
+    C.check(last.get("active") is not None and last["active"] < 0.9,
+            "pixels stopped sampling (%.0f%% still active at the end)" % (100 * (last.get("active") or 1)))
+    # Off: the JSON has no threshold and every pixel takes all samples (slower).
+    p.use_adaptive_sampling = False
+    _, json_path, _, _ = export.export_scene(bpy.context.evaluated_depsgraph_get(), tempfile.mkdtemp(dir=OUT))
+    C.check("noise_threshold" not in json.load(open(json_path))["render"], "threshold off -> not exported")
+    t = time.time()
+    fixed = C.render_pixels(sc, os.path.join(OUT, "fixed.exr"))
+    fixed_s = time.time() - t
+    C.check(adaptive_s < fixed_s, "adaptive render faster (%.2f s vs %.2f s)" % (adaptive_s, fixed_s))
+    diff = np.abs(px[..., :3].mean() - fixed[..., :3].mean()) / fixed[..., :3].mean()
+    C.check(diff < 0.01, "same image mean (%.4f relative difference)" % diff)
 
 
 def test_vertex_domain_export():

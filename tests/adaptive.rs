@@ -1,0 +1,213 @@
+//! Adaptive sampling: converged pixels stop (a flat lit floor early, a caustic keeps
+//! sampling), the expectation does not change (white furnace), and the render stays
+//! deterministic for any thread count.
+
+mod common;
+
+use common::scenes::{diffuse_material, furnace_scene, glass_material, sphere_mesh};
+use glam::{Mat4, Vec3};
+use prism::render::{render_quiet, AdaptiveSampling, RenderSettings};
+use prism::scene::{
+    GltfMaterialDesc, InstanceDesc, IorDesc, MaterialDesc, MeshDesc, Scene, SceneDesc,
+};
+
+/// A floor lit by a small square emitter through a glass ball (a caustic below the ball),
+/// seen from the side and above.
+fn caustic_scene() -> SceneDesc {
+    let quad = |name: &str, c: Vec3, u: Vec3, v: Vec3, material: usize| MeshDesc {
+        name: name.into(),
+        positions: vec![c - u - v, c + u - v, c + u + v, c - u + v],
+        normals: None,
+        uvs: None,
+        tangents: None,
+        indices: vec![0, 1, 2, 0, 2, 3],
+        material: Some(material),
+    };
+    let light = MaterialDesc {
+        gltf: GltfMaterialDesc {
+            name: "light".into(),
+            base_color: glam::Vec4::new(0.0, 0.0, 0.0, 1.0),
+            emissive: Vec3::splat(150.0),
+            ..Default::default()
+        },
+        sidecar: None,
+    };
+    let mut ball = sphere_mesh(1, 64, 32);
+    ball.name = "ball".into();
+    let mut cam = common::scenes::camera(0.0, 0.7);
+    // Looking from `eye` at `target` (the camera looks down its -z, +y up).
+    let (eye, target) = (Vec3::new(0.0, 1.4, 3.0), Vec3::new(0.0, 0.2, 0.0));
+    let f = (target - eye).normalize();
+    let r = f.cross(Vec3::Y).normalize();
+    let u = r.cross(f);
+    cam.camera_to_world = Mat4::from_cols(
+        r.extend(0.0),
+        u.extend(0.0),
+        (-f).extend(0.0),
+        eye.extend(1.0),
+    );
+    SceneDesc {
+        meshes: vec![
+            quad("floor", Vec3::ZERO, Vec3::X * 4.0, Vec3::Z * -4.0, 0),
+            ball,
+            // Facing down (x cross z = -y).
+            quad(
+                "light",
+                Vec3::new(0.0, 4.0, 0.0),
+                Vec3::X * 0.15,
+                Vec3::Z * 0.15,
+                2,
+            ),
+        ],
+        instances: vec![
+            InstanceDesc {
+                mesh: 0,
+                object_to_world: Mat4::IDENTITY,
+                name: "floor".into(),
+            },
+            InstanceDesc {
+                mesh: 1,
+                object_to_world: Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0))
+                    * Mat4::from_scale(Vec3::splat(0.5)),
+                name: "ball".into(),
+            },
+            InstanceDesc {
+                mesh: 2,
+                object_to_world: Mat4::IDENTITY,
+                name: "light".into(),
+            },
+        ],
+        materials: vec![
+            diffuse_material("floor", Vec3::splat(0.5)),
+            glass_material("glass", IorDesc::Constant(1.5), 0.0),
+            light,
+        ],
+        camera: Some(cam),
+        ..Default::default()
+    }
+}
+
+fn settings(spp: u32, adaptive: Option<AdaptiveSampling>) -> RenderSettings {
+    RenderSettings {
+        width: 48,
+        height: 48,
+        spp,
+        max_depth: 8,
+        seed: 3,
+        adaptive,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn flat_pixels_stop_early_and_the_caustic_keeps_sampling() {
+    let scene = Scene::build(caustic_scene()).expect("scene builds");
+    let adaptive = AdaptiveSampling {
+        threshold: 0.02,
+        min_samples: 16,
+    };
+    let (film, stats) = render_quiet(&scene, &settings(512, Some(adaptive)));
+    assert_eq!(stats.discarded, 0);
+    // Regions of the 48 x 48 image: the open floor in front (rows 40-47, lit directly, flat),
+    // the caustic and the ball (rows 26-31, columns 18-29) and the black sky (top corners).
+    let mean_samples = |rows: std::ops::Range<usize>, cols: std::ops::Range<usize>| {
+        let mut sum = 0.0;
+        let mut n = 0.0;
+        for y in rows {
+            for x in cols.clone() {
+                sum += film.pixels[y * 48 + x].samples as f64;
+                n += 1.0;
+            }
+        }
+        sum / n
+    };
+    let floor = mean_samples(40..48, 0..48);
+    let caustic = mean_samples(26..32, 18..30);
+    let sky = mean_samples(0..4, 0..8);
+    println!(
+        "mean spp: floor {floor:.1}, caustic {caustic:.1}, sky {sky:.1} (total {})",
+        stats.samples
+    );
+    assert!(
+        floor < 150.0,
+        "the flat floor took {floor:.1} spp on average (max 512)"
+    );
+    assert!(
+        caustic > 400.0 && caustic > 3.0 * floor,
+        "caustic {caustic:.1} vs floor {floor:.1}"
+    );
+    assert_eq!(sky, 16.0, "the black sky stops at the minimum");
+    // Every pixel got at least the minimum, none more than the maximum.
+    assert!(film.pixels.iter().all(|p| (16..=512).contains(&p.samples)));
+    assert!(
+        stats.samples < 48 * 48 * 512 / 2,
+        "adaptive sampling saved little"
+    );
+}
+
+#[test]
+fn adaptive_sampling_keeps_the_furnace_mean() {
+    // A diffuse sphere of albedo 0.8 in a uniform white world: every pixel is exactly 1
+    // (background) or 0.8 (sphere, white furnace); adaptive sampling must not move the mean.
+    let desc = || furnace_scene(diffuse_material("grey", Vec3::splat(0.8)), Vec3::ONE);
+    let scene = Scene::build(desc()).expect("scene builds");
+    let adaptive = AdaptiveSampling {
+        threshold: 0.01,
+        min_samples: 16,
+    };
+    let s = RenderSettings {
+        width: 32,
+        height: 32,
+        spp: 256,
+        max_depth: 64,
+        seed: 1,
+        adaptive: Some(adaptive),
+        ..Default::default()
+    };
+    let (film, stats) = render_quiet(&scene, &s);
+    let fixed = render_quiet(
+        &scene,
+        &RenderSettings {
+            adaptive: None,
+            ..s.clone()
+        },
+    )
+    .0;
+    let mean = |f: &prism::film::Film| {
+        f.pixels.iter().map(|p| p.rgb()).sum::<Vec3>() / f.pixels.len() as f32
+    };
+    let (m_adaptive, m_fixed) = (mean(&film), mean(&fixed));
+    println!(
+        "furnace mean adaptive {m_adaptive} ({} samples), fixed {m_fixed}",
+        stats.samples
+    );
+    assert!(stats.samples < 32 * 32 * 256, "nothing converged");
+    for c in 0..3 {
+        assert!(
+            (m_adaptive[c] - m_fixed[c]).abs() < 2e-3,
+            "{m_adaptive} vs {m_fixed}"
+        );
+    }
+    // Sphere pixels are 0.8, background 1 (the centre and a corner).
+    assert!((film.pixels[16 * 32 + 16].rgb().y - 0.8).abs() < 0.02);
+    assert!((film.pixels[0].rgb().y - 1.0).abs() < 0.01);
+}
+
+#[test]
+fn adaptive_renders_are_identical_for_any_thread_count() {
+    let scene = Scene::build(caustic_scene()).expect("scene builds");
+    let adaptive = Some(AdaptiveSampling {
+        threshold: 0.03,
+        min_samples: 0,
+    });
+    let render = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| render_quiet(&scene, &settings(128, adaptive)).0.to_rgba())
+    };
+    let one = render(1);
+    assert!(one == render(2), "1 and 2 threads differ");
+    assert!(one == render(3), "1 and 3 threads differ");
+}
