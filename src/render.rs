@@ -236,7 +236,7 @@ pub fn render(
                             let ray: Ray = camera.generate_ray(raster, u_lens);
                             let result = tracer.radiance(ray, &wavelengths, &mut sampler);
                             band_rays += result.rays as u64;
-                            if !px.add(spectrum_to_xyz(&result.radiance, &wavelengths), sample) {
+                            if !px.add(spectrum_to_xyz(&result.radiance, &wavelengths)) {
                                 band_discarded += 1;
                             }
                             if !settings.guides {

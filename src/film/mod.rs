@@ -21,65 +21,63 @@ use glam::Vec3;
 pub struct FilmPixel {
     pub xyz: [f64; 3],
     pub samples: u32,
-    /// Sum over half of the samples (`in_half`), for adaptive sampling's error estimate.
-    half_xyz: [f64; 3],
+    /// The running XYZ sum when the sample count last reached a power of two 2^j (`[1]`) and
+    /// when it reached 2^(j-1) (`[0]`): the two halves of the largest power-of-two prefix of the
+    /// pixel's samples, for adaptive sampling's error estimate (`adaptive`).
+    prefix_sums: [[f64; 3]; 2],
     albedo_xyz: [f32; 3],
     normal: [f32; 3],
     depth_sum: f32,
     depth_hits: u32,
 }
 
-/// Which samples of a pixel form the half whose mean adaptive sampling compares with the
-/// mean of all: those whose index has an odd number of bits set at odd positions. Every
-/// aligned block of four consecutive indices puts two samples in each half, and so does every
-/// larger aligned block at every scale, so each half of a stratified (0, 2)-sequence prefix is
-/// itself spread over the whole domain. The odd indices alone would be a single stratum of
-/// the sequence (in the first dimension, all of them lie in one half of [0, 1)): their mean
-/// would differ from the full mean by far more than the noise. Cycles splits its samples the
-/// same way.
-#[inline]
-pub fn in_half(index: u32) -> bool {
-    (index & 0xaaaa_aaaa).count_ones() & 1 == 1
-}
-
 /// Depth written where no sample hit a surface (Blender's background Z).
 pub const BACKGROUND_DEPTH: f32 = 1e10;
 
 impl FilmPixel {
-    /// Adds sample number `index` of the pixel; non-finite estimates are rejected so no
-    /// NaN/Inf reaches the image. Returns false if the sample was discarded.
+    /// Adds the pixel's next sample; non-finite estimates are rejected so no NaN/Inf reaches
+    /// the image. Returns false if the sample was discarded.
     #[inline]
-    pub fn add(&mut self, xyz: Vec3, index: u32) -> bool {
+    pub fn add(&mut self, xyz: Vec3) -> bool {
         self.samples += 1;
-        if !xyz.is_finite() {
-            return false;
-        }
-        let v = [xyz.x as f64, xyz.y as f64, xyz.z as f64];
-        for (s, x) in self.xyz.iter_mut().zip(v) {
-            *s += x;
-        }
-        if in_half(index) {
-            for (s, x) in self.half_xyz.iter_mut().zip(v) {
+        let finite = xyz.is_finite();
+        if finite {
+            let v = [xyz.x as f64, xyz.y as f64, xyz.z as f64];
+            for (s, x) in self.xyz.iter_mut().zip(v) {
                 *s += x;
             }
         }
-        true
+        if self.samples.is_power_of_two() {
+            self.prefix_sums = [self.prefix_sums[1], self.xyz];
+        }
+        finite
     }
 
-    /// Mean of half of the samples (`in_half`) as linear Rec.709 (`None` before the second
-    /// sample).
-    pub fn half_rgb(&self) -> Option<Vec3> {
-        let n = (0..self.samples).filter(|&i| in_half(i)).count();
-        if n == 0 || self.samples < 2 {
+    /// The means of the two halves of the pixel's largest power-of-two prefix of samples, as
+    /// linear Rec.709, with that prefix's length (`None` before the second sample). Each half
+    /// is an aligned block of the pixel's sequence, so each is a stratified estimate in its own
+    /// right.
+    pub fn prefix_halves(&self) -> Option<(Vec3, Vec3, u32)> {
+        if self.samples < 2 {
             return None;
         }
-        let k = 1.0 / n as f64;
-        let xyz = Vec3::new(
-            (self.half_xyz[0] * k) as f32,
-            (self.half_xyz[1] * k) as f32,
-            (self.half_xyz[2] * k) as f32,
-        );
-        Some(xyz_to_linear_srgb(xyz)).filter(|c| c.is_finite())
+        let n = 1u32 << (31 - self.samples.leading_zeros());
+        let half = (n / 2) as f64;
+        let rgb = |xyz: [f64; 3]| {
+            xyz_to_linear_srgb(Vec3::new(
+                (xyz[0] / half) as f32,
+                (xyz[1] / half) as f32,
+                (xyz[2] / half) as f32,
+            ))
+        };
+        let [first, total] = self.prefix_sums;
+        let a = rgb(first);
+        let b = rgb([
+            total[0] - first[0],
+            total[1] - first[1],
+            total[2] - first[2],
+        ]);
+        (a.is_finite() && b.is_finite()).then_some((a, b, n))
     }
 
     /// Adds one sample's guides; `depth` is `None` when the camera ray escaped. Non-finite

@@ -11,7 +11,7 @@ pub fn mix64(mut z: u64) -> u64 {
 /// A 32-bit avalanche hash (two multiply-xorshift rounds; constants from Wellons' hash
 /// prospector search, "lowbias32", bias 0.17).
 #[inline]
-pub fn hash32(mut x: u32) -> u32 {
+pub const fn hash32(mut x: u32) -> u32 {
     x ^= x >> 16;
     x = x.wrapping_mul(0x7feb_352d);
     x ^= x >> 15;

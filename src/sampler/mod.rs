@@ -211,11 +211,12 @@ impl PixelSampler {
     /// The sampler of sample `sample` (< the render's max spp) of this pixel.
     pub fn sample(&self, sample: u32) -> Sampler {
         Sampler {
-            index: self.base.wrapping_add(sample),
+            rev_index: self.base.wrapping_add(sample).reverse_bits(),
             seed: self.tile_seed,
             group_base: 0,
             independent: self.kind == SamplerKind::Independent,
-            rng: Pcg32::new(self.pixel_index, sample as u64, self.seed),
+            rng: None,
+            stream: (self.pixel_index, sample as u64, self.seed),
         }
     }
 }
@@ -233,17 +234,39 @@ const EXIT_LIGHT: u32 = 3;
 const EXIT_LOBE: u32 = 4;
 /// `group_base` past the bounce table: values come from the PCG stream.
 const NO_GROUP: u32 = u32::MAX;
+const GROUPS: usize = (FIRST_BOUNCE_GROUP + GROUPS_PER_BOUNCE * SOBOL_BOUNCES) as usize;
+
+/// Per group: the salt of its index shuffle and of its four value scrambles (random words,
+/// xor-ed with the tile's seed at run time: no hashing per sample).
+static GROUP_SALTS: [[u32; 5]; GROUPS] = {
+    let mut t = [[0u32; 5]; GROUPS];
+    let mut g = 0;
+    while g < GROUPS {
+        let mut k = 0;
+        while k < 5 {
+            t[g][k] = hash32(
+                hash32(g as u32 ^ 0x632b_e5ab).wrapping_add((k as u32).wrapping_mul(0x9e37_79b9)),
+            );
+            k += 1;
+        }
+        g += 1;
+    }
+    t
+};
 
 /// The values of one camera path.
 #[derive(Clone, Debug)]
 pub struct Sampler {
-    /// Index of this sample in its tile's sequence.
-    index: u32,
+    /// Index of this sample in its tile's sequence, bit-reversed (see `sobol`).
+    rev_index: u32,
     seed: u32,
     /// First group of the current bounce.
     group_base: u32,
     independent: bool,
-    rng: Pcg32,
+    /// The independent stream, created at its first use (most paths never need it).
+    rng: Option<Pcg32>,
+    /// What seeds it: (pixel, sample, seed).
+    stream: (u64, u64, u64),
 }
 
 impl Sampler {
@@ -251,44 +274,48 @@ impl Sampler {
     /// that draw an unbounded number of values and for tests.
     pub fn new(pixel_index: u64, sample_index: u64, seed: u64) -> Self {
         Sampler {
-            index: 0,
+            rev_index: 0,
             seed: 0,
             group_base: 0,
             independent: true,
-            rng: Pcg32::new(pixel_index, sample_index, seed),
+            rng: Some(Pcg32::new(pixel_index, sample_index, seed)),
+            stream: (pixel_index, sample_index, seed),
         }
     }
 
     /// Independent value (the PCG stream), whatever the sampler kind.
     #[inline]
     pub fn next_1d(&mut self) -> f32 {
-        self.rng.next_1d()
+        self.stream().next_1d()
     }
 
     #[inline]
     pub fn next_2d(&mut self) -> Vec2 {
-        self.rng.next_2d()
+        self.stream().next_2d()
     }
 
     #[inline]
-    fn group_seed(&self, group: u32) -> u32 {
-        hash32(self.seed ^ hash32(group.wrapping_add(0x632b_e5ab)))
+    fn stream(&mut self) -> &mut Pcg32 {
+        let (pixel, sample, seed) = self.stream;
+        self.rng
+            .get_or_insert_with(|| Pcg32::new(pixel, sample, seed))
     }
 
-    /// Dimensions `D` of `group` starting at `first`.
+    /// Dimensions `D` of `group` starting at `first`: the group's shuffle of the sample's index
+    /// and each dimension's value scramble, seeded by the tile's seed and per-group salts.
     #[inline]
     fn dims<const D: usize>(&mut self, group: u32, first: usize) -> [f32; D] {
         if self.independent || group == NO_GROUP {
-            return std::array::from_fn(|_| self.rng.next_1d());
+            return std::array::from_fn(|_| self.stream().next_1d());
         }
-        let gs = self.group_seed(group);
-        let index = sobol::nested_uniform_scramble(self.index, gs);
+        let salts = &GROUP_SALTS[group as usize];
+        let rev_index = sobol::shuffle_reversed(self.rev_index, self.seed ^ salts[0]);
         std::array::from_fn(|k| {
             let d = first + k;
-            to_unit_float(sobol::owen_sobol(
-                index,
+            to_unit_float(sobol::owen_sobol_reversed(
+                rev_index,
                 d,
-                hash32(gs.wrapping_add(d as u32 + 1)),
+                self.seed ^ salts[d + 1],
             ))
         })
     }

@@ -70,6 +70,65 @@ const fn byte_tables() -> [[[u32; 256]; 4]; 3] {
 
 static TABLES: [[[u32; 256]; 4]; 3] = byte_tables();
 
+/// The same products over the bit-reversed index, giving bit-reversed values: byte b of the
+/// reversed index holds index bits 31 - 8b - j, and every column is stored reversed. The
+/// sampler works in bit-reversed space throughout (the index shuffle and the value scramble are
+/// both applied to reversed words), which saves two bit reversals per dimension.
+const fn reversed_byte_tables() -> [[[u32; 256]; 4]; 3] {
+    let mut t = [[[0u32; 256]; 4]; 3];
+    let mut d = 0;
+    while d < 3 {
+        let mut b = 0;
+        while b < 4 {
+            let mut v = 0;
+            while v < 256 {
+                let mut x = 0u32;
+                let mut bit = 0;
+                while bit < 8 {
+                    if (v >> bit) & 1 == 1 {
+                        x ^= MATRICES[d][31 - (b * 8 + bit)].reverse_bits();
+                    }
+                    bit += 1;
+                }
+                t[d][b][v] = x;
+                v += 1;
+            }
+            b += 1;
+        }
+        d += 1;
+    }
+    t
+}
+
+static REVERSED_TABLES: [[[u32; 256]; 4]; 3] = reversed_byte_tables();
+
+/// `sobol(reverse(rev_index), dim).reverse_bits()`, without the reversals.
+#[inline]
+fn sobol_reversed(rev_index: u32, dim: usize) -> u32 {
+    if dim == 0 {
+        // Dimension 0 is the reversed index itself.
+        return rev_index.reverse_bits();
+    }
+    let t = &REVERSED_TABLES[dim - 1];
+    t[0][(rev_index & 0xff) as usize]
+        ^ t[1][((rev_index >> 8) & 0xff) as usize]
+        ^ t[2][((rev_index >> 16) & 0xff) as usize]
+        ^ t[3][(rev_index >> 24) as usize]
+}
+
+/// The nested uniform scramble of an index, in bit-reversed space:
+/// `nested_uniform_scramble(reverse(r), seed) == reverse(shuffle_reversed(r, seed))`.
+#[inline]
+pub fn shuffle_reversed(rev_index: u32, seed: u32) -> u32 {
+    laine_karras_permutation(rev_index, seed)
+}
+
+/// `owen_sobol(reverse(rev_index), dim, seed)` from the reversed (shuffled) index.
+#[inline]
+pub fn owen_sobol_reversed(rev_index: u32, dim: usize, seed: u32) -> u32 {
+    laine_karras_permutation(sobol_reversed(rev_index, dim), seed).reverse_bits()
+}
+
 /// Unscrambled Sobol point `index`, dimension `dim` (0-3), as a 32-bit binary fraction.
 #[inline]
 pub fn sobol(index: u32, dim: usize) -> u32 {
@@ -180,6 +239,25 @@ mod tests {
                     seen[cell as usize] = true;
                 }
             }
+        }
+    }
+
+    #[test]
+    fn reversed_space_equals_the_plain_evaluation() {
+        let mut x = 0x1234_5678u32;
+        for _ in 0..2000 {
+            x = x.wrapping_mul(0x9e37_79b9).wrapping_add(0x7f4a_7c15);
+            let seed = x.rotate_left(13) ^ 0xdead_beef;
+            for d in 0..4 {
+                assert_eq!(
+                    owen_sobol_reversed(x.reverse_bits(), d, seed),
+                    owen_sobol(x, d, seed)
+                );
+            }
+            assert_eq!(
+                shuffle_reversed(x.reverse_bits(), seed).reverse_bits(),
+                nested_uniform_scramble(x, seed)
+            );
         }
     }
 
