@@ -17,7 +17,8 @@ Prism reaches a given noise level sooner. Times: Prism's whole process (scene lo
 render call (Blender start-up and file load excluded).
 
 usage: .venv-bpy/bin/python bench/noise_vs_cycles.py [SCENE ...] [--spp 64] [--rounds 3] [--size 256]
-       [--ref-spp 2048] [--adaptive [--time-limit 5]] [--work DIR] [-- extra prism render flags]
+       [--ref-spp 2048] [--adaptive [--time-limit 5]] [--work DIR] [--prism BINARY]
+       [-- extra prism render flags]
 Scenes default to: everyday sss_cornell rough_glass many_lights. Prints one JSON line per scene, then a table.
 Needs the bpy 5.0.1 wheel, numpy and OpenEXR in the running Python, and target/release/prism.
 """
@@ -103,7 +104,11 @@ def main():
     ap.add_argument("--ref-spp", type=int, default=2048)
     ap.add_argument("--adaptive", action="store_true")
     ap.add_argument("--work")
+    ap.add_argument("--prism", help="the prism binary (default: target/release/prism)")
     args = ap.parse_args()
+    global PRISM
+    if args.prism:
+        PRISM = os.path.abspath(args.prism)
     if args.spp is None:
         args.spp = 4096 if args.adaptive else 64
     work = args.work or tempfile.mkdtemp(prefix="prism_nvc_")

@@ -203,6 +203,9 @@ pub fn render(
             }
         });
 
+        // A time limit ends the render inside a pass (between pixels): the pixels after that
+        // point keep the samples of the passes before, each still a prefix of its sequence.
+        let out_of_time = || settings.time_limit.is_some_and(|t| start.elapsed() >= t);
         let mut spp_done = 0u32;
         while spp_done < settings.spp && active_count > 0 {
             if cancel.load(Ordering::Relaxed) {
@@ -218,7 +221,7 @@ pub fn render(
                     let mut band_rays = 0u64;
                     let mut band_discarded = 0u64;
                     for (i, px) in pixels.iter_mut().enumerate() {
-                        if cancel.load(Ordering::Relaxed) {
+                        if cancel.load(Ordering::Relaxed) || out_of_time() {
                             break;
                         }
                         if !band_active[i] {
@@ -291,7 +294,7 @@ pub fn render(
                 active_fraction,
             });
             on_pass(&film, spp_done);
-            if settings.time_limit.is_some_and(|t| start.elapsed() >= t) {
+            if out_of_time() {
                 break;
             }
         }
