@@ -68,8 +68,9 @@ struct SceneArgs {
     /// render.wavelengths, else hero
     #[arg(long, value_enum)]
     wavelengths: Option<WavelengthsArg>,
-    /// Density wavelengths are drawn from: visible (importance sampling of the visible band)
-    /// or uniform over 360-830 nm (default: the JSON's render.wavelength_pdf, else visible)
+    /// Density wavelengths are drawn from: rgb (least colour noise in the Rec.709 image),
+    /// visible (a bell over the visible band, tuned for luminance) or uniform over 360-830 nm
+    /// (default: the JSON's render.wavelength_pdf, else rgb)
     #[arg(long, value_enum)]
     wavelength_pdf: Option<WavelengthPdfArg>,
     /// Diagnostic: render every path at this one wavelength (nm, 360-830)
@@ -145,6 +146,7 @@ enum WavelengthsArg {
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum WavelengthPdfArg {
+    Rgb,
     Visible,
     Uniform,
 }
@@ -301,6 +303,7 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings, f64)> {
             .unwrap_or_default(),
     };
     let pdf = match args.wavelength_pdf {
+        Some(WavelengthPdfArg::Rgb) => WavelengthPdf::Rgb,
         Some(WavelengthPdfArg::Visible) => WavelengthPdf::Visible,
         Some(WavelengthPdfArg::Uniform) => WavelengthPdf::Uniform,
         None => defaults

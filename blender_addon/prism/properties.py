@@ -82,10 +82,11 @@ class PrismRenderSettings(bpy.types.PropertyGroup):
         name="Wavelength Density",
         description="Density the wavelengths are drawn from",
         items=[
-            ("VISIBLE", "Visible", "Importance sampling of the visible band (default)"),
+            ("RGB", "RGB", "Least colour noise in the Rec.709 image (default)"),
+            ("VISIBLE", "Visible", "A bell over the visible band, tuned for luminance noise"),
             ("UNIFORM", "Uniform", "Uniform over 360-830 nm"),
         ],
-        default="VISIBLE",
+        default="RGB",
     )
     filter_type: EnumProperty(
         name="Pixel Filter",

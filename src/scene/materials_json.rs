@@ -99,7 +99,7 @@ use crate::lights::LightSelection;
 use crate::sampler::SamplerKind;
 
 /// Accepted values of `render.wavelength_pdf`.
-pub const WAVELENGTH_PDFS: &[&str] = &["visible", "uniform"];
+pub const WAVELENGTH_PDFS: &[&str] = &["rgb", "visible", "uniform"];
 
 /// The keys that give an IOR model; a `dielectric` (or a `subsurface.ior` object) takes exactly
 /// one of them.
@@ -1138,7 +1138,7 @@ mod tests {
             ),
             (
                 r#"{"version":1,"render":{"wavelength_pdf":"gaussian"}}"#,
-                "render.wavelength_pdf: unknown wavelength pdf 'gaussian' (valid: visible, uniform)",
+                "render.wavelength_pdf: unknown wavelength pdf 'gaussian' (valid: rgb, visible, uniform)",
             ),
             (
                 r#"{"version":1,"world":{"texture":"sky.jpg"}}"#,

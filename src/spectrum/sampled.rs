@@ -230,18 +230,22 @@ impl SampledWavelengths {
 /// The density wavelengths are drawn from, shared by every wavelength strategy.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum WavelengthPdf {
-    /// sech^2 bell over the visible band (`visible_wavelength_pdf`).
+    /// Tabulated density that minimises the colour noise of the linear Rec.709 image
+    /// (`rgb_wavelength_pdf`).
     #[default]
+    Rgb,
+    /// sech^2 bell over the visible band (`visible_wavelength_pdf`), tuned for luminance.
     Visible,
     /// Uniform over [LAMBDA_MIN, LAMBDA_MAX].
     Uniform,
 }
 
 impl WavelengthPdf {
-    pub const NAMES: &'static [&'static str] = &["visible", "uniform"];
+    pub const NAMES: &'static [&'static str] = &["rgb", "visible", "uniform"];
 
     pub fn from_name(name: &str) -> Option<Self> {
         match name {
+            "rgb" => Some(Self::Rgb),
             "visible" => Some(Self::Visible),
             "uniform" => Some(Self::Uniform),
             _ => None,
@@ -250,6 +254,7 @@ impl WavelengthPdf {
 
     pub fn name(self) -> &'static str {
         match self {
+            Self::Rgb => "rgb",
             Self::Visible => "visible",
             Self::Uniform => "uniform",
         }
@@ -258,6 +263,7 @@ impl WavelengthPdf {
     /// Density per nm on [LAMBDA_MIN, LAMBDA_MAX] (0 outside).
     pub fn pdf(self, lambda: f32) -> f32 {
         match self {
+            Self::Rgb => RgbWavelengthTable::get().pdf(lambda),
             Self::Visible => visible_wavelength_pdf(lambda),
             Self::Uniform if (LAMBDA_MIN..=LAMBDA_MAX).contains(&lambda) => {
                 1.0 / (LAMBDA_MAX - LAMBDA_MIN)
@@ -276,12 +282,101 @@ impl WavelengthPdf {
     #[inline]
     pub fn sample_with_pdf(self, u: f32) -> (f32, f32) {
         match self {
+            Self::Rgb => RgbWavelengthTable::get().sample(u),
             Self::Visible => sample_visible_wavelength_with_pdf(u),
             Self::Uniform => (
                 (LAMBDA_MIN + u * (LAMBDA_MAX - LAMBDA_MIN)).min(LAMBDA_MAX),
                 1.0 / (LAMBDA_MAX - LAMBDA_MIN),
             ),
         }
+    }
+}
+
+/// The colour-balanced wavelength density, tabulated per nanometre (piecewise constant).
+///
+/// A wavelength estimate of a pixel's linear Rec.709 channel c is f(lambda) c_bar(lambda) /
+/// p(lambda), with c_bar the Rec.709 colour-matching functions (the XYZ-to-Rec.709 matrix
+/// applied to the CIE 1931 functions). For a spectrum f, the sum over channels of the
+/// relative variances, sum_c int (f c_bar)^2 / p / (int f c_bar)^2, is smallest for
+/// p ~ sqrt(sum_c (f c_bar)^2 / (int f c_bar)^2) (Cauchy-Schwarz). With f = D65 (white, the
+/// colour every upsampled RGB spectrum is a modulation of), that density puts more samples
+/// into the blue and red lobes of the channels and fewer near 500 nm, where the channels
+/// cancel, than the luminance-tuned bell. It is mixed 60/40 with the bell, so that no
+/// wavelength gets less than 0.4 of the bell's density (a narrow-band light at 700 nm must not
+/// become a firefly source) and coloured spectra gain too: single-wavelength colour variance
+/// (summed over the channels, relative to the luminance) is 0.74 of the bell's for white,
+/// 0.92 / 0.91 / 0.62 for smooth red, green and blue reflectances under D65. On the everyday
+/// benchmark scene (64 spp) the image's bulk RGB noise fell 21%, luminance noise unchanged;
+/// mixes of 0, 0.1, 0.2 and 0.5 gave -12%, -16%, -19% and -21%.
+struct RgbWavelengthTable {
+    /// Density per nm in each 1-nm bin [LAMBDA_MIN + i, LAMBDA_MIN + i + 1).
+    pdf: Vec<f32>,
+    /// cdf[i] = probability of the bins below i; len bins + 1, last = 1.
+    cdf: Vec<f32>,
+}
+
+impl RgbWavelengthTable {
+    fn get() -> &'static RgbWavelengthTable {
+        static TABLE: std::sync::LazyLock<RgbWavelengthTable> =
+            std::sync::LazyLock::new(RgbWavelengthTable::build);
+        &TABLE
+    }
+
+    fn build() -> RgbWavelengthTable {
+        use crate::spectrum::cie::{cie_xyz_bar, d65};
+        use crate::spectrum::rgb::xyz_to_linear_srgb;
+        let bins = (LAMBDA_MAX - LAMBDA_MIN) as usize;
+        let centre = |i: usize| LAMBDA_MIN + i as f32 + 0.5;
+        // Per-channel spectra of white: D65 x the Rec.709 matching functions.
+        let channel: Vec<glam::Vec3> = (0..bins)
+            .map(|i| xyz_to_linear_srgb(cie_xyz_bar(centre(i))) * d65(centre(i)))
+            .collect();
+        let integral = channel.iter().fold(glam::Vec3::ZERO, |a, &c| a + c);
+        let optimal: Vec<f64> = channel
+            .iter()
+            .map(|c| {
+                let r = *c / integral;
+                (r.dot(r) as f64).sqrt()
+            })
+            .collect();
+        let total: f64 = optimal.iter().sum();
+        let pdf: Vec<f32> = (0..bins)
+            .map(|i| {
+                (0.6 * optimal[i] / total + 0.4 * visible_wavelength_pdf(centre(i)) as f64) as f32
+            })
+            .collect();
+        // Renormalise (the bell's bins sum to 1 only up to its midpoint quadrature).
+        let sum: f64 = pdf.iter().map(|&p| p as f64).sum();
+        let pdf: Vec<f32> = pdf.iter().map(|&p| (p as f64 / sum) as f32).collect();
+        let mut cdf = Vec::with_capacity(bins + 1);
+        let mut acc = 0.0f64;
+        cdf.push(0.0);
+        for (i, &p) in pdf.iter().enumerate() {
+            acc += p as f64;
+            cdf.push(if i + 1 == bins { 1.0 } else { acc as f32 });
+        }
+        RgbWavelengthTable { pdf, cdf }
+    }
+
+    fn pdf(&self, lambda: f32) -> f32 {
+        if !(LAMBDA_MIN..=LAMBDA_MAX).contains(&lambda) {
+            return 0.0;
+        }
+        let i = ((lambda - LAMBDA_MIN) as usize).min(self.pdf.len() - 1);
+        self.pdf[i]
+    }
+
+    #[inline]
+    fn sample(&self, u: f32) -> (f32, f32) {
+        let n = self.pdf.len();
+        let i = self.cdf[1..].partition_point(|&c| c <= u).min(n - 1);
+        let p = self.pdf[i];
+        let within = if p > 0.0 {
+            ((u - self.cdf[i]) / p).clamp(0.0, 1.0)
+        } else {
+            0.5
+        };
+        ((LAMBDA_MIN + i as f32 + within).min(LAMBDA_MAX), p)
     }
 }
 

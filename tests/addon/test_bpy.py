@@ -416,7 +416,7 @@ def test_export_content():
         disk["extras"] == {"prism_area_light": True, "prism_visible_camera": False},
         "area light node: no shadows, hidden from the camera (Blender's default)",
     )
-    C.check(mj["render"]["wavelength_pdf"] == "visible", "wavelength density in the render block")
+    C.check(mj["render"]["wavelength_pdf"] == "rgb", "wavelength density in the render block (default rgb)")
     C.check(abs(mj["world"]["color"][0] - 0.05) < 1e-6, "world colour")
     yfov = g["cameras"][0]["perspective"]["yfov"]
     exp = 2 * math.atan(36.0 / 2 / 50.0 * 100 / 160)
