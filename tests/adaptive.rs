@@ -4,34 +4,17 @@
 
 mod common;
 
-use common::scenes::{diffuse_material, furnace_scene, glass_material, sphere_mesh};
+use common::scenes::{
+    diffuse_material, emissive_material, furnace_scene, glass_material, quad_mesh, sphere_mesh,
+};
 use glam::{Mat4, Vec3};
 use prism::render::{render_quiet, AdaptiveSampling, RenderSettings};
-use prism::scene::{
-    GltfMaterialDesc, InstanceDesc, IorDesc, MaterialDesc, MeshDesc, Scene, SceneDesc,
-};
+use prism::scene::{InstanceDesc, IorDesc, Scene, SceneDesc};
 
 /// A floor lit by a small square emitter through a glass ball (a caustic below the ball),
 /// seen from the side and above.
 fn caustic_scene() -> SceneDesc {
-    let quad = |name: &str, c: Vec3, u: Vec3, v: Vec3, material: usize| MeshDesc {
-        name: name.into(),
-        positions: vec![c - u - v, c + u - v, c + u + v, c - u + v],
-        normals: None,
-        uvs: None,
-        tangents: None,
-        indices: vec![0, 1, 2, 0, 2, 3],
-        material: Some(material),
-    };
-    let light = MaterialDesc {
-        gltf: GltfMaterialDesc {
-            name: "light".into(),
-            base_color: glam::Vec4::new(0.0, 0.0, 0.0, 1.0),
-            emissive: Vec3::splat(150.0),
-            ..Default::default()
-        },
-        sidecar: None,
-    };
+    let light = emissive_material("light", Vec3::splat(150.0), false);
     let mut ball = sphere_mesh(1, 64, 32);
     ball.name = "ball".into();
     let mut cam = common::scenes::camera(0.0, 0.7);
@@ -48,10 +31,10 @@ fn caustic_scene() -> SceneDesc {
     );
     SceneDesc {
         meshes: vec![
-            quad("floor", Vec3::ZERO, Vec3::X * 4.0, Vec3::Z * -4.0, 0),
+            quad_mesh("floor", Vec3::ZERO, Vec3::X * 4.0, Vec3::Z * -4.0, 0),
             ball,
             // Facing down (x cross z = -y).
-            quad(
+            quad_mesh(
                 "light",
                 Vec3::new(0.0, 4.0, 0.0),
                 Vec3::X * 0.15,

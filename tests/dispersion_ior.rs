@@ -354,5 +354,5 @@ fn readme_sidecar_example_parses() {
     };
     assert_eq!(jade.eta, 1.66);
     assert!(jade.ior.unwrap().is_dispersive());
-    assert_eq!(f.render.wavelength_pdf.as_deref(), Some("visible"));
+    assert_eq!(f.render.wavelength_pdf.as_deref(), Some("rgb"));
 }

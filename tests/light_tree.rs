@@ -7,49 +7,24 @@ mod common;
 #[path = "common/stats.rs"]
 mod stats;
 
-use common::scenes::diffuse_material;
+use common::scenes::{diffuse_material, emissive_material, quad_mesh, rel_mse};
 use glam::{Mat4, Vec2, Vec3};
 use prism::geometry::Ray;
 use prism::lights::{Light, LightSelection, ShadingContext};
 use prism::render::{render_quiet, RenderSettings};
 use prism::sampler::Pcg32;
 use prism::scene::{
-    EnvironmentTextureDesc, GltfMaterialDesc, InstanceDesc, MaterialDesc, MeshDesc, PunctualKind,
-    PunctualLightDesc, Scene, SceneDesc, WorldDesc,
+    EnvironmentTextureDesc, InstanceDesc, PunctualKind, PunctualLightDesc, Scene, SceneDesc,
+    WorldDesc,
 };
 use prism::spectrum::SampledWavelengths;
-
-fn quad(name: &str, c: Vec3, u: Vec3, v: Vec3, material: usize) -> MeshDesc {
-    MeshDesc {
-        name: name.into(),
-        positions: vec![c - u - v, c + u - v, c + u + v, c - u + v],
-        normals: None,
-        uvs: None,
-        tangents: None,
-        indices: vec![0, 1, 2, 0, 2, 3],
-        material: Some(material),
-    }
-}
-
-fn emitter(name: &str, rgb: Vec3, double_sided: bool) -> MaterialDesc {
-    MaterialDesc {
-        gltf: GltfMaterialDesc {
-            name: name.into(),
-            base_color: glam::Vec4::new(0.0, 0.0, 0.0, 1.0),
-            emissive: rgb,
-            double_sided,
-            ..Default::default()
-        },
-        sidecar: None,
-    }
-}
 
 /// A floor at y = 0 seen from above, and `n` small square emitters facing down (one-sided)
 /// spread over it at heights 0.3-2, with powers spanning two decades; plus, optionally, a
 /// point light, a spot, a sun with a disc and an environment map.
 fn many_emitters(n: usize, extras: bool) -> SceneDesc {
     let mut rng = Pcg32::new(1, 2, 3);
-    let mut meshes = vec![quad(
+    let mut meshes = vec![quad_mesh(
         "floor",
         Vec3::ZERO,
         Vec3::X * 10.0,
@@ -66,9 +41,19 @@ fn many_emitters(n: usize, extras: bool) -> SceneDesc {
         let s = 0.03 + 0.05 * rng.next_1d();
         let strength = 10f32.powf(1.0 + 2.0 * rng.next_1d());
         let colour = Vec3::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) * 0.8 + 0.2;
-        materials.push(emitter(&format!("e{i}"), colour * strength, false));
+        materials.push(emissive_material(
+            &format!("e{i}"),
+            colour * strength,
+            false,
+        ));
         // Normal (u x v = x x z = -y) pointing down: the front face lights the floor.
-        meshes.push(quad(&format!("e{i}"), c, Vec3::X * s, Vec3::Z * s, i + 1));
+        meshes.push(quad_mesh(
+            &format!("e{i}"),
+            c,
+            Vec3::X * s,
+            Vec3::Z * s,
+            i + 1,
+        ));
     }
     let mut cam = common::scenes::camera(0.0, 1.2);
     cam.camera_to_world = Mat4::from_translation(Vec3::new(0.0, 12.0, 0.0))
@@ -331,19 +316,6 @@ fn a_hit_light_has_the_density_that_sampled_it() {
         checked.iter().all(|&c| c > 20),
         "triangles, sky, sun checked: {checked:?}"
     );
-}
-
-fn rel_mse(img: &[[f32; 4]], reference: &[[f32; 4]]) -> f64 {
-    img.iter()
-        .zip(reference)
-        .map(|(a, r)| {
-            (0..3)
-                .map(|c| ((a[c] - r[c]) as f64).powi(2) / ((r[c] as f64).powi(2) + 1e-2))
-                .sum::<f64>()
-                / 3.0
-        })
-        .sum::<f64>()
-        / img.len() as f64
 }
 
 #[test]

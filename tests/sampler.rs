@@ -4,11 +4,11 @@
 
 mod common;
 
-use common::scenes::diffuse_material;
+use common::scenes::{diffuse_material, emissive_material, quad_mesh};
 use glam::{Mat4, Vec2, Vec3};
 use prism::render::{render_quiet, RenderSettings};
 use prism::sampler::{ImageSampler, Sampler, SamplerKind};
-use prism::scene::{GltfMaterialDesc, InstanceDesc, MaterialDesc, MeshDesc, Scene, SceneDesc};
+use prism::scene::{InstanceDesc, Scene, SceneDesc};
 
 const SPP: u32 = 64;
 
@@ -215,33 +215,15 @@ fn dimensions_and_pixels_are_decorrelated() {
 /// A 4 x 4 diffuse plane at y = 0 lit by a 1 x 1 emitter at height 1.5, tilted towards it,
 /// seen from above; direct light only.
 fn area_light_scene() -> SceneDesc {
-    let quad = |name: &str, c: Vec3, u: Vec3, v: Vec3, material: usize| MeshDesc {
-        name: name.into(),
-        positions: vec![c - u - v, c + u - v, c + u + v, c - u + v],
-        normals: None,
-        uvs: None,
-        tangents: None,
-        indices: vec![0, 1, 2, 0, 2, 3],
-        material: Some(material),
-    };
-    let light = MaterialDesc {
-        gltf: GltfMaterialDesc {
-            name: "light".into(),
-            base_color: glam::Vec4::new(0.0, 0.0, 0.0, 1.0),
-            emissive: Vec3::splat(4.0),
-            double_sided: true,
-            ..Default::default()
-        },
-        sidecar: None,
-    };
+    let light = emissive_material("light", Vec3::splat(4.0), true);
     let mut cam = common::scenes::camera(0.0, 0.9);
     cam.camera_to_world = Mat4::from_translation(Vec3::new(0.0, 3.0, 0.0))
         * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2);
     SceneDesc {
         meshes: vec![
-            quad("plane", Vec3::ZERO, Vec3::X * 2.0, Vec3::Z * -2.0, 0),
+            quad_mesh("plane", Vec3::ZERO, Vec3::X * 2.0, Vec3::Z * -2.0, 0),
             // Outside the camera's view (x from 2.2 to 3.2).
-            quad(
+            quad_mesh(
                 "light",
                 Vec3::new(2.7, 1.5, 0.0),
                 Vec3::new(0.35, 0.35, 0.0),
@@ -280,18 +262,7 @@ fn sobol_beats_independent_numbers_on_an_area_light() {
         film.to_rgba()
     };
     let reference = render(SamplerKind::Sobol, 4096, 99);
-    let rel_mse = |img: &[[f32; 4]]| -> f64 {
-        img.iter()
-            .zip(&reference)
-            .map(|(a, r)| {
-                (0..3)
-                    .map(|c| ((a[c] - r[c]) as f64).powi(2) / ((r[c] as f64).powi(2) + 1e-2))
-                    .sum::<f64>()
-                    / 3.0
-            })
-            .sum::<f64>()
-            / img.len() as f64
-    };
+    let rel_mse = |img: &[[f32; 4]]| common::scenes::rel_mse(img, &reference);
     // Averaged over 4 seeds so the ratio is stable.
     let mean = |kind| (1..=4).map(|s| rel_mse(&render(kind, 16, s))).sum::<f64>() / 4.0;
     let (sobol, independent) = (mean(SamplerKind::Sobol), mean(SamplerKind::Independent));

@@ -169,6 +169,16 @@ pub struct LightSample {
     pub delta: bool,
 }
 
+/// See `Lights::first_choice`.
+struct FirstChoice {
+    /// Importances of the top cut's nodes (the first `k`).
+    cut: [f32; 8],
+    k: usize,
+    /// Their sum, and the sum with the distant lights'.
+    local: f32,
+    total: f32,
+}
+
 pub struct Lights {
     lights: Vec<Light>,
     /// Power-proportional selection (`LightSelection::Power`).
@@ -425,6 +435,28 @@ impl Lights {
         }
     }
 
+    /// The importances of the first choice at `ctx` (the tree's top cut, then the distant
+    /// lights); `None` when nothing can light the point. `select` and `pmf` share it so their
+    /// probabilities agree exactly.
+    fn first_choice(&self, ctx: &ShadingContext) -> Option<FirstChoice> {
+        let mut cut = [0f32; 8];
+        let k = self
+            .tree
+            .as_ref()
+            .map_or(0, |t| t.cut_importances(ctx, &mut cut));
+        let local: f32 = cut[..k].iter().sum();
+        let distant: f32 = (0..self.distant.len())
+            .map(|s| self.distant_importance(s, ctx))
+            .sum();
+        let total = local + distant;
+        (total > 0.0 && total.is_finite()).then_some(FirstChoice {
+            cut,
+            k,
+            local,
+            total,
+        })
+    }
+
     /// Chooses a light for `ctx`: its index and probability (equal to `pmf`).
     pub fn select(
         &self,
@@ -436,19 +468,12 @@ impl Lights {
             let (index, p, _) = self.power.sample(u);
             return (p > 0.0).then_some((index, p));
         }
-        let mut cut = [0f32; 8];
-        let k = self
-            .tree
-            .as_ref()
-            .map_or(0, |t| t.cut_importances(ctx, &mut cut));
-        let local: f32 = cut[..k].iter().sum();
-        let distant: f32 = (0..self.distant.len())
-            .map(|s| self.distant_importance(s, ctx))
-            .sum();
-        let total = local + distant;
-        if !(total > 0.0) || !total.is_finite() {
-            return None;
-        }
+        let FirstChoice {
+            cut,
+            k,
+            local,
+            total,
+        } = self.first_choice(ctx)?;
         let target = u * total;
         if target < local {
             let tree = self.tree.as_ref()?;
@@ -480,19 +505,9 @@ impl Lights {
         if selection == LightSelection::Power {
             return self.power.pmf(index);
         }
-        let mut cut = [0f32; 8];
-        let k = self
-            .tree
-            .as_ref()
-            .map_or(0, |t| t.cut_importances(ctx, &mut cut));
-        let local: f32 = cut[..k].iter().sum();
-        let distant: f32 = (0..self.distant.len())
-            .map(|s| self.distant_importance(s, ctx))
-            .sum();
-        let total = local + distant;
-        if !(total > 0.0) || !total.is_finite() {
+        let Some(FirstChoice { cut, total, .. }) = self.first_choice(ctx) else {
             return 0.0;
-        }
+        };
         match self.distant_slot.get(index) {
             Some(&slot) if slot != u32::MAX => self.distant_importance(slot as usize, ctx) / total,
             Some(_) => match &self.tree {

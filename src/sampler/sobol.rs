@@ -39,10 +39,14 @@ const MATRICES: [[u32; 32]; 3] = [
     direction_numbers(3, 1, [1, 3, 1]),
 ];
 
-/// Byte tables of the matrices of dimensions 1-3: `TABLES[d][b][v]` is the XOR of the columns
-/// selected by the bits of byte value `v` at byte position `b` of the index. Four lookups
-/// evaluate one dimension (12 KiB in all).
-const fn byte_tables() -> [[[u32; 256]; 4]; 3] {
+/// Byte tables of the matrices of dimensions 1-3: `t[d][b][v]` is the XOR of the columns
+/// selected by the bits of byte value `v` at byte position `b` of the index, four lookups per
+/// dimension (12 KiB a table set). `reversed`: the same products over the bit-reversed index
+/// giving bit-reversed values (byte b of the reversed index holds index bits 31 - 8b - j, and
+/// every column is stored reversed). The sampler works in bit-reversed space throughout (the
+/// index shuffle and the value scramble are both applied to reversed words), which saves two
+/// bit reversals per dimension.
+const fn byte_tables(reversed: bool) -> [[[u32; 256]; 4]; 3] {
     let mut t = [[[0u32; 256]; 4]; 3];
     let mut d = 0;
     while d < 3 {
@@ -54,7 +58,11 @@ const fn byte_tables() -> [[[u32; 256]; 4]; 3] {
                 let mut bit = 0;
                 while bit < 8 {
                     if (v >> bit) & 1 == 1 {
-                        x ^= MATRICES[d][b * 8 + bit];
+                        x ^= if reversed {
+                            MATRICES[d][31 - (b * 8 + bit)].reverse_bits()
+                        } else {
+                            MATRICES[d][b * 8 + bit]
+                        };
                     }
                     bit += 1;
                 }
@@ -68,39 +76,8 @@ const fn byte_tables() -> [[[u32; 256]; 4]; 3] {
     t
 }
 
-static TABLES: [[[u32; 256]; 4]; 3] = byte_tables();
-
-/// The same products over the bit-reversed index, giving bit-reversed values: byte b of the
-/// reversed index holds index bits 31 - 8b - j, and every column is stored reversed. The
-/// sampler works in bit-reversed space throughout (the index shuffle and the value scramble are
-/// both applied to reversed words), which saves two bit reversals per dimension.
-const fn reversed_byte_tables() -> [[[u32; 256]; 4]; 3] {
-    let mut t = [[[0u32; 256]; 4]; 3];
-    let mut d = 0;
-    while d < 3 {
-        let mut b = 0;
-        while b < 4 {
-            let mut v = 0;
-            while v < 256 {
-                let mut x = 0u32;
-                let mut bit = 0;
-                while bit < 8 {
-                    if (v >> bit) & 1 == 1 {
-                        x ^= MATRICES[d][31 - (b * 8 + bit)].reverse_bits();
-                    }
-                    bit += 1;
-                }
-                t[d][b][v] = x;
-                v += 1;
-            }
-            b += 1;
-        }
-        d += 1;
-    }
-    t
-}
-
-static REVERSED_TABLES: [[[u32; 256]; 4]; 3] = reversed_byte_tables();
+static TABLES: [[[u32; 256]; 4]; 3] = byte_tables(false);
+static REVERSED_TABLES: [[[u32; 256]; 4]; 3] = byte_tables(true);
 
 /// `sobol(reverse(rev_index), dim).reverse_bits()`, without the reversals.
 #[inline]

@@ -260,3 +260,46 @@ pub fn render_mean(
         / rgba.len() as f32;
     (mean, rgba)
 }
+
+/// A quad (two triangles) centred at `c` with half-edges `u` and `v`; its geometric normal is
+/// along u x v (the front face of a one-sided emitter).
+pub fn quad_mesh(name: &str, c: Vec3, u: Vec3, v: Vec3, material: usize) -> MeshDesc {
+    MeshDesc {
+        name: name.into(),
+        positions: vec![c - u - v, c + u - v, c + u + v, c - u + v],
+        normals: None,
+        uvs: None,
+        tangents: None,
+        indices: vec![0, 1, 2, 0, 2, 3],
+        material: Some(material),
+    }
+}
+
+/// A black surface emitting radiance `rgb` (from both faces when `double_sided`).
+pub fn emissive_material(name: &str, rgb: Vec3, double_sided: bool) -> MaterialDesc {
+    MaterialDesc {
+        gltf: GltfMaterialDesc {
+            name: name.into(),
+            base_color: glam::Vec4::new(0.0, 0.0, 0.0, 1.0),
+            emissive: rgb,
+            double_sided,
+            ..Default::default()
+        },
+        sidecar: None,
+    }
+}
+
+/// Relative MSE of an image against a reference: (a - r)^2 / (r^2 + 0.01) per pixel and
+/// channel, averaged.
+pub fn rel_mse(img: &[[f32; 4]], reference: &[[f32; 4]]) -> f64 {
+    img.iter()
+        .zip(reference)
+        .map(|(a, r)| {
+            (0..3)
+                .map(|c| ((a[c] - r[c]) as f64).powi(2) / ((r[c] as f64).powi(2) + 1e-2))
+                .sum::<f64>()
+                / 3.0
+        })
+        .sum::<f64>()
+        / img.len() as f64
+}
