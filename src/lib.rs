@@ -14,6 +14,7 @@ pub mod math;
 pub mod render;
 pub mod sampler;
 pub mod scene;
+pub mod shading;
 pub mod spectrum;
 
 pub use error::PrismError;

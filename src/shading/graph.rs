@@ -1,0 +1,925 @@
+//! A compiled shading graph: nodes in evaluation order, each reading constants, implicit inputs
+//! (the UV map, generated coordinates, the normal) or earlier nodes' outputs, and the material
+//! inputs it drives.
+//!
+//! Every socket value is a `Vec4` (a float in `x`, a vector or colour in `xyz`); links between
+//! sockets of different types convert as Blender does (colour -> float: luminance, vector ->
+//! float: the average, float -> colour/vector: splat). Evaluation writes each node's outputs
+//! into a per-thread slot array, so a shading point costs one pass over the nodes it needs and
+//! no allocation.
+
+use std::cell::RefCell;
+use std::sync::Arc;
+
+use glam::{Mat3, Vec2, Vec3, Vec4, Vec4Swizzles};
+
+use super::color::{
+    bright_contrast, gamma, hsl_to_rgb, hsv_to_rgb, hue_saturation_value, luminance, rgb_to_hsl,
+    rgb_to_hsv, BlendMode, ColorRamp,
+};
+use super::image::{Extension, Image, Interpolation};
+use super::math_ops::{safe_divide, smootherstep, smoothstep, MathOp, VectorMathOp};
+use super::procedural::{checker, gradient, GradientKind};
+use super::ShadingInputs;
+use crate::bsdf::fresnel_dielectric;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SocketType {
+    Float,
+    Vector,
+    Color,
+}
+
+/// Converts a value of type `from` for a socket of type `to` (Blender's implicit conversions).
+#[inline]
+pub fn convert(v: Vec4, from: SocketType, to: SocketType) -> Vec4 {
+    use SocketType::*;
+    match (from, to) {
+        (Color, Float) => Vec4::splat(luminance(v.xyz())),
+        (Vector, Float) => Vec4::splat((v.x + v.y + v.z) / 3.0),
+        (Float, Vector) | (Float, Color) => Vec4::splat(v.x),
+        _ => v,
+    }
+}
+
+/// Inputs a node reads when nothing is linked and no value is given (Blender's implicit
+/// defaults: Image Texture reads the active UV map, procedural textures the generated
+/// coordinates, Fresnel and Layer Weight the shading normal).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Implicit {
+    Uv,
+    Generated,
+    Normal,
+}
+
+/// Where an input's value comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Source {
+    Const(Vec4),
+    Implicit(Implicit),
+    /// Output slot `slot`, of type `from`, read as `to`.
+    Link {
+        slot: u32,
+        from: SocketType,
+        to: SocketType,
+    },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MappingKind {
+    Point,
+    Texture,
+    Vector,
+    Normal,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ColorModel {
+    Rgb,
+    Hsv,
+    Hsl,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapRangeInterpolation {
+    Linear,
+    Stepped,
+    SmoothStep,
+    SmootherStep,
+}
+
+/// A node and its settings (the non-socket properties of Blender's node).
+#[derive(Clone, Debug)]
+pub enum NodeOp {
+    TexCoord,
+    UvMap(usize),
+    ColorAttribute(usize),
+    Geometry,
+    LightPath,
+    Fresnel,
+    LayerWeight,
+    Mapping(MappingKind),
+    ImageTexture {
+        image: Arc<Image>,
+        interpolation: Interpolation,
+        extension: Extension,
+    },
+    Math {
+        op: MathOp,
+        clamp: bool,
+    },
+    VectorMath(VectorMathOp),
+    MixFloat {
+        clamp_factor: bool,
+    },
+    MixVector {
+        clamp_factor: bool,
+    },
+    MixColor {
+        blend: BlendMode,
+        clamp_factor: bool,
+        clamp_result: bool,
+    },
+    Invert,
+    HueSaturation,
+    BrightContrast,
+    Gamma,
+    RgbToBw,
+    SeparateColor(ColorModel),
+    CombineColor(ColorModel),
+    SeparateXyz,
+    CombineXyz,
+    MapRange {
+        interpolation: MapRangeInterpolation,
+        clamp: bool,
+    },
+    Clamp {
+        range: bool,
+    },
+    ColorRamp(ColorRamp),
+    Checker,
+    Gradient(GradientKind),
+}
+
+use SocketType::{Color as C, Float as F, Vector as V};
+
+/// A socket: name in the material JSON, type, default value.
+pub type Socket = (&'static str, SocketType, Vec4);
+
+const fn f(name: &'static str, v: f32) -> Socket {
+    (name, F, Vec4::new(v, v, v, v))
+}
+const fn vec(name: &'static str, x: f32, y: f32, z: f32) -> Socket {
+    (name, V, Vec4::new(x, y, z, 0.0))
+}
+const fn col(name: &'static str, r: f32, g: f32, b: f32) -> Socket {
+    (name, C, Vec4::new(r, g, b, 1.0))
+}
+const fn out(name: &'static str, t: SocketType) -> Socket {
+    (name, t, Vec4::ZERO)
+}
+
+/// The node types of the JSON form, their inputs and outputs.
+pub struct NodeSignature {
+    pub inputs: &'static [Socket],
+    pub outputs: &'static [Socket],
+}
+
+impl NodeOp {
+    pub fn signature(&self) -> NodeSignature {
+        use NodeOp::*;
+        let (inputs, outputs): (&'static [Socket], &'static [Socket]) = match self {
+            TexCoord => (
+                const { &[] },
+                const {
+                    &[
+                        out("generated", V),
+                        out("normal", V),
+                        out("uv", V),
+                        out("object", V),
+                        out("reflection", V),
+                    ]
+                },
+            ),
+            UvMap(_) => (const { &[] }, const { &[out("uv", V)] }),
+            ColorAttribute(_) => (const { &[] }, const { &[out("color", C), out("alpha", F)] }),
+            Geometry => (
+                const { &[] },
+                const {
+                    &[
+                        out("position", V),
+                        out("normal", V),
+                        out("true_normal", V),
+                        out("incoming", V),
+                        out("backfacing", F),
+                    ]
+                },
+            ),
+            LightPath => (const { &[] }, const { &[out("is_camera_ray", F)] }),
+            Fresnel => (
+                const { &[f("ior", 1.45), vec("normal", 0.0, 0.0, 0.0)] },
+                const { &[out("fac", F)] },
+            ),
+            LayerWeight => (
+                const { &[f("blend", 0.5), vec("normal", 0.0, 0.0, 0.0)] },
+                const { &[out("fresnel", F), out("facing", F)] },
+            ),
+            Mapping(_) => (
+                const {
+                    &[
+                        vec("vector", 0.0, 0.0, 0.0),
+                        vec("location", 0.0, 0.0, 0.0),
+                        vec("rotation", 0.0, 0.0, 0.0),
+                        vec("scale", 1.0, 1.0, 1.0),
+                    ]
+                },
+                const { &[out("vector", V)] },
+            ),
+            ImageTexture { .. } => (
+                const { &[vec("vector", 0.0, 0.0, 0.0)] },
+                const { &[out("color", C), out("alpha", F)] },
+            ),
+            Math { .. } => (
+                const { &[f("a", 0.5), f("b", 0.5), f("c", 0.0)] },
+                const { &[out("value", F)] },
+            ),
+            VectorMath(_) => (
+                const {
+                    &[
+                        vec("a", 0.0, 0.0, 0.0),
+                        vec("b", 0.0, 0.0, 0.0),
+                        vec("c", 0.0, 0.0, 0.0),
+                        f("scale", 1.0),
+                    ]
+                },
+                const { &[out("vector", V), out("value", F)] },
+            ),
+            MixFloat { .. } => (
+                const { &[f("factor", 0.5), f("a", 0.0), f("b", 0.0)] },
+                const { &[out("result", F)] },
+            ),
+            MixVector { .. } => (
+                const {
+                    &[
+                        f("factor", 0.5),
+                        vec("a", 0.0, 0.0, 0.0),
+                        vec("b", 0.0, 0.0, 0.0),
+                    ]
+                },
+                const { &[out("result", V)] },
+            ),
+            MixColor { .. } => (
+                const {
+                    &[
+                        f("factor", 0.5),
+                        col("a", 0.5, 0.5, 0.5),
+                        col("b", 0.5, 0.5, 0.5),
+                    ]
+                },
+                const { &[out("result", C)] },
+            ),
+            Invert => (
+                const { &[f("fac", 1.0), col("color", 0.0, 0.0, 0.0)] },
+                const { &[out("color", C)] },
+            ),
+            HueSaturation => (
+                const {
+                    &[
+                        f("hue", 0.5),
+                        f("saturation", 1.0),
+                        f("value", 1.0),
+                        f("fac", 1.0),
+                        col("color", 0.8, 0.8, 0.8),
+                    ]
+                },
+                const { &[out("color", C)] },
+            ),
+            BrightContrast => (
+                const {
+                    &[
+                        col("color", 1.0, 1.0, 1.0),
+                        f("bright", 0.0),
+                        f("contrast", 0.0),
+                    ]
+                },
+                const { &[out("color", C)] },
+            ),
+            Gamma => (
+                const { &[col("color", 1.0, 1.0, 1.0), f("gamma", 1.0)] },
+                const { &[out("color", C)] },
+            ),
+            RgbToBw => (
+                const { &[col("color", 0.5, 0.5, 0.5)] },
+                const { &[out("val", F)] },
+            ),
+            SeparateColor(_) => (
+                const { &[col("color", 0.8, 0.8, 0.8)] },
+                const { &[out("red", F), out("green", F), out("blue", F)] },
+            ),
+            CombineColor(_) => (
+                const { &[f("red", 0.0), f("green", 0.0), f("blue", 0.0)] },
+                const { &[out("color", C)] },
+            ),
+            SeparateXyz => (
+                const { &[vec("vector", 0.0, 0.0, 0.0)] },
+                const { &[out("x", F), out("y", F), out("z", F)] },
+            ),
+            CombineXyz => (
+                const { &[f("x", 0.0), f("y", 0.0), f("z", 0.0)] },
+                const { &[out("vector", V)] },
+            ),
+            MapRange { .. } => (
+                const {
+                    &[
+                        f("value", 1.0),
+                        f("from_min", 0.0),
+                        f("from_max", 1.0),
+                        f("to_min", 0.0),
+                        f("to_max", 1.0),
+                        f("steps", 4.0),
+                    ]
+                },
+                const { &[out("result", F)] },
+            ),
+            Clamp { .. } => (
+                const { &[f("value", 1.0), f("min", 0.0), f("max", 1.0)] },
+                const { &[out("result", F)] },
+            ),
+            ColorRamp(_) => (
+                const { &[f("fac", 0.5)] },
+                const { &[out("color", C), out("alpha", F)] },
+            ),
+            Checker => (
+                const {
+                    &[
+                        vec("vector", 0.0, 0.0, 0.0),
+                        col("color1", 0.8, 0.8, 0.8),
+                        col("color2", 0.2, 0.2, 0.2),
+                        f("scale", 5.0),
+                    ]
+                },
+                const { &[out("color", C), out("fac", F)] },
+            ),
+            Gradient(_) => (
+                const { &[vec("vector", 0.0, 0.0, 0.0)] },
+                const { &[out("color", C), out("fac", F)] },
+            ),
+        };
+        NodeSignature { inputs, outputs }
+    }
+
+    /// The implicit value of an unlinked input given no value (else the signature default).
+    pub fn implicit_input(&self, input: &str) -> Option<Implicit> {
+        use NodeOp::*;
+        match (self, input) {
+            (ImageTexture { .. }, "vector") => Some(Implicit::Uv),
+            (Checker | Gradient(_), "vector") => Some(Implicit::Generated),
+            (Fresnel | LayerWeight, "normal") => Some(Implicit::Normal),
+            _ => None,
+        }
+    }
+}
+
+/// A node with its inputs resolved.
+#[derive(Clone, Debug)]
+pub struct GraphNode {
+    pub name: String,
+    pub op: NodeOp,
+    pub inputs: Vec<Source>,
+    /// Index of its first output slot.
+    pub first_slot: u32,
+}
+
+/// The material inputs a graph can drive (the Principled BSDF's, as the glTF model has them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MaterialInput {
+    BaseColor,
+    Metallic,
+    Roughness,
+    /// The specular factor (KHR_materials_specular; 1 = F0 of the IOR).
+    Specular,
+    Transmission,
+    Emission,
+    EmissionStrength,
+}
+
+pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
+    ("base_color", MaterialInput::BaseColor, C),
+    ("metallic", MaterialInput::Metallic, F),
+    ("roughness", MaterialInput::Roughness, F),
+    ("specular", MaterialInput::Specular, F),
+    ("transmission", MaterialInput::Transmission, F),
+    ("emission", MaterialInput::Emission, C),
+    ("emission_strength", MaterialInput::EmissionStrength, F),
+];
+
+pub const N_MATERIAL_INPUTS: usize = 7;
+
+impl MaterialInput {
+    pub fn index(self) -> usize {
+        self as usize
+    }
+    fn is_emission(self) -> bool {
+        matches!(
+            self,
+            MaterialInput::Emission | MaterialInput::EmissionStrength
+        )
+    }
+}
+
+/// Values of the material inputs the graph drives at one shading point (`None`: not driven).
+pub type InputValues = [Option<Vec4>; N_MATERIAL_INPUTS];
+
+/// A compiled graph.
+#[derive(Debug)]
+pub struct ShadingGraph {
+    pub nodes: Vec<GraphNode>,
+    n_slots: usize,
+    bindings: Vec<(MaterialInput, Source)>,
+    /// Nodes (in evaluation order) the scattering inputs need, and those emission needs.
+    surface_program: Vec<u32>,
+    emission_program: Vec<u32>,
+}
+
+thread_local! {
+    static SLOTS: RefCell<Vec<Vec4>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Rotation of Blender's Mapping node: Euler XYZ (X applied first).
+fn euler_xyz(r: Vec3) -> Mat3 {
+    Mat3::from_rotation_z(r.z) * Mat3::from_rotation_y(r.y) * Mat3::from_rotation_x(r.x)
+}
+
+impl ShadingGraph {
+    /// `nodes` must be in evaluation order (links point backwards) with consecutive slots.
+    pub fn new(nodes: Vec<GraphNode>, bindings: Vec<(MaterialInput, Source)>) -> Self {
+        let n_slots = nodes
+            .iter()
+            .map(|n| n.first_slot as usize + n.op.signature().outputs.len())
+            .max()
+            .unwrap_or(0);
+        let program = |emission: bool| -> Vec<u32> {
+            let mut needed = vec![false; nodes.len()];
+            let slot_owner = |slot: u32| nodes.iter().rposition(|n| n.first_slot <= slot);
+            let mut stack: Vec<u32> = bindings
+                .iter()
+                .filter(|(m, _)| m.is_emission() == emission)
+                .filter_map(|(_, s)| match s {
+                    Source::Link { slot, .. } => Some(*slot),
+                    _ => None,
+                })
+                .collect();
+            while let Some(slot) = stack.pop() {
+                let Some(i) = slot_owner(slot) else { continue };
+                if needed[i] {
+                    continue;
+                }
+                needed[i] = true;
+                for s in &nodes[i].inputs {
+                    if let Source::Link { slot, .. } = s {
+                        stack.push(*slot);
+                    }
+                }
+            }
+            (0..nodes.len() as u32)
+                .filter(|&i| needed[i as usize])
+                .collect()
+        };
+        let surface_program = program(false);
+        let emission_program = program(true);
+        ShadingGraph {
+            nodes,
+            n_slots,
+            bindings,
+            surface_program,
+            emission_program,
+        }
+    }
+
+    pub fn drives(&self, input: MaterialInput) -> bool {
+        self.bindings.iter().any(|(m, _)| *m == input)
+    }
+
+    pub fn drives_emission(&self) -> bool {
+        self.bindings.iter().any(|(m, _)| m.is_emission())
+    }
+
+    /// The material inputs for scattering (`emission == false`) or for emission at `ctx`.
+    pub fn evaluate(&self, ctx: &ShadingInputs, emission: bool) -> InputValues {
+        SLOTS.with(|cell| {
+            let mut slots = cell.borrow_mut();
+            if slots.len() < self.n_slots {
+                slots.resize(self.n_slots, Vec4::ZERO);
+            }
+            let program = if emission {
+                &self.emission_program
+            } else {
+                &self.surface_program
+            };
+            for &i in program {
+                let node = &self.nodes[i as usize];
+                let mut inputs = [Vec4::ZERO; 8];
+                for (k, s) in node.inputs.iter().enumerate() {
+                    inputs[k] = read(s, &slots, ctx);
+                }
+                let outputs = eval_node(&node.op, &inputs, ctx);
+                let n_out = node.op.signature().outputs.len();
+                let base = node.first_slot as usize;
+                slots[base..base + n_out].copy_from_slice(&outputs[..n_out]);
+            }
+            let mut values: InputValues = [None; N_MATERIAL_INPUTS];
+            for (m, s) in &self.bindings {
+                if m.is_emission() == emission {
+                    values[m.index()] = Some(read(s, &slots, ctx));
+                }
+            }
+            values
+        })
+    }
+}
+
+#[inline]
+fn read(s: &Source, slots: &[Vec4], ctx: &ShadingInputs) -> Vec4 {
+    match *s {
+        Source::Const(v) => v,
+        Source::Implicit(Implicit::Uv) => ctx.uv[0].extend(0.0).extend(0.0),
+        Source::Implicit(Implicit::Generated) => ctx.generated.extend(0.0),
+        Source::Implicit(Implicit::Normal) => ctx.normal.extend(0.0),
+        Source::Link { slot, from, to } => convert(slots[slot as usize], from, to),
+    }
+}
+
+fn v3(v: Vec3) -> Vec4 {
+    v.extend(0.0)
+}
+
+fn s(x: f32) -> Vec4 {
+    Vec4::splat(x)
+}
+
+fn rgb(c: Vec3) -> Vec4 {
+    c.extend(1.0)
+}
+
+/// Fresnel and Layer Weight's normal: the input's, else the shading normal.
+fn facing_normal(n: Vec3, ctx: &ShadingInputs) -> Vec3 {
+    n.try_normalize().unwrap_or(ctx.normal)
+}
+
+fn eval_node(op: &NodeOp, i: &[Vec4; 8], ctx: &ShadingInputs) -> [Vec4; 6] {
+    let mut o = [Vec4::ZERO; 6];
+    match op {
+        NodeOp::TexCoord => {
+            o[0] = v3(ctx.generated);
+            o[1] = v3(ctx.object_normal);
+            o[2] = v3(ctx.uv[0].extend(0.0));
+            o[3] = v3(ctx.object);
+            let n = ctx.normal;
+            o[4] = v3(2.0 * n.dot(ctx.incoming) * n - ctx.incoming);
+        }
+        NodeOp::UvMap(set) => o[0] = v3(ctx.uv[*set].extend(0.0)),
+        NodeOp::ColorAttribute(set) => {
+            o[0] = rgb(ctx.color[*set].xyz());
+            o[1] = s(ctx.color[*set].w);
+        }
+        NodeOp::Geometry => {
+            o[0] = v3(ctx.position);
+            o[1] = v3(ctx.normal);
+            o[2] = v3(ctx.true_normal);
+            o[3] = v3(ctx.incoming);
+            o[4] = s(ctx.backfacing as u8 as f32);
+        }
+        NodeOp::LightPath => o[0] = s(ctx.camera_ray as u8 as f32),
+        NodeOp::Fresnel => {
+            // Cycles: the dielectric Fresnel for eta = IOR (or 1/IOR from behind).
+            let n = facing_normal(i[1].xyz(), ctx);
+            let eta = i[0].x.max(1e-5);
+            let eta = if ctx.backfacing { 1.0 / eta } else { eta };
+            o[0] = s(fresnel_dielectric(n.dot(ctx.incoming), eta));
+        }
+        NodeOp::LayerWeight => {
+            let n = facing_normal(i[1].xyz(), ctx);
+            let blend = i[0].x.clamp(0.0, 1.0 - 1e-5);
+            let eta = 1.0 / (1.0 - blend);
+            let eta = if ctx.backfacing { 1.0 / eta } else { eta };
+            let cos = n.dot(ctx.incoming);
+            o[0] = s(fresnel_dielectric(cos, eta));
+            let facing = cos.abs();
+            let facing = if blend != 0.5 {
+                let b = blend.clamp(0.0, 1.0 - 1e-5);
+                let b = if b < 0.5 { 2.0 * b } else { 0.5 / (1.0 - b) };
+                facing.powf(b)
+            } else {
+                facing
+            };
+            o[1] = s(1.0 - facing);
+        }
+        NodeOp::Mapping(kind) => {
+            let (v, loc, rot, scale) = (i[0].xyz(), i[1].xyz(), i[2].xyz(), i[3].xyz());
+            let r = euler_xyz(rot);
+            let m = match kind {
+                MappingKind::Point => r * (v * scale) + loc,
+                MappingKind::Texture => {
+                    let t = r.transpose() * (v - loc);
+                    Vec3::new(
+                        safe_divide(t.x, scale.x),
+                        safe_divide(t.y, scale.y),
+                        safe_divide(t.z, scale.z),
+                    )
+                }
+                MappingKind::Vector => r * (v * scale),
+                MappingKind::Normal => {
+                    let inv = Vec3::new(
+                        safe_divide(1.0, scale.x),
+                        safe_divide(1.0, scale.y),
+                        safe_divide(1.0, scale.z),
+                    );
+                    (r * (v * inv)).normalize_or_zero()
+                }
+            };
+            o[0] = v3(m);
+        }
+        NodeOp::ImageTexture {
+            image,
+            interpolation,
+            extension,
+        } => {
+            let t = image.sample(i[0].xy(), *interpolation, *extension);
+            o[0] = rgb(t.xyz());
+            o[1] = s(t.w);
+        }
+        NodeOp::Math { op, clamp } => {
+            let r = op.eval(i[0].x, i[1].x, i[2].x);
+            o[0] = s(if *clamp { r.clamp(0.0, 1.0) } else { r });
+        }
+        NodeOp::VectorMath(op) => {
+            let (v, val) = op.eval(i[0].xyz(), i[1].xyz(), i[2].xyz(), i[3].x);
+            o[0] = v3(v);
+            o[1] = s(val);
+        }
+        NodeOp::MixFloat { clamp_factor } => {
+            let t = clamp_if(i[0].x, *clamp_factor);
+            o[0] = s(i[1].x + (i[2].x - i[1].x) * t);
+        }
+        NodeOp::MixVector { clamp_factor } => {
+            let t = clamp_if(i[0].x, *clamp_factor);
+            o[0] = v3(i[1].xyz().lerp(i[2].xyz(), t));
+        }
+        NodeOp::MixColor {
+            blend,
+            clamp_factor,
+            clamp_result,
+        } => {
+            let t = clamp_if(i[0].x, *clamp_factor);
+            let c = blend.blend(t, i[1].xyz(), i[2].xyz());
+            o[0] = rgb(if *clamp_result {
+                c.clamp(Vec3::ZERO, Vec3::ONE)
+            } else {
+                c
+            });
+        }
+        NodeOp::Invert => {
+            let c = i[1].xyz();
+            o[0] = rgb(c.lerp(Vec3::ONE - c, i[0].x));
+        }
+        NodeOp::HueSaturation => {
+            o[0] = rgb(hue_saturation_value(
+                i[4].xyz(),
+                i[0].x,
+                i[1].x,
+                i[2].x,
+                i[3].x,
+            ))
+        }
+        NodeOp::BrightContrast => o[0] = rgb(bright_contrast(i[0].xyz(), i[1].x, i[2].x)),
+        NodeOp::Gamma => o[0] = rgb(gamma(i[0].xyz(), i[1].x)),
+        NodeOp::RgbToBw => o[0] = s(luminance(i[0].xyz())),
+        NodeOp::SeparateColor(model) => {
+            let c = i[0].xyz();
+            let c = match model {
+                ColorModel::Rgb => c,
+                ColorModel::Hsv => rgb_to_hsv(c),
+                ColorModel::Hsl => rgb_to_hsl(c),
+            };
+            o[0] = s(c.x);
+            o[1] = s(c.y);
+            o[2] = s(c.z);
+        }
+        NodeOp::CombineColor(model) => {
+            let c = Vec3::new(i[0].x, i[1].x, i[2].x);
+            o[0] = rgb(match model {
+                ColorModel::Rgb => c,
+                ColorModel::Hsv => hsv_to_rgb(c),
+                ColorModel::Hsl => hsl_to_rgb(c),
+            });
+        }
+        NodeOp::SeparateXyz => {
+            o[0] = s(i[0].x);
+            o[1] = s(i[0].y);
+            o[2] = s(i[0].z);
+        }
+        NodeOp::CombineXyz => o[0] = v3(Vec3::new(i[0].x, i[1].x, i[2].x)),
+        NodeOp::MapRange {
+            interpolation,
+            clamp,
+        } => o[0] = s(map_range(*interpolation, *clamp, i)),
+        NodeOp::Clamp { range } => {
+            let (v, lo, hi) = (i[0].x, i[1].x, i[2].x);
+            let r = if *range && lo > hi {
+                v.max(hi).min(lo)
+            } else {
+                v.max(lo).min(hi)
+            };
+            o[0] = s(r);
+        }
+        NodeOp::ColorRamp(ramp) => {
+            let c = ramp.eval(i[0].x);
+            o[0] = rgb(c.xyz());
+            o[1] = s(c.w);
+        }
+        NodeOp::Checker => {
+            let fac = checker(i[0].xyz(), i[3].x);
+            o[0] = rgb(if fac == 1.0 { i[1].xyz() } else { i[2].xyz() });
+            o[1] = s(fac);
+        }
+        NodeOp::Gradient(kind) => {
+            let fac = gradient(i[0].xyz(), *kind);
+            o[0] = rgb(Vec3::splat(fac));
+            o[1] = s(fac);
+        }
+    }
+    o
+}
+
+fn clamp_if(t: f32, clamp: bool) -> f32 {
+    if clamp {
+        t.clamp(0.0, 1.0)
+    } else {
+        t
+    }
+}
+
+/// Map Range (float): `value` from [from_min, from_max] to [to_min, to_max].
+fn map_range(interp: MapRangeInterpolation, clamp: bool, i: &[Vec4; 8]) -> f32 {
+    let (value, from_min, from_max, to_min, to_max, steps) =
+        (i[0].x, i[1].x, i[2].x, i[3].x, i[4].x, i[5].x);
+    let mut factor = safe_divide(value - from_min, from_max - from_min);
+    match interp {
+        MapRangeInterpolation::Linear => {}
+        MapRangeInterpolation::Stepped => {
+            factor = if steps > 0.0 {
+                (factor * (steps + 1.0)).floor() / steps
+            } else {
+                0.0
+            };
+        }
+        MapRangeInterpolation::SmoothStep => {
+            factor = if from_min > from_max {
+                1.0 - smoothstep(from_max, from_min, value)
+            } else {
+                smoothstep(from_min, from_max, value)
+            };
+        }
+        MapRangeInterpolation::SmootherStep => {
+            factor = if from_min > from_max {
+                1.0 - smootherstep(from_max, from_min, value)
+            } else {
+                smootherstep(from_min, from_max, value)
+            };
+        }
+    }
+    let r = to_min + factor * (to_max - to_min);
+    let clamps = matches!(
+        interp,
+        MapRangeInterpolation::Linear | MapRangeInterpolation::Stepped
+    );
+    if clamp && clamps {
+        if to_min > to_max {
+            r.clamp(to_max, to_min)
+        } else {
+            r.clamp(to_min, to_max)
+        }
+    } else {
+        r
+    }
+}
+
+/// `uv` of a glTF TEXCOORD (origin top-left, v down) in Blender's convention (v up).
+#[inline]
+pub fn blender_uv(gltf_uv: Vec2) -> Vec2 {
+    Vec2::new(gltf_uv.x, 1.0 - gltf_uv.y)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn node(op: NodeOp, inputs: Vec<Source>, first_slot: u32) -> GraphNode {
+        GraphNode {
+            name: format!("{op:?}"),
+            op,
+            inputs,
+            first_slot,
+        }
+    }
+
+    fn link(slot: u32, from: SocketType, to: SocketType) -> Source {
+        Source::Link { slot, from, to }
+    }
+
+    #[test]
+    fn conversions_follow_blender() {
+        let c = Vec4::new(1.0, 0.0, 0.0, 1.0);
+        assert!((convert(c, C, F).x - 0.2126).abs() < 1e-6);
+        assert!((convert(Vec4::new(1.0, 2.0, 3.0, 0.0), V, F).x - 2.0).abs() < 1e-6);
+        assert_eq!(convert(Vec4::splat(0.3), F, C), Vec4::splat(0.3));
+    }
+
+    #[test]
+    fn map_range_and_clamp() {
+        let mut i = [Vec4::ZERO; 8];
+        let set = |i: &mut [Vec4; 8], v: [f32; 6]| {
+            for (k, x) in v.iter().enumerate() {
+                i[k] = Vec4::splat(*x);
+            }
+        };
+        set(&mut i, [0.25, 0.0, 1.0, 10.0, 20.0, 4.0]);
+        assert_eq!(map_range(MapRangeInterpolation::Linear, true, &i), 12.5);
+        set(&mut i, [2.0, 0.0, 1.0, 10.0, 20.0, 4.0]);
+        assert_eq!(map_range(MapRangeInterpolation::Linear, true, &i), 20.0);
+        assert_eq!(map_range(MapRangeInterpolation::Linear, false, &i), 30.0);
+        set(&mut i, [0.3, 0.0, 1.0, 0.0, 1.0, 4.0]);
+        assert_eq!(map_range(MapRangeInterpolation::Stepped, true, &i), 0.25);
+        set(&mut i, [0.5, 0.0, 1.0, 0.0, 1.0, 4.0]);
+        assert_eq!(map_range(MapRangeInterpolation::SmoothStep, true, &i), 0.5);
+        set(&mut i, [0.25, 1.0, 0.0, 0.0, 1.0, 4.0]);
+        // Reversed source range: smoothstep mirrored.
+        let r = map_range(MapRangeInterpolation::SmoothStep, true, &i);
+        assert!((r - (1.0 - smoothstep(0.0, 1.0, 0.25))).abs() < 1e-6);
+    }
+
+    #[test]
+    fn graph_evaluates_chain_and_only_needed_nodes() {
+        // uv -> separate xyz -> math(x * 2) -> roughness; a colour ramp on x -> base colour.
+        let ramp = ColorRamp {
+            interpolation: super::super::color::RampInterpolation::Linear,
+            stops: vec![
+                (0.0, Vec4::new(0.0, 0.0, 0.0, 1.0)),
+                (1.0, Vec4::new(1.0, 0.5, 0.0, 1.0)),
+            ],
+        };
+        let nodes = vec![
+            node(NodeOp::UvMap(1), vec![], 0),
+            node(NodeOp::SeparateXyz, vec![link(0, V, V)], 1),
+            node(
+                NodeOp::Math {
+                    op: MathOp::Multiply,
+                    clamp: false,
+                },
+                vec![
+                    link(1, F, F),
+                    Source::Const(Vec4::splat(2.0)),
+                    Source::Const(Vec4::ZERO),
+                ],
+                4,
+            ),
+            node(NodeOp::ColorRamp(ramp), vec![link(1, F, F)], 5),
+        ];
+        let g = ShadingGraph::new(
+            nodes,
+            vec![
+                (MaterialInput::Roughness, link(4, F, F)),
+                (MaterialInput::BaseColor, link(5, C, C)),
+                (MaterialInput::EmissionStrength, link(4, F, F)),
+            ],
+        );
+        let mut ctx = ShadingInputs::default();
+        ctx.uv[1] = Vec2::new(0.3, 0.9);
+        let v = g.evaluate(&ctx, false);
+        assert!((v[MaterialInput::Roughness.index()].unwrap().x - 0.6).abs() < 1e-6);
+        let base = v[MaterialInput::BaseColor.index()].unwrap();
+        assert!((base.xyz() - Vec3::new(0.3, 0.15, 0.0)).abs().max_element() < 1e-6);
+        assert!(v[MaterialInput::EmissionStrength.index()].is_none());
+        assert!(v[MaterialInput::Metallic.index()].is_none());
+        // Emission needs the uv, separate and math nodes, not the ramp.
+        assert_eq!(g.emission_program, vec![0, 1, 2]);
+        let e = g.evaluate(&ctx, true);
+        assert!((e[MaterialInput::EmissionStrength.index()].unwrap().x - 0.6).abs() < 1e-6);
+    }
+
+    #[test]
+    fn mapping_point_and_texture_are_inverse() {
+        let i = |v: Vec3| {
+            let mut a = [Vec4::ZERO; 8];
+            a[0] = v.extend(0.0);
+            a[1] = Vec4::new(0.5, -1.0, 2.0, 0.0);
+            a[2] = Vec4::new(0.3, 0.2, 1.1, 0.0);
+            a[3] = Vec4::new(2.0, 1.0, 0.5, 0.0);
+            a
+        };
+        let ctx = ShadingInputs::default();
+        let p = Vec3::new(0.2, 0.7, -0.4);
+        let fwd = eval_node(&NodeOp::Mapping(MappingKind::Point), &i(p), &ctx)[0].xyz();
+        let back = eval_node(&NodeOp::Mapping(MappingKind::Texture), &i(fwd), &ctx)[0].xyz();
+        assert!((back - p).abs().max_element() < 1e-5, "{back} vs {p}");
+        // Point: scale, then rotate, then translate. With no rotation: p * s + loc.
+        let mut a = i(p);
+        a[2] = Vec4::ZERO;
+        let r = eval_node(&NodeOp::Mapping(MappingKind::Point), &a, &ctx)[0].xyz();
+        assert!((r - (p * Vec3::new(2.0, 1.0, 0.5) + Vec3::new(0.5, -1.0, 2.0))).length() < 1e-6);
+    }
+
+    #[test]
+    fn fresnel_and_layer_weight_at_normal_incidence() {
+        let ctx = ShadingInputs::default(); // incoming = normal = +z
+        let mut i = [Vec4::ZERO; 8];
+        i[0] = Vec4::splat(1.5);
+        let fr = eval_node(&NodeOp::Fresnel, &i, &ctx)[0].x;
+        assert!((fr - 0.04).abs() < 1e-4);
+        i[0] = Vec4::splat(0.5);
+        let lw = eval_node(&NodeOp::LayerWeight, &i, &ctx);
+        // blend 0.5 = eta 2: F0 = 1/9; facing = 1 - |cos| = 0.
+        assert!((lw[0].x - 1.0 / 9.0).abs() < 1e-4);
+        assert!(lw[1].x.abs() < 1e-6);
+    }
+}
