@@ -32,6 +32,7 @@ fn plane_scene(light: PunctualLightDesc) -> SceneDesc {
             tangents: None,
             indices: vec![0, 2, 1, 0, 3, 2],
             material: Some(0),
+            ..Default::default()
         }],
         instances: vec![InstanceDesc {
             mesh: 0,

@@ -27,6 +27,7 @@ fn quad(name: &str, half: f32) -> MeshDesc {
         tangents: None,
         indices: vec![0, 2, 1, 0, 3, 2],
         material: Some(0),
+        ..Default::default()
     }
 }
 

@@ -167,6 +167,7 @@ fn edge_scene() -> Scene {
             ..Default::default()
         },
         sidecar: None,
+        graph: None,
     };
     let desc = SceneDesc {
         meshes: vec![MeshDesc {
@@ -177,6 +178,7 @@ fn edge_scene() -> Scene {
             tangents: None,
             indices: vec![0, 1, 2, 0, 2, 3],
             material: Some(0),
+            ..Default::default()
         }],
         instances: vec![InstanceDesc {
             mesh: 0,

@@ -1103,19 +1103,38 @@ fn unsupported_optional_extensions_are_named_in_one_warning() {
 }
 
 #[test]
-fn vertex_colours_are_named_in_a_warning() {
+fn vertex_colours_and_extra_uv_sets_are_loaded() {
     let dir = test_dir("color_0");
     let mut b = GltfBuilder::basic();
     let pos = b.positions(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
     let col = b.vec4(&[[1.0, 0.0, 0.0, 1.0]; 3]);
+    let rgb = b.vec3(&[[0.0, 0.5, 0.0]; 3]);
+    let uv = b.vec2(&[[0.25, 0.75]; 3]);
     let mut p = GltfBuilder::prim(pos, None, None, 4);
     p["attributes"]["COLOR_0"] = json!(col);
+    p["attributes"]["COLOR_1"] = json!(rgb);
+    p["attributes"]["TEXCOORD_2"] = json!(uv);
     let m = b.mesh("Painted", vec![p]);
     b.root(json!({ "name": "Painted", "mesh": m }));
     let s = load(&b.write_gltf(&dir.join("t.gltf")));
-    assert!(
-        s.warnings.iter().any(|w| w.contains("COLOR_0")),
-        "{:?}",
-        s.warnings
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let mesh = s
+        .meshes
+        .iter()
+        .find(|m| m.name.contains("Painted"))
+        .unwrap();
+    assert_eq!(
+        mesh.colors[0].as_ref().unwrap()[0],
+        glam::Vec4::new(1.0, 0.0, 0.0, 1.0)
+    );
+    // RGB colours get alpha 1.
+    assert_eq!(
+        mesh.colors[1].as_ref().unwrap()[2],
+        glam::Vec4::new(0.0, 0.5, 0.0, 1.0)
+    );
+    assert!(mesh.extra_uvs[0].is_none());
+    assert_eq!(
+        mesh.extra_uvs[1].as_ref().unwrap()[1],
+        glam::Vec2::new(0.25, 0.75)
     );
 }

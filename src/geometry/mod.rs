@@ -38,6 +38,9 @@ pub struct Mesh {
     /// Per-vertex tangents (xyz unit, w = bitangent sign; zero = unusable), from glTF
     /// `TANGENT`. Only normal mapping reads them.
     pub tangents: Option<Vec<Vec4>>,
+    /// TEXCOORD_1.. and COLOR_0.. per vertex, for shading graphs (`MeshDesc`'s).
+    pub extra_uvs: Vec<Option<Vec<Vec2>>>,
+    pub colors: Vec<Option<Vec<Vec4>>>,
     pub indices: Vec<[u32; 3]>,
     /// Runtime material id (index into the scene's material list).
     pub material: u32,
@@ -156,6 +159,8 @@ impl Mesh {
             normals,
             uvs,
             tangents: None,
+            extra_uvs: Vec::new(),
+            colors: Vec::new(),
             indices,
             material,
             tris,
@@ -166,6 +171,24 @@ impl Mesh {
     /// Attaches per-vertex tangents (glTF `TANGENT`); ignored unless there is one per vertex
     /// and the mesh has shading normals (glTF 2.0 spec 3.7.2.1: without normals, tangents
     /// are ignored).
+    /// Attaches the extra UV and colour sets (sets of the wrong length are dropped).
+    pub fn with_attributes(
+        mut self,
+        extra_uvs: Vec<Option<Vec<Vec2>>>,
+        colors: Vec<Option<Vec<Vec4>>>,
+    ) -> Self {
+        let n = self.positions.len();
+        self.extra_uvs = extra_uvs
+            .into_iter()
+            .map(|u| u.filter(|u| u.len() == n))
+            .collect();
+        self.colors = colors
+            .into_iter()
+            .map(|c| c.filter(|c| c.len() == n))
+            .collect();
+        self
+    }
+
     pub fn with_tangents(mut self, tangents: Option<Vec<Vec4>>) -> Self {
         self.tangents =
             tangents.filter(|t| t.len() == self.positions.len() && self.normals.is_some());
@@ -427,6 +450,62 @@ impl Geometry {
     /// World-space surface data at a hit.
     pub fn surface_point(&self, hit: &Hit) -> SurfacePoint {
         self.surface_point_at(hit.instance, hit.prim, hit.b1, hit.b2)
+    }
+
+    /// What a shading graph reads at `sp` (see `crate::shading::ShadingInputs`); `wo` points
+    /// towards the viewer, `camera_ray` says whether the camera sees `sp` directly.
+    pub fn shading_inputs(
+        &self,
+        sp: &SurfacePoint,
+        wo: Vec3,
+        camera_ray: bool,
+    ) -> crate::shading::ShadingInputs {
+        use crate::shading::graph::blender_uv;
+        let inst = &self.instances[sp.instance as usize];
+        let mesh = &self.meshes[inst.mesh as usize];
+        let [i0, i1, i2] = mesh.indices[sp.prim as usize].map(|i| i as usize);
+        let (b1, b2) = (sp.b1, sp.b2);
+        let b0 = 1.0 - b1 - b2;
+        let mut out = crate::shading::ShadingInputs {
+            position: sp.p,
+            incoming: wo,
+            camera_ray,
+            ..Default::default()
+        };
+        out.uv[0] = blender_uv(sp.uv);
+        for (k, set) in mesh.extra_uvs.iter().enumerate().take(out.uv.len() - 1) {
+            if let Some(u) = set {
+                out.uv[k + 1] = blender_uv(u[i0] * b0 + u[i1] * b1 + u[i2] * b2);
+            }
+        }
+        for (k, set) in mesh.colors.iter().enumerate().take(out.color.len()) {
+            if let Some(c) = set {
+                out.color[k] = c[i0] * b0 + c[i1] * b1 + c[i2] * b2;
+            }
+        }
+        // Cycles flips the normals of a backfacing hit towards the viewer for every node.
+        let backfacing = sp.ng.dot(wo) < 0.0;
+        let flip = if backfacing { -1.0 } else { 1.0 };
+        out.backfacing = backfacing;
+        out.normal = sp.ns * flip;
+        out.true_normal = sp.ng * flip;
+        out.object = inst.world_to_object.transform_point3(sp.p);
+        out.object_normal = inst
+            .object_to_world
+            .matrix3
+            .transpose()
+            .mul_vec3a(out.normal.into())
+            .normalize_or_zero()
+            .into();
+        let b = mesh.aabb();
+        let (lo, hi) = (Vec3::from(b.min), Vec3::from(b.max));
+        let size = hi - lo;
+        out.generated = Vec3::select(
+            size.cmpgt(Vec3::ZERO),
+            (out.object - lo) / size.max(Vec3::splat(1e-30)),
+            Vec3::ZERO,
+        );
+        out
     }
 
     /// World-space surface data at barycentrics (b1, b2) of a triangle of an instance.

@@ -183,10 +183,20 @@ impl<'a> PathTracer<'a> {
             let material = &scene.materials[sp.material as usize];
             let wo_world = -ray.dir;
             material.apply_normal_map(geometry, &scene.textures, &mut sp, Some(wo_world));
+            // What a shading graph reads here (only gathered for materials that have one).
+            let graph_inputs = material
+                .has_graph()
+                .then(|| geometry.shading_inputs(&sp, wo_world, depth == 0));
 
             if material.is_emissive() {
                 let cos_light = sp.ng.dot(wo_world);
-                let le = material.emitted(&scene.textures, sp.uv, cos_light > 0.0, &alive);
+                let le = material.emitted(
+                    &scene.textures,
+                    sp.uv,
+                    graph_inputs.as_ref(),
+                    cos_light > 0.0,
+                    &alive,
+                );
                 if !le.is_black() {
                     let weight = if specular_bounce {
                         1.0
@@ -212,6 +222,7 @@ impl<'a> PathTracer<'a> {
             let (bsdf, subsurface) = material.scattering(
                 &scene.textures,
                 sp.uv,
+                graph_inputs.as_ref(),
                 &alive,
                 sampler.material_component(),
                 walk_medium.is_some(),

@@ -252,12 +252,21 @@ impl Lights {
             if let Some(t) = mat.emissive_texture() {
                 rgb *= textures.get(t.texture).map_or(Vec3::ONE, mean_texture_rgb);
             }
+            let graph_emission = mat.has_graph();
             let two_sided = mat.double_sided();
             let sides = if two_sided { 2.0 } else { 1.0 };
             instance_base[ii] = lights.len() as u32;
             let xf = &inst.object_to_world;
             for prim in 0..mesh.triangle_count() as u32 {
                 let sp = geometry.surface_point_at(ii as u32, prim, 1.0 / 3.0, 1.0 / 3.0);
+                // A graph's emission: its value at the triangle's centre stands for the
+                // triangle (the estimate only steers light selection; the pdf stays exact).
+                let rgb = if graph_emission {
+                    let inputs = geometry.shading_inputs(&sp, sp.ng, false);
+                    mat.emitted_rgb_at(textures, sp.uv, &inputs)
+                } else {
+                    rgb
+                };
                 let v = mesh.vertices(prim as usize).map(|p| xf.transform_point3(p));
                 lights.push(Light::Triangle {
                     instance: ii as u32,
@@ -634,7 +643,10 @@ impl Lights {
                 let wi = d / dist;
                 let cos_light = sp.ng.dot(-wi);
                 let mat = &materials[sp.material as usize];
-                let le = mat.emitted(textures, sp.uv, cos_light > 0.0, w);
+                let inputs = mat
+                    .has_graph()
+                    .then(|| geometry.shading_inputs(&sp, -wi, false));
+                let le = mat.emitted(textures, sp.uv, inputs.as_ref(), cos_light > 0.0, w);
                 if le.is_black() || cos_light.abs() < 1e-7 {
                     return None;
                 }

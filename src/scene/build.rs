@@ -49,6 +49,7 @@ impl Scene {
                 ..Default::default()
             },
             sidecar: None,
+            graph: None,
         }));
         // Meshes: keep valid triangles only (indices in range, finite, non-zero area). Each
         // mesh's BVH build is itself parallel, but its final steps are not, and scenes are
@@ -88,8 +89,9 @@ impl Scene {
                     Some(i) if i < materials.len() => i as u32,
                     _ => default_material,
                 };
-                let mesh =
-                    Mesh::new(m.positions, normals, uvs, tris, material).with_tangents(m.tangents);
+                let mesh = Mesh::new(m.positions, normals, uvs, tris, material)
+                    .with_tangents(m.tangents)
+                    .with_attributes(m.extra_uvs, m.colors);
                 Some((mi, mesh))
             })
             .collect();

@@ -20,6 +20,10 @@ pub struct MeshDesc {
     pub tangents: Option<Vec<Vec4>>,
     /// Three indices per triangle.
     pub indices: Vec<u32>,
+    /// TEXCOORD_1.. (index 0 = TEXCOORD_1), per vertex; `None` where the set is absent.
+    pub extra_uvs: Vec<Option<Vec<Vec2>>>,
+    /// COLOR_0.. as linear RGBA per vertex (RGB sets get alpha 1); `None` where absent.
+    pub colors: Vec<Option<Vec<Vec4>>>,
     /// Index into `SceneDesc::materials`; `None` = the glTF default material.
     pub material: Option<usize>,
 }
@@ -190,6 +194,8 @@ pub enum MaterialOverride {
 pub struct MaterialDesc {
     pub gltf: GltfMaterialDesc,
     pub sidecar: Option<MaterialOverride>,
+    /// A shading graph driving some of the material's inputs (material JSON `graph`).
+    pub graph: Option<std::sync::Arc<crate::shading::ShadingGraph>>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

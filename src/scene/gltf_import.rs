@@ -391,6 +391,7 @@ impl Importer<'_> {
             self.scene.materials.push(MaterialDesc {
                 gltf: desc,
                 sidecar: None,
+                graph: None,
             });
         }
         let roots: Vec<usize> = match self
@@ -790,6 +791,57 @@ impl Importer<'_> {
     /// [-1,1]), including sparse substitution, with every range checked.
     /// An attribute accessor's components as f32 (floats as stored; integer types converted,
     /// normalised per the spec when `normalized` is set), `want.multiplicity()` per element.
+    /// TEXCOORD_`set` (non-finite UVs become (0, 0), as for TEXCOORD_0).
+    fn read_uv_set(
+        &self,
+        acc: &gltf::Accessor,
+        name: &str,
+        set: u32,
+        n: usize,
+    ) -> Result<Vec<Vec2>, String> {
+        let what = format!("{name} TEXCOORD_{set}");
+        let v = self.read_floats(acc, Dimensions::Vec2, &what)?;
+        if v.len() / 2 != n {
+            return Err(format!(
+                "{what} has {} elements but POSITION has {n}",
+                v.len() / 2
+            ));
+        }
+        Ok(v.chunks_exact(2)
+            .map(|c| Vec2::new(c[0], c[1]))
+            .map(|uv| if uv.is_finite() { uv } else { Vec2::ZERO })
+            .collect())
+    }
+
+    /// COLOR_`set`: linear RGB or RGBA (float or normalised integers, glTF 2.0 spec 3.7.2.1);
+    /// RGB gets alpha 1, non-finite values become white.
+    fn read_color_set(
+        &self,
+        acc: &gltf::Accessor,
+        name: &str,
+        set: u32,
+        n: usize,
+    ) -> Result<Vec<Vec4>, String> {
+        let what = format!("{name} COLOR_{set}");
+        let dims = acc.dimensions();
+        let k = match dims {
+            Dimensions::Vec3 => 3,
+            Dimensions::Vec4 => 4,
+            other => return Err(format!("{what}: must be VEC3 or VEC4, found {other:?}")),
+        };
+        let v = self.read_floats(acc, dims, &what)?;
+        if v.len() / k != n {
+            return Err(format!(
+                "{what} has {} elements but POSITION has {n}",
+                v.len() / k
+            ));
+        }
+        Ok(v.chunks_exact(k)
+            .map(|c| Vec4::new(c[0], c[1], c[2], if k == 4 { c[3] } else { 1.0 }))
+            .map(|c| if c.is_finite() { c } else { Vec4::ONE })
+            .collect())
+    }
+
     fn read_floats(
         &self,
         acc: &gltf::Accessor,
@@ -1002,13 +1054,6 @@ impl Importer<'_> {
             }
             None => None,
         };
-        if prim.get(&Semantic::Colors(0)).is_some() {
-            self.warn_once(
-                "COLOR_0 vertex colours are not supported yet and ignored (base colours are used \
-                 without them)"
-                    .to_string(),
-            );
-        }
         let uvs = match prim.get(&Semantic::TexCoords(0)) {
             Some(a) => {
                 let v = self.read_floats(&a, Dimensions::Vec2, &format!("{name} TEXCOORD_0"))?;
@@ -1034,6 +1079,20 @@ impl Importer<'_> {
             None => None,
         };
         let tangents = self.load_tangents(prim, &name, n, normals.is_some())?;
+        let mut extra_uvs = Vec::new();
+        for set in 1..crate::shading::MAX_ATTRIBUTE_SETS as u32 {
+            extra_uvs.push(match prim.get(&Semantic::TexCoords(set)) {
+                Some(a) => Some(self.read_uv_set(&a, &name, set, n)?),
+                None => None,
+            });
+        }
+        let mut colors = Vec::new();
+        for set in 0..crate::shading::MAX_ATTRIBUTE_SETS as u32 {
+            colors.push(match prim.get(&Semantic::Colors(set)) {
+                Some(a) => Some(self.read_color_set(&a, &name, set, n)?),
+                None => None,
+            });
+        }
         let raw_indices: Vec<u32> = match prim.indices() {
             Some(a) => {
                 if !matches!(a.data_type(), DataType::U8 | DataType::U16 | DataType::U32) {
@@ -1083,6 +1142,15 @@ impl Importer<'_> {
         }
         let material = prim.material().index();
         let mut desc = compact(name, positions, normals, uvs, tangents, &kept);
+        let order = compact_order(desc.positions.len(), &kept, n);
+        desc.extra_uvs = extra_uvs
+            .into_iter()
+            .map(|u| u.map(|u| pick(order.as_deref(), u)))
+            .collect();
+        desc.colors = colors
+            .into_iter()
+            .map(|c| c.map(|c| pick(order.as_deref(), c)))
+            .collect();
         desc.material = material;
         if let Some(normals) = desc.normals.as_mut() {
             fix_normals(normals, &desc.positions, &desc.indices);
@@ -1593,6 +1661,7 @@ fn compact(
             tangents,
             indices,
             material: None,
+            ..Default::default()
         };
     }
     fn pick<T: Copy>(order: &[u32], src: &[T]) -> Vec<T> {
@@ -1606,6 +1675,31 @@ fn compact(
         tangents: tangents.map(|t| pick(&order, &t)),
         indices,
         material: None,
+        ..Default::default()
+    }
+}
+
+/// The vertex order `compact` produced for `tris` (`None`: unchanged, all `n` vertices kept
+/// in order), to carry further per-vertex attributes along.
+fn compact_order(kept_vertices: usize, tris: &[[u32; 3]], n: usize) -> Option<Vec<u32>> {
+    let mut remap = vec![u32::MAX; n];
+    let mut order: Vec<u32> = Vec::with_capacity(kept_vertices);
+    for t in tris {
+        for &v in t {
+            if remap[v as usize] == u32::MAX {
+                remap[v as usize] = order.len() as u32;
+                order.push(v);
+            }
+        }
+    }
+    let identity = order.len() == n && order.iter().enumerate().all(|(i, &v)| v as usize == i);
+    (!identity).then_some(order)
+}
+
+fn pick<T: Copy>(order: Option<&[u32]>, src: Vec<T>) -> Vec<T> {
+    match order {
+        None => src,
+        Some(order) => order.iter().map(|&v| src[v as usize]).collect(),
     }
 }
 

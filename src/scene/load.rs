@@ -76,6 +76,14 @@ fn load_scene_inner(
                 }
             }
         }
+        for (name, graph) in &mf.graphs {
+            for (i, n) in imported.material_names.iter().enumerate() {
+                if n.as_deref() == Some(name.as_str()) {
+                    scene.materials[i].graph = Some(graph.clone());
+                }
+            }
+        }
+        scene.warnings.extend(mf.warnings.iter().cloned());
         if let Some(w) = mf.world {
             scene.world = w;
         }

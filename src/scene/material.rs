@@ -8,6 +8,7 @@ use super::texture::sample_texture;
 use crate::bsdf::{Bsdf, DielectricBsdf, DiffuseBsdf, MetallicRoughnessBsdf};
 use crate::bssrdf::SubsurfaceMaterial;
 use crate::geometry::{Geometry, SurfacePoint};
+use crate::shading::{MaterialInput, ShadingGraph, ShadingInputs};
 use crate::spectrum::{
     RgbAlbedoSpectrum, RgbIlluminantSpectrum, RgbUnboundedSpectrum, SampledSpectrum,
     SampledWavelengths,
@@ -50,6 +51,8 @@ pub struct Material {
     emission: Option<RgbIlluminantSpectrum>,
     /// Beer–Lambert absorption coefficient inside the object (KHR_materials_volume), per unit length.
     absorption: Option<RgbUnboundedSpectrum>,
+    /// A shading graph driving some inputs (they replace the glTF factors and textures).
+    graph: Option<Arc<ShadingGraph>>,
 }
 
 /// Smallest GGX alpha treated as rough; below it lobes are taken as perfectly specular.
@@ -100,11 +103,40 @@ impl Material {
             specular_color: RgbAlbedoSpectrum::new(g.specular_color),
             emission,
             absorption,
+            graph: desc.graph.clone(),
         }
     }
 
     pub fn is_emissive(&self) -> bool {
-        self.emission.is_some()
+        self.emission.is_some() || self.graph.as_ref().is_some_and(|g| g.drives_emission())
+    }
+
+    /// The material reads a shading graph: the integrator then gathers [`ShadingInputs`].
+    pub fn has_graph(&self) -> bool {
+        self.graph.is_some()
+    }
+
+    /// Linear RGB emitted radiance at a surface point (front side), for light power estimates.
+    pub fn emitted_rgb_at(
+        &self,
+        textures: &[TextureDesc],
+        uv: Vec2,
+        inputs: &ShadingInputs,
+    ) -> Vec3 {
+        let texture_rgb = || match self.gltf.emissive_texture {
+            None => self.gltf.emissive,
+            Some(t) => self.gltf.emissive * lookup(textures, &t, uv).xyz(),
+        };
+        match &self.graph {
+            Some(g) if g.drives_emission() => {
+                let v = g.evaluate(inputs, true);
+                let color =
+                    v[MaterialInput::Emission.index()].map_or_else(texture_rgb, |c| c.xyz());
+                let strength = v[MaterialInput::EmissionStrength.index()].map_or(1.0, |s| s.x);
+                (color * strength).max(Vec3::ZERO)
+            }
+            _ => texture_rgb(),
+        }
     }
 
     pub fn is_subsurface(&self) -> bool {
@@ -149,19 +181,27 @@ impl Material {
     }
 
     /// Radiance emitted towards a viewer on the front (or, if double-sided, either) side.
+    /// `inputs`: the shading graph's inputs at the point (needed when [`Material::has_graph`]).
     pub fn emitted(
         &self,
         textures: &[TextureDesc],
         uv: Vec2,
+        inputs: Option<&ShadingInputs>,
         front_facing: bool,
         w: &SampledWavelengths,
     ) -> SampledSpectrum {
-        let Some(e) = &self.emission else {
-            return SampledSpectrum::ZERO;
-        };
         if !front_facing && !self.gltf.double_sided {
             return SampledSpectrum::ZERO;
         }
+        if let (Some(g), Some(inputs)) = (&self.graph, inputs) {
+            if g.drives_emission() {
+                let rgb = self.emitted_rgb_at(textures, uv, inputs);
+                return RgbIlluminantSpectrum::new(rgb).sample(w);
+            }
+        }
+        let Some(e) = &self.emission else {
+            return SampledSpectrum::ZERO;
+        };
         match self.gltf.emissive_texture {
             None => e.sample(w),
             Some(t) => {
@@ -232,6 +272,7 @@ impl Material {
         &self,
         textures: &[TextureDesc],
         uv: Vec2,
+        inputs: Option<&ShadingInputs>,
         w: &SampledWavelengths,
         u_select: f32,
         inside_medium: bool,
@@ -243,13 +284,13 @@ impl Material {
                 } else {
                     u_select / weight
                 };
-                return (self.bsdf(textures, uv, w, u), Some(medium));
+                return (self.bsdf(textures, uv, inputs, w, u), Some(medium));
             }
             // The glTF part: reuse the leftover of `u_select` for its own choices.
             let u = ((u_select - weight) / (1.0 - weight)).clamp(0.0, 1.0);
-            return (self.gltf_bsdf(textures, uv, w, u), None);
+            return (self.gltf_bsdf(textures, uv, inputs, w, u), None);
         }
-        (self.bsdf(textures, uv, w, u_select), None)
+        (self.bsdf(textures, uv, inputs, w, u_select), None)
     }
 
     /// The BSDF at a surface point (for a subsurface material, always its boundary). `u_select`
@@ -258,6 +299,7 @@ impl Material {
         &self,
         textures: &[TextureDesc],
         uv: Vec2,
+        inputs: Option<&ShadingInputs>,
         w: &SampledWavelengths,
         u_select: f32,
     ) -> Bsdf {
@@ -278,7 +320,7 @@ impl Material {
                 alpha: if s.alpha < MIN_ALPHA { 0.0 } else { s.alpha },
                 transmission_tint: SampledSpectrum::ONE,
             }),
-            SurfaceModel::Gltf => self.gltf_bsdf(textures, uv, w, u_select),
+            SurfaceModel::Gltf => self.gltf_bsdf(textures, uv, inputs, w, u_select),
         }
     }
 
@@ -286,13 +328,20 @@ impl Material {
         &self,
         textures: &[TextureDesc],
         uv: Vec2,
+        inputs: Option<&ShadingInputs>,
         w: &SampledWavelengths,
         u_select: f32,
     ) -> Bsdf {
         let g = &self.gltf;
-        let base = match g.base_color_texture {
-            None => self.base_albedo.sample(w),
-            Some(t) => {
+        let driven = match (&self.graph, inputs) {
+            (Some(graph), Some(inputs)) => graph.evaluate(inputs, false),
+            _ => Default::default(),
+        };
+        let get = |m: MaterialInput| driven[m.index()];
+        let base = match (get(MaterialInput::BaseColor), g.base_color_texture) {
+            (Some(c), _) => RgbAlbedoSpectrum::new(c.xyz().clamp(Vec3::ZERO, Vec3::ONE)).sample(w),
+            (None, None) => self.base_albedo.sample(w),
+            (None, Some(t)) => {
                 let rgb = g.base_color.xyz() * lookup(textures, &t, uv).xyz();
                 RgbAlbedoSpectrum::new(rgb).sample(w)
             }
@@ -303,10 +352,19 @@ impl Material {
             roughness *= texel.y;
             metallic *= texel.z;
         }
+        if let Some(m) = get(MaterialInput::Metallic) {
+            metallic = m.x.clamp(0.0, 1.0);
+        }
+        if let Some(r) = get(MaterialInput::Roughness) {
+            roughness = r.x.clamp(0.0, 1.0);
+        }
+        let specular = get(MaterialInput::Specular).map_or(g.specular, |s| s.x.max(0.0));
         let alpha = roughness_to_alpha(roughness);
         // glTF transmission replaces the diffuse part of the dielectric base: we pick the
         // transmissive component with probability `transmission` (metals do not transmit).
-        let transmission = g.transmission * (1.0 - metallic);
+        let transmission = get(MaterialInput::Transmission)
+            .map_or(g.transmission, |t| t.x.clamp(0.0, 1.0))
+            * (1.0 - metallic);
         if transmission > 0.0 && u_select < transmission {
             return Bsdf::Dielectric(DielectricBsdf {
                 eta: SampledSpectrum::from_fn(|i| self.gltf_ior.eval(w.lambda[i])),
@@ -314,14 +372,14 @@ impl Material {
                 transmission_tint: base,
             });
         }
-        if metallic <= 0.0 && g.specular <= 0.0 {
+        if metallic <= 0.0 && specular <= 0.0 {
             return Bsdf::Diffuse(DiffuseBsdf { reflectance: base });
         }
         Bsdf::MetallicRoughness(MetallicRoughnessBsdf {
             base_color: base,
             metallic,
             alpha: alpha.max(MIN_ALPHA),
-            specular: g.specular,
+            specular,
             specular_color: self.specular_color.sample(w),
             ior: g.ior,
         })

@@ -59,7 +59,10 @@
 //! `<file>: <json path, e.g. materials.Skin.subsurface.sigma_a[1]>: <what is wrong>`
 //! (JSON syntax errors: `<file>:<line>:<column>: invalid JSON: ...`).
 
-use std::path::Path;
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use glam::Vec3;
 use serde_json::{Map, Value};
@@ -69,6 +72,9 @@ use crate::scene::desc::{
     DielectricDesc, EnvironmentTextureDesc, IorDesc, LensDesc, MaterialOverride, RenderDefaults,
     SubsurfaceCoefficients, SubsurfaceDesc, WorldDesc,
 };
+use crate::shading::image::Image;
+use crate::shading::parse::{parse_graph, ImageLoader, NoImages};
+use crate::shading::ShadingGraph;
 use crate::spectrum::dispersion::MAX_SELLMEIER_TERMS;
 
 /// The only sidecar schema version this Prism reads.
@@ -115,6 +121,10 @@ pub const SUBSURFACE_BOUNDARIES: &[&str] = &["dielectric", "lambertian"];
 pub struct MaterialsFile {
     /// Overrides by glTF material name, in the order the file lists them.
     pub materials: Vec<(String, MaterialOverride)>,
+    /// Shading graphs by glTF material name (`materials.<name>.graph`, see `crate::shading::parse`).
+    pub graphs: Vec<(String, Arc<ShadingGraph>)>,
+    /// Problems the user should see that do not stop the render (an unreadable texture).
+    pub warnings: Vec<String>,
     /// `None` when the file has no `world` block. Its `texture` is decoded by
     /// [`load_materials_file`] (not by [`parse_materials_json`], which reads no other file).
     pub world: Option<WorldDesc>,
@@ -147,7 +157,14 @@ pub fn load_materials_file(
         .map_err(|e| PrismError::input(format!("{file}: cannot read: {}", io_msg(&e))))?;
     let text = String::from_utf8(bytes)
         .map_err(|e| PrismError::input(format!("{file}: not valid UTF-8 text: {e}")))?;
-    let mut parsed = parse_materials_json(&text, &file, gltf_material_names)?;
+    let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+    let mut images = FileImages {
+        dir,
+        cache: HashMap::new(),
+        warnings: Vec::new(),
+    };
+    let mut parsed = parse_with_images(&text, &file, gltf_material_names, &mut images)?;
+    parsed.warnings.append(&mut images.warnings);
     if let (Some(tex), Some(world)) = (&parsed.world_texture, parsed.world.as_mut()) {
         let dir = path.parent().unwrap_or(Path::new(""));
         let image_path = dir.join(&tex.path);
@@ -177,15 +194,90 @@ pub(crate) fn io_msg(e: &std::io::Error) -> String {
     }
 }
 
-/// Validates sidecar text; `file` is only used in messages.
+/// Validates sidecar text; `file` is only used in messages. Graph images are not read (each
+/// is a placeholder): [`load_materials_file`] reads them.
 pub fn parse_materials_json(
     text: &str,
     file: &str,
     gltf_material_names: Option<&[String]>,
 ) -> Result<MaterialsFile, PrismError> {
+    parse_with_images(text, file, gltf_material_names, &mut NoImages)
+}
+
+fn parse_with_images(
+    text: &str,
+    file: &str,
+    gltf_material_names: Option<&[String]>,
+    images: &mut dyn ImageLoader,
+) -> Result<MaterialsFile, PrismError> {
     let root: Value = serde_json::from_str(text).map_err(|e| syntax_error(text, file, &e))?;
-    let v = Validator { file };
+    let v = Validator {
+        file,
+        images: RefCell::new(images),
+    };
     v.root(&root, gltf_material_names)
+}
+
+/// Reads graph images relative to the sidecar's folder, once per (file, colour space). An
+/// image that cannot be read becomes Blender's magenta with one warning naming it.
+struct FileImages {
+    dir: PathBuf,
+    cache: HashMap<(String, bool), Arc<Image>>,
+    warnings: Vec<String>,
+}
+
+impl ImageLoader for FileImages {
+    fn load(&mut self, path: &str, linear: bool) -> Arc<Image> {
+        let key = (path.to_string(), linear);
+        if let Some(img) = self.cache.get(&key) {
+            return img.clone();
+        }
+        let full = self.dir.join(path);
+        let img = match read_graph_image(&full, linear) {
+            Ok(img) => Arc::new(img),
+            Err(e) => {
+                self.warnings.push(format!(
+                    "image '{path}' ({}): {e}; rendered magenta",
+                    full.display()
+                ));
+                Image::missing(path)
+            }
+        };
+        self.cache.insert(key, img.clone());
+        img
+    }
+}
+
+/// PNG/JPEG (8 or 16 bit, sRGB-decoded unless `linear`) or EXR/HDR (linear RGB).
+fn read_graph_image(path: &Path, linear: bool) -> Result<Image, String> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .unwrap_or_default();
+    let name = path.display().to_string();
+    if ext == "exr" || ext == "hdr" {
+        let env = crate::lights::envmap::load_env_image(path)?;
+        return Ok(Image {
+            name,
+            width: env.width,
+            height: env.height,
+            texels: env.texels.iter().map(|c| c.extend(1.0)).collect(),
+        });
+    }
+    let bytes = std::fs::read(path).map_err(|e| io_msg(&e))?;
+    let decoded = crate::scene::texture::decode_image(&bytes, None)?;
+    let space = if linear {
+        crate::scene::desc::ColorSpace::Linear
+    } else {
+        crate::scene::desc::ColorSpace::Srgb
+    };
+    Ok(Image {
+        name,
+        width: decoded.width,
+        height: decoded.height,
+        texels: crate::scene::texture::to_linear_texels(&decoded, space),
+    })
 }
 
 fn syntax_error(text: &str, file: &str, e: &serde_json::Error) -> PrismError {
@@ -278,6 +370,7 @@ enum Range {
 
 struct Validator<'a> {
     file: &'a str,
+    images: RefCell<&'a mut dyn ImageLoader>,
 }
 
 type R<T> = Result<T, PrismError>;
@@ -426,7 +519,7 @@ impl Validator<'_> {
             let mats = self.object(mats, &mpath)?;
             for (name, def) in mats {
                 let p = mpath.key(name);
-                let ov = self.material(def, &p)?;
+                let (ov, graph) = self.material(def, &p)?;
                 if let Some(names) = names {
                     if !names.iter().any(|n| n == name) {
                         let list = if names.is_empty() {
@@ -441,7 +534,12 @@ impl Validator<'_> {
                         ));
                     }
                 }
-                out.materials.push((name.clone(), ov));
+                if let Some(ov) = ov {
+                    out.materials.push((name.clone(), ov));
+                }
+                if let Some(g) = graph {
+                    out.graphs.push((name.clone(), Arc::new(g)));
+                }
             }
         }
         if let Some(w) = m.get("world") {
@@ -458,25 +556,46 @@ impl Validator<'_> {
         Ok(out)
     }
 
-    fn material(&self, v: &Value, path: &JPath) -> R<MaterialOverride> {
+    fn material(
+        &self,
+        v: &Value,
+        path: &JPath,
+    ) -> R<(Option<MaterialOverride>, Option<ShadingGraph>)> {
         let m = self.object(v, path)?;
-        self.check_keys(m, &["subsurface", "dielectric"], path)?;
-        match (m.get("subsurface"), m.get("dielectric")) {
-            (Some(s), None) => Ok(MaterialOverride::Subsurface(
+        self.check_keys(m, &["subsurface", "dielectric", "graph"], path)?;
+        let graph = match m.get("graph") {
+            Some(g) => {
+                let gpath = path.key("graph");
+                let mut images = self.images.borrow_mut();
+                let parsed = parse_graph(g, gpath.show(), &mut **images).map_err(|e| {
+                    PrismError::input(format!("{}: {}: {}", self.file, e.path, e.msg))
+                })?;
+                Some(parsed)
+            }
+            None => None,
+        };
+        let ov = match (m.get("subsurface"), m.get("dielectric")) {
+            (Some(s), None) => Some(MaterialOverride::Subsurface(
                 self.subsurface(s, &path.key("subsurface"))?,
             )),
-            (None, Some(d)) => Ok(MaterialOverride::Dielectric(
+            (None, Some(d)) => Some(MaterialOverride::Dielectric(
                 self.dielectric(d, &path.key("dielectric"))?,
             )),
-            (Some(_), Some(_)) => Err(self.err(
-                path,
-                "give exactly one of 'subsurface' or 'dielectric', not both",
-            )),
-            (None, None) => Err(self.err(
-                path,
-                "empty material: give exactly one of 'subsurface' or 'dielectric'",
-            )),
-        }
+            (Some(_), Some(_)) => {
+                return Err(self.err(
+                    path,
+                    "give exactly one of 'subsurface' or 'dielectric', not both",
+                ))
+            }
+            (None, None) if graph.is_none() => {
+                return Err(self.err(
+                    path,
+                    "empty material: give 'subsurface', 'dielectric' or 'graph'",
+                ))
+            }
+            (None, None) => None,
+        };
+        Ok((ov, graph))
     }
 
     fn subsurface(&self, v: &Value, path: &JPath) -> R<SubsurfaceDesc> {

@@ -112,9 +112,8 @@ impl Image {
             return Vec4::ZERO;
         }
         let uv = if uv.is_finite() { uv } else { Vec2::ZERO };
-        if ext == Extension::Clip && !(0.0..=1.0).contains(&uv.x)
-            || ext == Extension::Clip && !(0.0..=1.0).contains(&uv.y)
-        {
+        let inside = (0.0..=1.0).contains(&uv.x) && (0.0..=1.0).contains(&uv.y);
+        if ext == Extension::Clip && !inside {
             return Vec4::ZERO;
         }
         // Keep the arithmetic where f32 -> i64 is exact enough and cannot overflow.

@@ -533,7 +533,7 @@ pub fn parse_graph(v: &Value, path: &str, images: &mut dyn ImageLoader) -> R<Sha
     };
     let mut order: Vec<&str> = Vec::new();
     let mut state: HashMap<&str, u8> = HashMap::new(); // 1 = visiting, 2 = done
-    fn link_target<'v>(v: &'v Value) -> Option<&'v str> {
+    fn link_target(v: &Value) -> Option<&str> {
         v.as_object()?.get("node")?.as_str()
     }
     fn visit<'v>(
@@ -776,7 +776,7 @@ mod tests {
             ),
         ];
         for (v, want) in cases {
-            let e = parse(v).err().expect(want);
+            let e = parse(v).map(|_| ()).expect_err(want);
             assert!(e.contains(want), "{e} does not contain {want}");
         }
     }

@@ -18,6 +18,7 @@ pub fn sphere_mesh(material: usize, segments: u32, rings: u32) -> MeshDesc {
         tangents: None,
         indices: triangles.into_iter().flatten().collect(),
         material: Some(material),
+        ..Default::default()
     }
 }
 
@@ -32,11 +33,16 @@ pub fn diffuse_material(name: &str, albedo: Vec3) -> MaterialDesc {
             ..Default::default()
         },
         sidecar: None,
+        graph: None,
     }
 }
 
 pub fn material_with(gltf: GltfMaterialDesc, sidecar: Option<MaterialOverride>) -> MaterialDesc {
-    MaterialDesc { gltf, sidecar }
+    MaterialDesc {
+        gltf,
+        sidecar,
+        graph: None,
+    }
 }
 
 /// A sidecar dielectric (glass) of the given IOR model and roughness.
@@ -119,6 +125,7 @@ pub fn slab_mesh(w: f32, depth: f32) -> MeshDesc {
         tangents: None,
         indices,
         material: Some(0),
+        ..Default::default()
     }
 }
 
@@ -272,6 +279,7 @@ pub fn quad_mesh(name: &str, c: Vec3, u: Vec3, v: Vec3, material: usize) -> Mesh
         tangents: None,
         indices: vec![0, 1, 2, 0, 2, 3],
         material: Some(material),
+        ..Default::default()
     }
 }
 
@@ -286,6 +294,7 @@ pub fn emissive_material(name: &str, rgb: Vec3, double_sided: bool) -> MaterialD
             ..Default::default()
         },
         sidecar: None,
+        graph: None,
     }
 }
 
