@@ -31,6 +31,8 @@ import zlib
 
 import numpy as np
 
+from .node_graph import GraphBuilder
+
 WATTS_TO_LUMENS = 683.0
 GREY = (0.8, 0.8, 0.8)
 
@@ -527,6 +529,41 @@ def _mesh_triangles(me):
     return tri_loops, _triangle_materials(me, nt)
 
 
+def _corner_attributes(me, corner_vert, uv_sets, color_sets):
+    """Per-corner arrays for the named UV maps and colour attributes graphs read:
+    {"TEXCOORD_n" | "COLOR_n": array}, and warnings for names the mesh lacks. UVs are flipped
+    to glTF's convention like TEXCOORD_0; colours are linear RGBA (Blender's `color`)."""
+    nl = len(me.loops)
+    out, missing = {}, []
+    for name, k in uv_sets.items():
+        layer = me.uv_layers.get(name) or me.uv_layers.active
+        if me.uv_layers.get(name) is None:
+            missing.append("UV map '%s'" % name)
+        if layer is None:
+            continue
+        uv = np.empty(nl * 2, np.float32)
+        layer.data.foreach_get("uv", uv)
+        uv = uv.reshape(-1, 2)
+        uv[:, 1] = 1.0 - uv[:, 1]
+        out["TEXCOORD_%d" % k] = uv
+    attrs = getattr(me, "color_attributes", None)
+    wanted = dict(color_sets)
+    if attrs is not None and len(attrs):
+        default = getattr(attrs, "default_color_name", "") or (attrs.active_color.name if attrs.active_color else "")
+        wanted[default] = 0
+    for name, k in wanted.items():
+        attr = attrs.get(name) if attrs is not None and name else None
+        if attr is None:
+            if name and k:
+                missing.append("colour attribute '%s'" % name)
+            continue
+        col = np.empty(len(attr.data) * 4, np.float32)
+        attr.data.foreach_get("color", col)
+        col = col.reshape(-1, 4)
+        out["COLOR_%d" % k] = col if attr.domain == "CORNER" else col[corner_vert]
+    return out, missing
+
+
 def _mesh_arrays(me, tri_loops, tri_mat, per_vertex_allowed=True):
     """Vertex positions, shading normals (None: flat, computed by the renderer), UVs and
     per-material triangle index lists.
@@ -628,6 +665,11 @@ class Exporter:
         self.material_index = {}
         self.material_json = {}
         self.unsupported = []
+        # Named UV maps / colour attributes that graphs read -> their TEXCOORD_n / COLOR_n set
+        # (set 0: the active UV map, the default colour attribute).
+        self.uv_sets = {}
+        self.color_sets = {}
+        self.graph_images = {}
         # Normal-mapped material name -> the Normal Map node's UV map ('' = the mesh's own).
         self.normal_uv_maps = {}
         # Materials whose Normal input is not exported (Bump, object-space maps, ...).
@@ -668,6 +710,151 @@ class Exporter:
         self.image_index[key] = len(self.images) - 1
         return self.image_index[key]
 
+    def _uv_set(self, name):
+        if not name:
+            return 0
+        if name not in self.uv_sets:
+            if len(self.uv_sets) >= 3:
+                self.warnings.append("more than 4 UV maps are read by materials; '%s' reads the active one" % name)
+                return 0
+            self.uv_sets[name] = len(self.uv_sets) + 1
+        return self.uv_sets[name]
+
+    def _color_set(self, name):
+        if not name:
+            return 0
+        if name not in self.color_sets:
+            if len(self.color_sets) >= 3:
+                self.warnings.append("more than 4 colour attributes are read by materials; '%s' reads the default one" % name)
+                return 0
+            self.color_sets[name] = len(self.color_sets) + 1
+        return self.color_sets[name]
+
+    def _graph_image(self, img):
+        """(file name, linear?) of `img` written for a graph's Image Texture node."""
+        if img.name in self.graph_images:
+            return self.graph_images[img.name]
+        linear = img.is_float or img.colorspace_settings.name != "sRGB"
+        src = img.filepath_from_user() if img.filepath else ""
+        ext = os.path.splitext(src)[1].lower()
+        n = len(self.graph_images)
+        if src and os.path.isfile(src) and not img.packed_file and ext in {".png", ".jpg", ".jpeg"} and img.source == "FILE":
+            fname = "graph%d%s" % (n, ext)
+            shutil.copyfile(src, os.path.join(self.out_dir, fname))
+            # A float-loaded PNG/JPEG file still holds its encoded values: decode by colour space.
+            linear = img.colorspace_settings.name != "sRGB"
+        else:
+            w, h = img.size
+            if w == 0 or h == 0:
+                raise ExportError("the image has no pixels (file missing?)")
+            if img.is_float:
+                fname = "graph%d.exr" % n
+                px = np.empty(w * h * 4, np.float32)
+                img.pixels.foreach_get(px)
+                write_exr_rgb(os.path.join(self.out_dir, fname), px.reshape(h, w, 4)[::-1, :, :3].copy())
+                linear = True
+            else:
+                fname = "graph%d.png" % n
+                write_png(os.path.join(self.out_dir, fname), image_rgba8(img))
+        self.graph_images[img.name] = (fname, linear)
+        return fname, linear
+
+    def _graph(self, mat, name, m):
+        """The material JSON graph for `mat`'s surface shader inputs that are linked, or None."""
+        node = _surface_node(mat)
+        if node is None:
+            return None
+        gb = GraphBuilder(name, self._graph_image, self._uv_set, self._color_set, self.warnings.append)
+        t = node.type
+        S = lambda *n: _socket(node, *n)  # noqa: E731
+        handled = set()
+
+        def bind(key, sock, scale=None):
+            if sock is None:
+                return False
+            handled.add(sock.identifier)
+            return gb.bind(key, sock, scale)
+
+        if t == "BSDF_PRINCIPLED":
+            if bind("base_color", S("Base Color")):
+                m["image"] = None
+            bind("metallic", S("Metallic"))
+            bind("roughness", S("Roughness"))
+            spec = S("Specular IOR Level", "Specular")
+            bind("specular", spec, scale=2.0)
+            bind("transmission", S("Transmission Weight", "Transmission"))
+            e_col, e_str = S("Emission Color", "Emission"), S("Emission Strength")
+            if (bind("emission", e_col) | bind("emission_strength", e_str)):
+                if "emission" not in gb.inputs:
+                    gb.bind_const("emission", _rgb(e_col.default_value))
+                if "emission_strength" not in gb.inputs:
+                    gb.bind_const("emission_strength", float(e_str.default_value) if e_str is not None else 1.0)
+            handled.add("Normal")
+            self._principled_warnings(name, node, handled)
+        elif t in {"BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_ANISOTROPIC", "BSDF_GLASS"}:
+            if bind("base_color", S("Color")):
+                m["image"] = None
+            if t != "BSDF_DIFFUSE":
+                bind("roughness", S("Roughness"))
+            handled.update({"Normal", "Weight"})
+            self._linked_warnings(name, node, handled)
+        elif t == "EMISSION":
+            e_col, e_str = S("Color"), S("Strength")
+            if bind("emission", e_col) | bind("emission_strength", e_str):
+                if "emission" not in gb.inputs:
+                    gb.bind_const("emission", _rgb(e_col.default_value))
+                if "emission_strength" not in gb.inputs:
+                    gb.bind_const("emission_strength", float(e_str.default_value))
+                if max(m["emission"]) <= 0.0 or m["emission_strength"] <= 0.0:
+                    # The glTF emission stands in for light power estimates: keep it non-zero.
+                    m["emission"], m["emission_strength"] = [1.0, 1.0, 1.0], 1.0
+            handled.add("Weight")
+            self._linked_warnings(name, node, handled)
+        return gb.result()
+
+    def _linked_warnings(self, name, node, handled):
+        for sock in node.inputs:
+            if sock.is_linked and sock.identifier not in handled and sock.name not in handled and sock.enabled:
+                src = sock.links[0].from_node
+                self.warnings.append(
+                    "material '%s': the link from '%s' into '%s' of '%s' is not supported; its value is used"
+                    % (name, src.name, sock.name, node.name)
+                )
+
+    def _principled_warnings(self, name, node, handled):
+        """Names the Principled inputs Prism does not render yet (linked or set away from their
+        neutral value): never a silent drop."""
+        handled = set(handled)
+        # Inputs the exporter translates from their values (subsurface, IOR) are handled when unlinked.
+        self._linked_warnings(name, node, handled)
+        checks = [
+            ("Alpha", lambda v: v < 1.0, "Alpha below 1 (transparency)"),
+            ("Coat Weight", lambda v: v > 0.0, "Coat"),
+            ("Clearcoat", lambda v: v > 0.0, "Clearcoat"),
+            ("Sheen Weight", lambda v: v > 0.0, "Sheen"),
+            ("Sheen", lambda v: v > 0.0, "Sheen"),
+            ("Anisotropic", lambda v: v > 0.0, "Anisotropic"),
+            ("Thin Film Thickness", lambda v: v > 0.0, "Thin Film"),
+        ]
+        for sock_name, bad, what in checks:
+            sock = node.inputs.get(sock_name)
+            if sock is None or sock.is_linked:
+                continue
+            try:
+                if bad(float(sock.default_value)):
+                    self.warnings.append("material '%s': %s is not supported yet and is ignored" % (name, what))
+            except TypeError:
+                pass
+        tint = node.inputs.get("Specular Tint")
+        if tint is not None and not tint.is_linked:
+            v = tint.default_value
+            try:
+                coloured = any(abs(float(c) - 1.0) > 1e-6 for c in list(v)[:3])
+            except TypeError:
+                coloured = float(v) > 0.0  # 3.x: a 0..1 factor towards the base colour
+            if coloured:
+                self.warnings.append("material '%s': Specular Tint is not supported yet and is ignored" % name)
+
     def _material(self, mat):
         key = mat.name if mat is not None else None
         if key in self.material_index:
@@ -676,6 +863,13 @@ class Exporter:
         m, sss, ok = convert_material(mat)
         if not ok:
             self.unsupported.append(name)
+            node = _surface_node(mat)
+            if node is not None:
+                self.warnings.append(
+                    "material '%s': surface shader '%s' (%s) is not supported; rendered grey diffuse"
+                    % (name, node.name, node.bl_idname)
+                )
+        graph = self._graph(mat, name, m) if ok and mat is not None else None
         g = {
             "name": name,
             "pbrMetallicRoughness": {
@@ -725,6 +919,8 @@ class Exporter:
             self.material_json[name] = override
         elif sss is not None:
             self.material_json[name] = {"subsurface": sss}
+        if graph is not None:
+            self.material_json.setdefault(name, {})["graph"] = graph
         return self.material_index[key]
 
     def _mesh(self, key, me, slots):
@@ -739,14 +935,26 @@ class Exporter:
         for mi in np.unique(tri_mat):
             mi = int(mi)
             materials[mi] = self._material(slots[mi] if 0 <= mi < len(slots) else None)
-        # Normal-mapped materials need per-corner MikkTSpace tangents, so per-corner arrays.
+        # Normal-mapped materials need per-corner MikkTSpace tangents, so per-corner arrays;
+        # so do the UV maps and colour attributes that shading graphs read.
         needs_tangents = any("normalTexture" in self.materials[i] for i in materials.values())
-        pos, nrm, uv, groups = _mesh_arrays(me, tri_loops, tri_mat, per_vertex_allowed=not needs_tangents)
+        graph_names = [self.materials[i]["name"] for i in materials.values()]
+        reads_attributes = any("graph" in self.material_json.get(n, {}) for n in graph_names)
+        corner = {}
+        if reads_attributes:
+            corner, missing = _corner_attributes(me, _corner_vertices(me, len(me.loops)), self.uv_sets, self.color_sets)
+            for what in missing:
+                self.warnings.append("mesh '%s': %s not found; the active one is read" % (me.name, what))
+        pos, nrm, uv, groups = _mesh_arrays(
+            me, tri_loops, tri_mat, per_vertex_allowed=not needs_tangents and not corner
+        )
         attrs = {"POSITION": self.buf.accessor(pos, "VEC3", minmax=True)}
         if nrm is not None:
             attrs["NORMAL"] = self.buf.accessor(nrm, "VEC3")
         if uv is not None:
             attrs["TEXCOORD_0"] = self.buf.accessor(uv, "VEC2")
+        for attr_name, arr in sorted(corner.items()):
+            attrs[attr_name] = self.buf.accessor(np.ascontiguousarray(arr, np.float32), "VEC2" if arr.shape[1] == 2 else "VEC4")
         self._mesh_tangent_attribute(me, attrs, [self.materials[i] for i in materials.values()])
         prims = []
         for mi, idx in groups.items():
@@ -1069,8 +1277,6 @@ class Exporter:
                 "unsupported Normal inputs ignored (only a tangent-space Normal Map node with an Image Texture is exported): "
                 + ", ".join(sorted(set(self.unsupported_normals))),
             )
-        if self.unsupported:
-            self.warnings.insert(0, "unsupported materials rendered as grey diffuse: " + ", ".join(sorted(set(self.unsupported))))
         gltf = {
             "asset": {"version": "2.0", "generator": "Prism Blender addon"},
             "scene": 0,

@@ -263,11 +263,14 @@ fn read_graph_image(path: &Path, linear: bool) -> Result<Image, String> {
             width: env.width,
             height: env.height,
             texels: env.texels.iter().map(|c| c.extend(1.0)).collect(),
+            srgb_encoded: false,
         });
     }
     let bytes = std::fs::read(path).map_err(|e| io_msg(&e))?;
     let decoded = crate::scene::texture::decode_image(&bytes, None)?;
-    let space = if linear {
+    // 8-bit sRGB images keep their encoded values and decode after filtering, as in Cycles.
+    let srgb_encoded = !linear && decoded.eight_bit;
+    let space = if linear || srgb_encoded {
         crate::scene::desc::ColorSpace::Linear
     } else {
         crate::scene::desc::ColorSpace::Srgb
@@ -277,6 +280,7 @@ fn read_graph_image(path: &Path, linear: bool) -> Result<Image, String> {
         width: decoded.width,
         height: decoded.height,
         texels: crate::scene::texture::to_linear_texels(&decoded, space),
+        srgb_encoded,
     })
 }
 

@@ -14,6 +14,8 @@ pub struct DecodedImage {
     pub height: u32,
     /// Row 0 = top row of the image.
     pub rgba: Vec<[f32; 4]>,
+    /// Stored with 8 bits per channel (Cycles filters those before decoding sRGB).
+    pub eight_bit: bool,
 }
 
 /// Decodes PNG/JPEG bytes. `mime` is only a hint; the format is sniffed from the content.
@@ -40,6 +42,7 @@ pub fn decode_image(bytes: &[u8], mime: Option<&str>) -> Result<DecodedImage, St
         .decode()
         .map_err(|e| format!("cannot decode image: {e}"))?;
     let (width, height) = (img.width(), img.height());
+    let eight_bit = img.color().bytes_per_pixel() == img.color().channel_count();
     if width == 0 || height == 0 {
         return Err("image has zero size".into());
     }
@@ -52,6 +55,7 @@ pub fn decode_image(bytes: &[u8], mime: Option<&str>) -> Result<DecodedImage, St
         width,
         height,
         rgba,
+        eight_bit,
     })
 }
 

@@ -12,6 +12,10 @@ pub struct Image {
     pub width: u32,
     pub height: u32,
     pub texels: Vec<Vec4>,
+    /// The texels hold sRGB-encoded colour, decoded after filtering: what Cycles does for
+    /// 8-bit sRGB images (it keeps them as bytes and converts each lookup), so a magnified or
+    /// cubic-filtered 8-bit texture blends like Cycles' (in encoded values).
+    pub srgb_encoded: bool,
 }
 
 impl Image {
@@ -22,6 +26,7 @@ impl Image {
             width: 1,
             height: 1,
             texels: vec![Vec4::new(1.0, 0.0, 1.0, 1.0)],
+            srgb_encoded: false,
         })
     }
 }
@@ -108,6 +113,22 @@ impl Image {
     /// The image at Blender texture coordinates `uv` ((0,0) = bottom-left corner, (1,1) =
     /// top-right). Clip returns transparent black outside [0,1]^2.
     pub fn sample(&self, uv: Vec2, interpolation: Interpolation, ext: Extension) -> Vec4 {
+        let v = self.sample_stored(uv, interpolation, ext);
+        if self.srgb_encoded {
+            use crate::spectrum::rgb::srgb_to_linear;
+            Vec4::new(
+                srgb_to_linear(v.x),
+                srgb_to_linear(v.y),
+                srgb_to_linear(v.z),
+                v.w,
+            )
+        } else {
+            v
+        }
+    }
+
+    /// The filtered stored values (see `srgb_encoded`).
+    fn sample_stored(&self, uv: Vec2, interpolation: Interpolation, ext: Extension) -> Vec4 {
         if self.texels.is_empty() {
             return Vec4::ZERO;
         }
@@ -171,6 +192,7 @@ mod tests {
                 Vec4::new(0.0, 0.0, 1.0, 1.0),
                 Vec4::ONE,
             ],
+            srgb_encoded: false,
         }
     }
 
@@ -208,6 +230,7 @@ mod tests {
             width: 3,
             height: 3,
             texels: vec![Vec4::splat(0.4); 9],
+            srgb_encoded: false,
         };
         for uv in [
             Vec2::new(0.1, 0.9),

@@ -57,6 +57,9 @@ if [ "$WHICH" = all ] || [ "$WHICH" = bpy ]; then
     echo "== camera and world parity with Cycles in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_camera_world.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== shader node graphs: export and parity with Cycles in the bpy wheel"
+    .venv-bpy/bin/python tests/addon/test_node_graphs.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
     echo "== normal maps: export and parity with Cycles in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_normal_map.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]

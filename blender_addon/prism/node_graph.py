@@ -1,0 +1,399 @@
+# SPDX-License-Identifier: MIT
+"""Blender shader node trees -> the material JSON's `graph` form (src/shading/parse.rs).
+
+Links are followed through reroutes, muted nodes (their internal pass-through links, as
+Blender evaluates them), muted links (the socket's own value) and node groups (into the group
+and out of its Group Input). Every node or setting that cannot be translated is one warning
+naming the material, the node and its type; the input then takes the value its slider shows,
+which is what Blender itself would use without the link.
+"""
+
+
+# Blender Math / Vector Math operations the renderer implements (lower-case identifiers).
+MATH_OPS = {
+    "ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "POWER", "LOGARITHM", "SQRT",
+    "INVERSE_SQRT", "ABSOLUTE", "EXPONENT", "MINIMUM", "MAXIMUM", "LESS_THAN", "GREATER_THAN",
+    "SIGN", "COMPARE", "SMOOTH_MIN", "SMOOTH_MAX", "ROUND", "FLOOR", "CEIL", "TRUNC", "FRACT",
+    "MODULO", "FLOORED_MODULO", "WRAP", "SNAP", "PINGPONG", "SINE", "COSINE", "TANGENT",
+    "ARCSINE", "ARCCOSINE", "ARCTANGENT", "ARCTAN2", "SINH", "COSH", "TANH", "RADIANS", "DEGREES",
+}
+VECTOR_MATH_OPS = {
+    "ADD", "SUBTRACT", "MULTIPLY", "DIVIDE", "MULTIPLY_ADD", "CROSS_PRODUCT", "PROJECT",
+    "REFLECT", "REFRACT", "FACEFORWARD", "DOT_PRODUCT", "DISTANCE", "LENGTH", "SCALE",
+    "NORMALIZE", "SNAP", "FLOOR", "CEIL", "MODULO", "WRAP", "FRACTION", "ABSOLUTE", "MINIMUM",
+    "MAXIMUM", "SINE", "COSINE", "TANGENT", "POWER", "SIGN",
+}
+BLEND_TYPES = {
+    "MIX", "DARKEN", "MULTIPLY", "BURN", "LIGHTEN", "SCREEN", "DODGE", "ADD", "OVERLAY",
+    "SOFT_LIGHT", "LINEAR_LIGHT", "DIFFERENCE", "EXCLUSION", "SUBTRACT", "DIVIDE", "HUE",
+    "SATURATION", "COLOR", "VALUE",
+}
+
+# Node types whose value is a closure (a BSDF), not data: linking them into a data socket is
+# not something the graph can evaluate.
+SHADER_SOCKET = "SHADER"
+
+
+def _const(sock):
+    """The socket's own value as the JSON constant of its type."""
+    v = getattr(sock, "default_value", None)
+    if v is None:
+        return 0.0
+    try:
+        vals = [float(x) for x in v]
+    except TypeError:
+        return float(v)
+    if len(vals) == 2:
+        vals.append(0.0)
+    return vals[:4]
+
+
+def _in(node, *names):
+    """Input by name or identifier (spellings differ between Blender versions)."""
+    for n in names:
+        s = node.inputs.get(n)
+        if s is not None:
+            return s
+        for s in node.inputs:
+            if s.identifier == n:
+                return s
+    return None
+
+
+class GraphBuilder:
+    """Collects the graph of one material.
+
+    `images(img) -> (file name, linear)` writes an image next to the JSON; `uv_set(name)` and
+    `color_set(name)` give the TEXCOORD_n / COLOR_n set that carries a named UV map or colour
+    attribute ("" = the active one); `warn(msg)` reports to the user."""
+
+    def __init__(self, material_name, images, uv_set, color_set, warn):
+        self.mat = material_name
+        self.images = images
+        self.uv_set = uv_set
+        self.color_set = color_set
+        self._warn = warn
+        self.nodes = {}
+        self.inputs = {}
+        self._done = {}
+        self._warned = set()
+
+    def warn(self, node, what):
+        key = (node.name if node is not None else "", what)
+        if key in self._warned:
+            return
+        self._warned.add(key)
+        if node is None:
+            self._warn("material '%s': %s" % (self.mat, what))
+        else:
+            self._warn("material '%s': node '%s' (%s): %s" % (self.mat, node.name, node.bl_idname, what))
+
+    # -- public
+    def bind(self, key, sock, scale=None):
+        """Binds material input `key` to what drives `sock` (if linked); `scale` multiplies."""
+        if sock is None:
+            return False
+        v = self.value(sock, ())
+        if not isinstance(v, dict):
+            return False
+        if scale is not None:
+            name = "__scale_%s" % key
+            self.nodes[name] = {"type": "math", "operation": "multiply", "inputs": {"a": v, "b": float(scale)}}
+            v = {"node": name, "output": "value"}
+        self.inputs[key] = v
+        return True
+
+    def bind_const(self, key, value):
+        self.inputs[key] = value
+
+    def result(self):
+        if not self.inputs or not any(isinstance(v, dict) for v in self.inputs.values()):
+            return None
+        return {"version": 1, "nodes": self.nodes, "inputs": self.inputs}
+
+    # -- links
+    def value(self, sock, ctx):
+        """JSON value for input socket `sock` in group context `ctx` (a tuple of group nodes)."""
+        link = self._live_link(sock)
+        if link is None:
+            return _const(sock)
+        return self._output(link.from_node, link.from_socket, ctx, sock)
+
+    @staticmethod
+    def _live_link(sock):
+        if not sock.is_linked:
+            return None
+        for link in sock.links:
+            if not getattr(link, "is_muted", False) and getattr(link, "is_valid", True):
+                return link
+        return None
+
+    def _output(self, node, out, ctx, target):
+        """JSON value for output `out` of `node`, read by input socket `target`."""
+        for _ in range(256):  # reroutes, muted nodes and group boundaries
+            if node.type == "REROUTE":
+                link = self._live_link(node.inputs[0])
+                if link is None:
+                    return _const(target)
+                node, out = link.from_node, link.from_socket
+                continue
+            if getattr(node, "mute", False):
+                src = None
+                for il in getattr(node, "internal_links", []):
+                    if il.to_socket == out:
+                        src = il.from_socket
+                if src is None:
+                    return _const(target)
+                link = self._live_link(src)
+                if link is None:
+                    return _const(src)
+                node, out = link.from_node, link.from_socket
+                continue
+            if node.type == "GROUP":
+                tree = node.node_tree
+                gout = None
+                for n in tree.nodes if tree is not None else []:
+                    if n.type == "GROUP_OUTPUT" and (gout is None or n.is_active_output):
+                        gout = n
+                inner = None
+                if gout is not None:
+                    for s in gout.inputs:
+                        if s.identifier == out.identifier:
+                            inner = s
+                if inner is None:
+                    self.warn(node, "the group has no output '%s'" % out.name)
+                    return _const(target)
+                ctx = ctx + (node,)
+                link = self._live_link(inner)
+                if link is None:
+                    return _const(inner)
+                node, out = link.from_node, link.from_socket
+                continue
+            if node.type == "GROUP_INPUT":
+                if not ctx:
+                    return _const(target)
+                group = ctx[-1]
+                ctx = ctx[:-1]
+                outer = None
+                for s in group.inputs:
+                    if s.identifier == out.identifier:
+                        outer = s
+                if outer is None:
+                    return _const(target)
+                link = self._live_link(outer)
+                if link is None:
+                    return _const(outer)
+                node, out = link.from_node, link.from_socket
+                continue
+            break
+        if node.type == "VALUE":
+            return float(node.outputs[0].default_value)
+        if node.type == "RGB":
+            return [float(x) for x in node.outputs[0].default_value]
+        if out.type == SHADER_SOCKET:
+            self.warn(node, "a shader output feeds a colour or value input; its default is used")
+            return _const(target)
+        name = "/".join([g.name for g in ctx] + [node.name])
+        if name not in self._done:
+            self._done[name] = None  # a cycle reads the default below
+            self._done[name] = self._node(node, ctx, name)
+        outputs = self._done[name]
+        if outputs is None:
+            return _const(target)
+        ours = outputs.get(out.identifier) or outputs.get(out.name)
+        if ours is None:
+            self.warn(node, "output '%s' is not supported; the input's default is used" % out.name)
+            return _const(target)
+        if isinstance(ours, (float, list)):
+            return ours
+        return {"node": name, "output": ours}
+
+    # -- nodes
+    def _inputs(self, node, ctx, mapping):
+        """{our input: JSON value} for {our input: Blender socket}."""
+        out = {}
+        for ours, sock in mapping.items():
+            if sock is not None:
+                out[ours] = self.value(sock, ctx)
+        return out
+
+    def _node(self, node, ctx, name):
+        """Emits `node` as JSON node `name`; returns {Blender output: our output} or None."""
+        t = node.type
+        j = None
+        outs = None
+        I = lambda *n: _in(node, *n)  # noqa: E731
+        if t == "TEX_COORD":
+            if getattr(node, "object", None) is not None:
+                self.warn(node, "coordinates from another object are not supported; this object's are used")
+            if node.outputs["Camera"].is_linked or node.outputs["Window"].is_linked:
+                self.warn(node, "Camera and Window coordinates are not supported (read as 0)")
+            j = {"type": "tex_coord"}
+            outs = {"Generated": "generated", "Normal": "normal", "UV": "uv", "Object": "object", "Reflection": "reflection",
+                    "Camera": [0.0, 0.0, 0.0], "Window": [0.0, 0.0, 0.0]}
+        elif t == "UVMAP":
+            if getattr(node, "from_instancer", False):
+                self.warn(node, "UVs from the instancer are not supported")
+            j = {"type": "uv_map", "set": self.uv_set(node.uv_map)}
+            outs = {"UV": "uv"}
+        elif t == "VERTEX_COLOR":
+            j = {"type": "color_attribute", "set": self.color_set(node.layer_name)}
+            outs = {"Color": "color", "Alpha": "alpha"}
+        elif t == "NEW_GEOMETRY":
+            j = {"type": "geometry"}
+            outs = {"Position": "position", "Normal": "normal", "True Normal": "true_normal", "Incoming": "incoming",
+                    "Backfacing": "backfacing"}
+        elif t == "LIGHT_PATH":
+            j = {"type": "light_path"}
+            outs = {"Is Camera Ray": "is_camera_ray"}
+        elif t == "FRESNEL":
+            j = {"type": "fresnel", "inputs": self._inputs(node, ctx, {"ior": I("IOR")})}
+            if I("Normal").is_linked:
+                j["inputs"]["normal"] = self.value(I("Normal"), ctx)
+            outs = {"Fac": "fac"}
+        elif t == "LAYER_WEIGHT":
+            j = {"type": "layer_weight", "inputs": self._inputs(node, ctx, {"blend": I("Blend")})}
+            if I("Normal").is_linked:
+                j["inputs"]["normal"] = self.value(I("Normal"), ctx)
+            outs = {"Fresnel": "fresnel", "Facing": "facing"}
+        elif t == "MAPPING":
+            m = {"vector": I("Vector"), "location": I("Location"), "rotation": I("Rotation"), "scale": I("Scale")}
+            j = {"type": "mapping", "vector_type": node.vector_type.lower(), "inputs": self._inputs(node, ctx, m)}
+            outs = {"Vector": "vector"}
+        elif t == "TEX_IMAGE":
+            j = self._image_node(node, ctx)
+            outs = {"Color": "color", "Alpha": "alpha"} if j is not None else None
+        elif t == "MATH":
+            if node.operation not in MATH_OPS:
+                self.warn(node, "operation %s is not supported" % node.operation)
+                return None
+            ins = list(node.inputs)
+            j = {"type": "math", "operation": node.operation.lower(), "clamp": bool(node.use_clamp),
+                 "inputs": self._inputs(node, ctx, {"a": ins[0], "b": ins[1], "c": ins[2] if len(ins) > 2 else None})}
+            outs = {"Value": "value"}
+        elif t == "VECT_MATH":
+            if node.operation not in VECTOR_MATH_OPS:
+                self.warn(node, "operation %s is not supported" % node.operation)
+                return None
+            ins = list(node.inputs)
+            m = {"a": ins[0], "b": ins[1], "c": ins[2] if len(ins) > 2 else None, "scale": I("Scale")}
+            j = {"type": "vector_math", "operation": node.operation.lower(), "inputs": self._inputs(node, ctx, m)}
+            outs = {"Vector": "vector", "Value": "value"}
+        elif t == "MIX":  # 3.4+ Mix node
+            dt = node.data_type
+            if dt not in {"FLOAT", "VECTOR", "RGBA"}:
+                self.warn(node, "data type %s is not supported" % dt)
+                return None
+            if dt == "VECTOR" and getattr(node, "factor_mode", "UNIFORM") != "UNIFORM":
+                self.warn(node, "a non-uniform factor is not supported; its average is used")
+            suffix = {"FLOAT": "Float", "VECTOR": "Vector", "RGBA": "Color"}[dt]
+            fac = I("Factor_Float") if dt != "VECTOR" or getattr(node, "factor_mode", "UNIFORM") == "UNIFORM" else I("Factor_Vector")
+            m = {"factor": fac, "a": I("A_" + suffix), "b": I("B_" + suffix)}
+            j = {"type": "mix", "data_type": dt.lower(), "blend_type": node.blend_type.lower(),
+                 "clamp_factor": bool(node.clamp_factor), "clamp_result": bool(getattr(node, "clamp_result", False)),
+                 "inputs": self._inputs(node, ctx, m)}
+            outs = {"Result_" + suffix: "result"}
+        elif t == "MIX_RGB":
+            m = {"factor": I("Fac"), "a": I("Color1"), "b": I("Color2")}
+            j = {"type": "mix", "data_type": "rgba", "blend_type": node.blend_type.lower(), "clamp_factor": True,
+                 "clamp_result": bool(node.use_clamp), "inputs": self._inputs(node, ctx, m)}
+            outs = {"Color": "result"}
+        elif t == "INVERT":
+            j = {"type": "invert", "inputs": self._inputs(node, ctx, {"fac": I("Fac"), "color": I("Color")})}
+            outs = {"Color": "color"}
+        elif t == "HUE_SAT":
+            m = {"hue": I("Hue"), "saturation": I("Saturation"), "value": I("Value"), "fac": I("Fac"), "color": I("Color")}
+            j = {"type": "hue_saturation", "inputs": self._inputs(node, ctx, m)}
+            outs = {"Color": "color"}
+        elif t == "BRIGHTCONTRAST":
+            m = {"color": I("Color"), "bright": I("Bright"), "contrast": I("Contrast")}
+            j = {"type": "bright_contrast", "inputs": self._inputs(node, ctx, m)}
+            outs = {"Color": "color"}
+        elif t == "GAMMA":
+            j = {"type": "gamma", "inputs": self._inputs(node, ctx, {"color": I("Color"), "gamma": I("Gamma")})}
+            outs = {"Color": "color"}
+        elif t == "RGBTOBW":
+            j = {"type": "rgb_to_bw", "inputs": self._inputs(node, ctx, {"color": I("Color")})}
+            outs = {"Val": "val"}
+        elif t in {"SEPARATE_COLOR", "SEPRGB", "SEPHSV"}:
+            mode = node.mode.lower() if t == "SEPARATE_COLOR" else ("rgb" if t == "SEPRGB" else "hsv")
+            j = {"type": "separate_color", "mode": mode, "inputs": self._inputs(node, ctx, {"color": I("Color", "Image")})}
+            outs = {"Red": "red", "Green": "green", "Blue": "blue", "R": "red", "G": "green", "B": "blue",
+                    "H": "red", "S": "green", "V": "blue"}
+        elif t in {"COMBINE_COLOR", "COMBRGB", "COMBHSV"}:
+            mode = node.mode.lower() if t == "COMBINE_COLOR" else ("rgb" if t == "COMBRGB" else "hsv")
+            ins = list(node.inputs)
+            j = {"type": "combine_color", "mode": mode,
+                 "inputs": self._inputs(node, ctx, {"red": ins[0], "green": ins[1], "blue": ins[2]})}
+            outs = {"Color": "color", "Image": "color"}
+        elif t == "SEPXYZ":
+            j = {"type": "separate_xyz", "inputs": self._inputs(node, ctx, {"vector": I("Vector")})}
+            outs = {"X": "x", "Y": "y", "Z": "z"}
+        elif t == "COMBXYZ":
+            j = {"type": "combine_xyz", "inputs": self._inputs(node, ctx, {"x": I("X"), "y": I("Y"), "z": I("Z")})}
+            outs = {"Vector": "vector"}
+        elif t == "MAP_RANGE":
+            if getattr(node, "data_type", "FLOAT") != "FLOAT":
+                self.warn(node, "vector Map Range is not supported")
+                return None
+            ins = list(node.inputs)
+            m = dict(zip(["value", "from_min", "from_max", "to_min", "to_max", "steps"], ins[:6]))
+            j = {"type": "map_range", "interpolation": node.interpolation_type.lower(), "clamp": bool(node.clamp),
+                 "inputs": self._inputs(node, ctx, m)}
+            outs = {"Result": "result"}
+        elif t == "CLAMP":
+            m = {"value": I("Value"), "min": I("Min"), "max": I("Max")}
+            j = {"type": "clamp", "clamp_type": node.clamp_type.lower(), "inputs": self._inputs(node, ctx, m)}
+            outs = {"Result": "result"}
+        elif t == "VALTORGB":
+            ramp = node.color_ramp
+            if ramp.color_mode != "RGB":
+                self.warn(node, "colour mode %s is not supported; the stops are blended in RGB" % ramp.color_mode)
+            stops = [[float(e.position), [float(c) for c in e.color]] for e in ramp.elements]
+            j = {"type": "color_ramp", "interpolation": ramp.interpolation.lower(), "stops": stops,
+                 "inputs": self._inputs(node, ctx, {"fac": I("Fac")})}
+            outs = {"Color": "color", "Alpha": "alpha"}
+        elif t == "TEX_CHECKER":
+            m = {"color1": I("Color1"), "color2": I("Color2"), "scale": I("Scale")}
+            j = {"type": "checker_texture", "inputs": self._inputs(node, ctx, m)}
+            if I("Vector").is_linked:
+                j["inputs"]["vector"] = self.value(I("Vector"), ctx)
+            outs = {"Color": "color", "Fac": "fac"}
+        elif t == "TEX_GRADIENT":
+            j = {"type": "gradient_texture", "gradient_type": node.gradient_type.lower(), "inputs": {}}
+            if I("Vector").is_linked:
+                j["inputs"]["vector"] = self.value(I("Vector"), ctx)
+            outs = {"Color": "color", "Fac": "fac"}
+        else:
+            self.warn(node, "not supported; the input it feeds uses its own value")
+            return None
+        if getattr(node, "texture_mapping", None) is not None and t.startswith("TEX_"):
+            tm = node.texture_mapping
+            moved = any(abs(x) > 1e-9 for x in tm.translation) or any(abs(x) > 1e-9 for x in tm.rotation) or any(
+                abs(x - 1.0) > 1e-9 for x in tm.scale)
+            if moved:
+                self.warn(node, "the node's own texture mapping (N panel) is not supported; use a Mapping node")
+        self.nodes[name] = j
+        return outs
+
+    def _image_node(self, node, ctx):
+        img = node.image
+        if img is None:
+            self.warn(node, "no image; rendered black as in Cycles")
+            return None
+        if img.source not in {"FILE", "GENERATED"}:
+            self.warn(node, "image source %s is not supported (only still images); its current frame is used" % img.source)
+        if node.projection != "FLAT":
+            self.warn(node, "projection %s is not supported; flat is used" % node.projection)
+        try:
+            fname, linear = self.images(img)
+        except Exception as e:  # an unreadable image: magenta, as Blender shows it
+            self.warn(node, "image '%s' cannot be read (%s); rendered magenta" % (img.name, e))
+            fname, linear = "__missing__/%s.png" % img.name, False
+        j = {"type": "image_texture", "image": fname, "color_space": "linear" if linear else "srgb",
+             "interpolation": node.interpolation.lower(), "extension": node.extension.lower(), "inputs": {}}
+        vec = _in(node, "Vector")
+        if vec is not None and vec.is_linked:
+            j["inputs"]["vector"] = self.value(vec, ctx)
+        return j
+
