@@ -44,6 +44,27 @@ tex = tree.nodes.new("ShaderNodeTexImage")
 tex.image = img
 tree.links.new(tex.outputs["Color"], next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED").inputs["Base Color"])
 mats.append(tex_mat)
+# a node graph: Generated x -> Math -> Color Ramp -> Base Color; Color Attribute -> Mix -> Roughness
+graph_mat = principled("Graphed")
+tree = graph_mat.node_tree
+bsdf = next(n for n in tree.nodes if n.type == "BSDF_PRINCIPLED")
+tc = tree.nodes.new("ShaderNodeTexCoord")
+sep = tree.nodes.new("ShaderNodeSeparateXYZ")
+mul = tree.nodes.new("ShaderNodeMath")
+mul.operation = "MULTIPLY"
+mul.inputs[1].default_value = 2.0
+ramp = tree.nodes.new("ShaderNodeValToRGB")
+ramp.color_ramp.interpolation = "EASE"
+tree.links.new(tc.outputs["Generated"], sep.inputs["Vector"])
+tree.links.new(sep.outputs["X"], mul.inputs[0])
+tree.links.new(mul.outputs["Value"], ramp.inputs["Fac"])
+tree.links.new(ramp.outputs["Color"], bsdf.inputs["Base Color"])
+attr = tree.nodes.new("ShaderNodeVertexColor")
+mix = tree.nodes.new("ShaderNodeMix")
+mix.data_type = "FLOAT"
+tree.links.new(attr.outputs["Alpha"], next(x for x in mix.inputs if x.identifier == "B_Float"))
+tree.links.new(next(x for x in mix.outputs if x.identifier == "Result_Float"), bsdf.inputs["Roughness"])
+mats.append(graph_mat)
 for i, m in enumerate(mats):
     C.mesh_object("Obj%d" % i, C.cube(0.3), m, location=(i - 3.0, 2.0, 0.3))
 from prism import export  # noqa: E402

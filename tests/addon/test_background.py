@@ -162,9 +162,16 @@ def principled_export(blender_cmd, tag):
     check(s["method"] == "random_walk" and s["boundary"] == "lambertian" and abs(s["eta"] - 1.4) < 1e-5
           and ok_t and 1 > albedo[0] > albedo[1] > albedo[2] > 0.3,
           "%s: subsurface block %s" % (tag, s))
-    check("baseColorTexture" in pbr("Textured") and d["images"] and d["images"][0]["uri"] in d["files"],
-          "%s: base colour image written (%s)" % (tag, d["images"]))
-    check(not d["warnings"], "%s: no warnings" % tag)
+    tg = d["json"]["materials"]["Textured"]["graph"]
+    img = [n for n in tg["nodes"].values() if n["type"] == "image_texture"]
+    check(len(img) == 1 and img[0]["image"] in d["files"] and tg["inputs"]["base_color"]["output"] == "color",
+          "%s: base colour image in the graph and written (%s)" % (tag, tg))
+    g = d["json"]["materials"]["Graphed"]["graph"]
+    types = sorted(n["type"] for n in g["nodes"].values())
+    check(types == ["color_attribute", "color_ramp", "math", "mix", "separate_xyz", "tex_coord"]
+          and set(g["inputs"]) == {"base_color", "roughness"},
+          "%s: node graph exported: %s, inputs %s" % (tag, types, sorted(g["inputs"])))
+    check(not d["warnings"], "%s: no warnings (%s)" % (tag, d["warnings"]))
 
 
 def test_principled_names_34_and_50():
