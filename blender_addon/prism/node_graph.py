@@ -364,6 +364,26 @@ class GraphBuilder:
             if I("Vector").is_linked:
                 j["inputs"]["vector"] = self.value(I("Vector"), ctx)
             outs = {"Color": "color", "Fac": "fac"}
+        elif t == "TEX_NOISE":
+            dims = int(getattr(node, "noise_dimensions", "3D")[0])
+            kind = getattr(node, "noise_type", "FBM").lower()  # 4.1+; fBM before
+            m = {"w": I("W"), "scale": I("Scale"), "detail": I("Detail"), "roughness": I("Roughness"),
+                 "lacunarity": I("Lacunarity"), "offset": I("Offset"), "gain": I("Gain"), "distortion": I("Distortion")}
+            # Blender 3.x: no Lacunarity (2) and its fBM is always normalised; its
+            # Roughness is clamped to [0, 1].
+            j = {"type": "noise_texture", "dimensions": dims, "noise_type": kind,
+                 "normalize": bool(getattr(node, "normalize", True)), "inputs": self._inputs(node, ctx, m)}
+            if I("Lacunarity") is None and not I("Roughness").is_linked:
+                j["inputs"]["roughness"] = min(max(float(I("Roughness").default_value), 0.0), 1.0)
+            if I("Vector").is_linked:
+                j["inputs"]["vector"] = self.value(I("Vector"), ctx)
+            outs = {"Fac": "fac", "Color": "color"}
+        elif t == "TEX_WHITE_NOISE":
+            dims = int(getattr(node, "noise_dimensions", "3D")[0])
+            j = {"type": "white_noise_texture", "dimensions": dims, "inputs": self._inputs(node, ctx, {"w": I("W")})}
+            if I("Vector").is_linked:
+                j["inputs"]["vector"] = self.value(I("Vector"), ctx)
+            outs = {"Value": "value", "Color": "color"}
         else:
             self.warn(node, "not supported; the input it feeds uses its own value")
             return None

@@ -497,14 +497,13 @@ impl Geometry {
             .mul_vec3a(out.normal.into())
             .normalize_or_zero()
             .into();
+        // Blender's auto texture space: the bounding box, an axis without extent widened to
+        // +-1 around its centre (so a flat mesh reads 0.5 there).
         let b = mesh.aabb();
         let (lo, hi) = (Vec3::from(b.min), Vec3::from(b.max));
-        let size = hi - lo;
-        out.generated = Vec3::select(
-            size.cmpgt(Vec3::ZERO),
-            (out.object - lo) / size.max(Vec3::splat(1e-30)),
-            Vec3::ZERO,
-        );
+        let centre = (lo + hi) * 0.5;
+        let half = Vec3::select((hi - lo).cmpgt(Vec3::ZERO), (hi - lo) * 0.5, Vec3::ONE);
+        out.generated = (out.object - centre) / (2.0 * half) + Vec3::splat(0.5);
         out
     }
 

@@ -19,6 +19,7 @@ use super::color::{
 };
 use super::image::{Extension, Image, Interpolation};
 use super::math_ops::{safe_divide, smootherstep, smoothstep, MathOp, VectorMathOp};
+use super::noise::{noise_texture, white_noise, Fractal, FractalKind};
 use super::procedural::{checker, gradient, GradientKind};
 use super::ShadingInputs;
 use crate::bsdf::fresnel_dielectric;
@@ -139,6 +140,12 @@ pub enum NodeOp {
     ColorRamp(ColorRamp),
     Checker,
     Gradient(GradientKind),
+    Noise {
+        dimensions: u8,
+        kind: FractalKind,
+        normalize: bool,
+    },
+    WhiteNoise(u8),
 }
 
 use SocketType::{Color as C, Float as F, Vector as V};
@@ -344,6 +351,26 @@ impl NodeOp {
                 const { &[vec("vector", 0.0, 0.0, 0.0)] },
                 const { &[out("color", C), out("fac", F)] },
             ),
+            Noise { .. } => (
+                const {
+                    &[
+                        vec("vector", 0.0, 0.0, 0.0),
+                        f("w", 0.0),
+                        f("scale", 5.0),
+                        f("detail", 2.0),
+                        f("roughness", 0.5),
+                        f("lacunarity", 2.0),
+                        f("offset", 0.0),
+                        f("gain", 1.0),
+                        f("distortion", 0.0),
+                    ]
+                },
+                const { &[out("fac", F), out("color", C)] },
+            ),
+            WhiteNoise(_) => (
+                const { &[vec("vector", 0.0, 0.0, 0.0), f("w", 0.0)] },
+                const { &[out("value", F), out("color", C)] },
+            ),
         };
         NodeSignature { inputs, outputs }
     }
@@ -353,7 +380,9 @@ impl NodeOp {
         use NodeOp::*;
         match (self, input) {
             (ImageTexture { .. }, "vector") => Some(Implicit::Uv),
-            (Checker | Gradient(_), "vector") => Some(Implicit::Generated),
+            (Checker | Gradient(_) | Noise { .. } | WhiteNoise(_), "vector") => {
+                Some(Implicit::Generated)
+            }
             (Fresnel | LayerWeight, "normal") => Some(Implicit::Normal),
             _ => None,
         }
@@ -498,7 +527,7 @@ impl ShadingGraph {
             };
             for &i in program {
                 let node = &self.nodes[i as usize];
-                let mut inputs = [Vec4::ZERO; 8];
+                let mut inputs = [Vec4::ZERO; MAX_INPUTS];
                 for (k, s) in node.inputs.iter().enumerate() {
                     inputs[k] = read(s, &slots, ctx);
                 }
@@ -546,7 +575,7 @@ fn facing_normal(n: Vec3, ctx: &ShadingInputs) -> Vec3 {
     n.try_normalize().unwrap_or(ctx.normal)
 }
 
-fn eval_node(op: &NodeOp, i: &[Vec4; 8], ctx: &ShadingInputs) -> [Vec4; 6] {
+fn eval_node(op: &NodeOp, i: &[Vec4; MAX_INPUTS], ctx: &ShadingInputs) -> [Vec4; 6] {
     let mut o = [Vec4::ZERO; 6];
     match op {
         NodeOp::TexCoord => {
@@ -727,9 +756,43 @@ fn eval_node(op: &NodeOp, i: &[Vec4; 8], ctx: &ShadingInputs) -> [Vec4; 6] {
             o[0] = rgb(Vec3::splat(fac));
             o[1] = s(fac);
         }
+        NodeOp::Noise {
+            dimensions,
+            kind,
+            normalize,
+        } => {
+            // The node's own clamping (Cycles' svm_node_tex_noise).
+            let scale = i[2].x;
+            let fractal = Fractal {
+                kind: *kind,
+                normalize: *normalize,
+                detail: i[3].x.clamp(0.0, 15.0),
+                roughness: i[4].x.max(0.0),
+                lacunarity: i[5].x,
+                offset: i[6].x,
+                gain: i[7].x,
+            };
+            let (fac, color) = noise_texture(
+                *dimensions,
+                i[0].xyz() * scale,
+                i[1].x * scale,
+                i[8].x,
+                &fractal,
+            );
+            o[0] = s(fac);
+            o[1] = rgb(color);
+        }
+        NodeOp::WhiteNoise(dimensions) => {
+            let (value, color) = white_noise(*dimensions, i[0].xyz(), i[1].x);
+            o[0] = s(value);
+            o[1] = rgb(color);
+        }
     }
     o
 }
+
+/// The most inputs a node has (the Noise texture's).
+pub const MAX_INPUTS: usize = 9;
 
 fn clamp_if(t: f32, clamp: bool) -> f32 {
     if clamp {
@@ -740,7 +803,7 @@ fn clamp_if(t: f32, clamp: bool) -> f32 {
 }
 
 /// Map Range (float): `value` from [from_min, from_max] to [to_min, to_max].
-fn map_range(interp: MapRangeInterpolation, clamp: bool, i: &[Vec4; 8]) -> f32 {
+fn map_range(interp: MapRangeInterpolation, clamp: bool, i: &[Vec4; MAX_INPUTS]) -> f32 {
     let (value, from_min, from_max, to_min, to_max, steps) =
         (i[0].x, i[1].x, i[2].x, i[3].x, i[4].x, i[5].x);
     let mut factor = safe_divide(value - from_min, from_max - from_min);
@@ -817,8 +880,8 @@ mod tests {
 
     #[test]
     fn map_range_and_clamp() {
-        let mut i = [Vec4::ZERO; 8];
-        let set = |i: &mut [Vec4; 8], v: [f32; 6]| {
+        let mut i = [Vec4::ZERO; MAX_INPUTS];
+        let set = |i: &mut [Vec4; MAX_INPUTS], v: [f32; 6]| {
             for (k, x) in v.iter().enumerate() {
                 i[k] = Vec4::splat(*x);
             }
@@ -890,7 +953,7 @@ mod tests {
     #[test]
     fn mapping_point_and_texture_are_inverse() {
         let i = |v: Vec3| {
-            let mut a = [Vec4::ZERO; 8];
+            let mut a = [Vec4::ZERO; MAX_INPUTS];
             a[0] = v.extend(0.0);
             a[1] = Vec4::new(0.5, -1.0, 2.0, 0.0);
             a[2] = Vec4::new(0.3, 0.2, 1.1, 0.0);
@@ -912,7 +975,7 @@ mod tests {
     #[test]
     fn fresnel_and_layer_weight_at_normal_incidence() {
         let ctx = ShadingInputs::default(); // incoming = normal = +z
-        let mut i = [Vec4::ZERO; 8];
+        let mut i = [Vec4::ZERO; MAX_INPUTS];
         i[0] = Vec4::splat(1.5);
         let fr = eval_node(&NodeOp::Fresnel, &i, &ctx)[0].x;
         assert!((fr - 0.04).abs() < 1e-4);

@@ -10,6 +10,7 @@ pub mod color;
 pub mod graph;
 pub mod image;
 pub mod math_ops;
+pub mod noise;
 pub mod parse;
 pub mod procedural;
 

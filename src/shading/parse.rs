@@ -37,7 +37,9 @@
 //!   stepped | smoothstep | smootherstep, `clamp` default true); `clamp` (`clamp_type`: minmax
 //!   | range); `color_ramp` (`interpolation`: constant | linear | ease | b_spline | cardinal,
 //!   `stops`: [[position, [r, g, b, a]], ...]); `checker_texture`; `gradient_texture`
-//!   (`gradient_type`).
+//!   (`gradient_type`); `noise_texture` (`dimensions` 1-4 default 3, `noise_type`: fbm |
+//!   multifractal | hybrid_multifractal | ridged_multifractal | hetero_terrain, `normalize`
+//!   default true); `white_noise_texture` (`dimensions`).
 //! * Links must not form a cycle; nodes no input depends on are ignored. An image that cannot
 //!   be read renders magenta with a warning, as in Blender.
 
@@ -87,6 +89,8 @@ pub const NODE_TYPES: &[&str] = &[
     "color_ramp",
     "checker_texture",
     "gradient_texture",
+    "noise_texture",
+    "white_noise_texture",
 ];
 
 /// Loads the images graphs name: `(path as written, linear?) -> image`.
@@ -209,6 +213,20 @@ fn attribute_set(m: &Map<String, Value>, path: &str) -> R<usize> {
     }
 }
 
+/// A texture's `dimensions` (1 to 4, default 3).
+fn dimensions(m: &Map<String, Value>, path: &str) -> R<u8> {
+    let Some(v) = m.get("dimensions") else {
+        return Ok(3);
+    };
+    match v.as_f64() {
+        Some(x) if (1.0..=4.0).contains(&x) && x.fract() == 0.0 => Ok(x as u8),
+        _ => err(
+            &key_path(path, "dimensions"),
+            format!("expected 1, 2, 3 or 4, found {v}"),
+        ),
+    }
+}
+
 fn check_keys(m: &Map<String, Value>, allowed: &[&str], path: &str) -> R<()> {
     for k in m.keys() {
         if !allowed.contains(&k.as_str()) {
@@ -243,6 +261,8 @@ fn node_op(
         "clamp" => &["clamp_type"],
         "color_ramp" => &["interpolation", "stops"],
         "gradient_texture" => &["gradient_type"],
+        "noise_texture" => &["dimensions", "noise_type", "normalize"],
+        "white_noise_texture" => &["dimensions"],
         _ => &[],
     };
     let mut allowed = vec!["type", "inputs"];
@@ -386,6 +406,18 @@ fn node_op(
             GRADIENT_KINDS,
             super::procedural::GradientKind::Linear,
         )?),
+        "noise_texture" => NodeOp::Noise {
+            dimensions: dimensions(m, path)?,
+            kind: enum_value(
+                m,
+                "noise_type",
+                path,
+                super::noise::FRACTAL_KINDS,
+                super::noise::FractalKind::Fbm,
+            )?,
+            normalize: flag(m, "normalize", path, true)?,
+        },
+        "white_noise_texture" => NodeOp::WhiteNoise(dimensions(m, path)?),
         other => {
             return err(
                 &key_path(path, "type"),
