@@ -446,7 +446,7 @@ impl Fractal {
                     p = p * lac;
                     let weight = (signal * self.gain).clamp(0.0, 1.0);
                     signal = self.offset - p.snoise().abs();
-                    signal *= signal * weight;
+                    signal = signal * signal * weight;
                     value += signal * pwr;
                     pwr *= rough;
                 }
