@@ -378,6 +378,19 @@ class GraphBuilder:
             if I("Vector").is_linked:
                 j["inputs"]["vector"] = self.value(I("Vector"), ctx)
             outs = {"Fac": "fac", "Color": "color"}
+        elif t == "TEX_VORONOI":
+            dims = int(getattr(node, "voronoi_dimensions", "3D")[0])
+            m = {"w": I("W"), "scale": I("Scale"), "detail": I("Detail"), "roughness": I("Roughness"),
+                 "lacunarity": I("Lacunarity"), "smoothness": I("Smoothness"), "exponent": I("Exponent"),
+                 "randomness": I("Randomness")}
+            j = {"type": "voronoi_texture", "dimensions": dims, "feature": node.feature.lower(),
+                 "distance": node.distance.lower(), "normalize": bool(getattr(node, "normalize", False)),
+                 "inputs": self._inputs(node, ctx, m)}
+            if I("Detail") is None:  # Blender < 4.0: one octave
+                j["inputs"]["detail"] = 0.0
+            if I("Vector").is_linked:
+                j["inputs"]["vector"] = self.value(I("Vector"), ctx)
+            outs = {"Distance": "distance", "Color": "color", "Position": "position", "W": "w", "Radius": "radius"}
         elif t == "TEX_WHITE_NOISE":
             dims = int(getattr(node, "noise_dimensions", "3D")[0])
             j = {"type": "white_noise_texture", "dimensions": dims, "inputs": self._inputs(node, ctx, {"w": I("W")})}

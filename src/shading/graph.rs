@@ -21,6 +21,7 @@ use super::image::{Extension, Image, Interpolation};
 use super::math_ops::{safe_divide, smootherstep, smoothstep, MathOp, VectorMathOp};
 use super::noise::{noise_texture, white_noise, Fractal, FractalKind};
 use super::procedural::{checker, gradient, GradientKind};
+use super::voronoi::{Feature, Metric, VoronoiParams};
 use super::ShadingInputs;
 use crate::bsdf::fresnel_dielectric;
 
@@ -146,6 +147,12 @@ pub enum NodeOp {
         normalize: bool,
     },
     WhiteNoise(u8),
+    Voronoi {
+        dimensions: u8,
+        feature: Feature,
+        metric: Metric,
+        normalize: bool,
+    },
 }
 
 use SocketType::{Color as C, Float as F, Vector as V};
@@ -371,6 +378,30 @@ impl NodeOp {
                 const { &[vec("vector", 0.0, 0.0, 0.0), f("w", 0.0)] },
                 const { &[out("value", F), out("color", C)] },
             ),
+            Voronoi { .. } => (
+                const {
+                    &[
+                        vec("vector", 0.0, 0.0, 0.0),
+                        f("w", 0.0),
+                        f("scale", 5.0),
+                        f("detail", 0.0),
+                        f("roughness", 0.5),
+                        f("lacunarity", 2.0),
+                        f("smoothness", 1.0),
+                        f("exponent", 0.5),
+                        f("randomness", 1.0),
+                    ]
+                },
+                const {
+                    &[
+                        out("distance", F),
+                        out("color", C),
+                        out("position", V),
+                        out("w", F),
+                        out("radius", F),
+                    ]
+                },
+            ),
         };
         NodeSignature { inputs, outputs }
     }
@@ -380,7 +411,7 @@ impl NodeOp {
         use NodeOp::*;
         match (self, input) {
             (ImageTexture { .. }, "vector") => Some(Implicit::Uv),
-            (Checker | Gradient(_) | Noise { .. } | WhiteNoise(_), "vector") => {
+            (Checker | Gradient(_) | Noise { .. } | WhiteNoise(_) | Voronoi { .. }, "vector") => {
                 Some(Implicit::Generated)
             }
             (Fresnel | LayerWeight, "normal") => Some(Implicit::Normal),
@@ -781,6 +812,32 @@ fn eval_node(op: &NodeOp, i: &[Vec4; MAX_INPUTS], ctx: &ShadingInputs) -> [Vec4;
             );
             o[0] = s(fac);
             o[1] = rgb(color);
+        }
+        NodeOp::Voronoi {
+            dimensions,
+            feature,
+            metric,
+            normalize,
+        } => {
+            let params = VoronoiParams::new(
+                *dimensions as usize,
+                *feature,
+                *metric,
+                *normalize,
+                i[2].x,
+                i[3].x,
+                i[4].x,
+                i[5].x,
+                i[6].x,
+                i[7].x,
+                i[8].x,
+            );
+            let r = params.eval(i[0].xyz(), i[1].x);
+            o[0] = s(r.distance);
+            o[1] = rgb(r.color);
+            o[2] = v3(r.position.truncate());
+            o[3] = s(r.position.w);
+            o[4] = s(r.radius);
         }
         NodeOp::WhiteNoise(dimensions) => {
             let (value, color) = white_noise(*dimensions, i[0].xyz(), i[1].x);

@@ -13,6 +13,7 @@ pub mod math_ops;
 pub mod noise;
 pub mod parse;
 pub mod procedural;
+pub mod voronoi;
 
 pub use graph::{MaterialInput, ShadingGraph};
 

@@ -158,6 +158,62 @@ pub fn hash_float4_to_vec3(k: Vec4) -> Vec3 {
     )
 }
 
+// ------------------------------------------------------------------ PCG (integer cells)
+
+// The 2D, 3D and 4D PCG hashes of Jarzynski & Olano, "Hash Functions for GPU Rendering"
+// (JCGT 9(3), 2020), in Blender's signed-integer form (wrapping arithmetic, arithmetic right
+// shift, sign bit cleared): what Blender's Voronoi uses for its integer cell coordinates.
+
+const PCG_MUL: i32 = 1_664_525;
+const PCG_ADD: i32 = 1_013_904_223;
+
+fn pcg_start(v: i32) -> i32 {
+    v.wrapping_mul(PCG_MUL).wrapping_add(PCG_ADD)
+}
+
+pub fn pcg2d(mut v: [i32; 2]) -> [i32; 2] {
+    v = v.map(pcg_start);
+    v[0] = v[0].wrapping_add(v[1].wrapping_mul(PCG_MUL));
+    v[1] = v[1].wrapping_add(v[0].wrapping_mul(PCG_MUL));
+    v = v.map(|x| x ^ (x >> 16));
+    v[0] = v[0].wrapping_add(v[1].wrapping_mul(PCG_MUL));
+    v[1] = v[1].wrapping_add(v[0].wrapping_mul(PCG_MUL));
+    v.map(|x| x & 0x7FFF_FFFF)
+}
+
+pub fn pcg3d(mut v: [i32; 3]) -> [i32; 3] {
+    v = v.map(pcg_start);
+    let round = |v: &mut [i32; 3]| {
+        v[0] = v[0].wrapping_add(v[1].wrapping_mul(v[2]));
+        v[1] = v[1].wrapping_add(v[2].wrapping_mul(v[0]));
+        v[2] = v[2].wrapping_add(v[0].wrapping_mul(v[1]));
+    };
+    round(&mut v);
+    v = v.map(|x| x ^ (x >> 16));
+    round(&mut v);
+    v.map(|x| x & 0x7FFF_FFFF)
+}
+
+pub fn pcg4d(mut v: [i32; 4]) -> [i32; 4] {
+    v = v.map(pcg_start);
+    let round = |v: &mut [i32; 4]| {
+        v[0] = v[0].wrapping_add(v[1].wrapping_mul(v[3]));
+        v[1] = v[1].wrapping_add(v[2].wrapping_mul(v[0]));
+        v[2] = v[2].wrapping_add(v[0].wrapping_mul(v[1]));
+        v[3] = v[3].wrapping_add(v[1].wrapping_mul(v[2]));
+    };
+    round(&mut v);
+    v = v.map(|x| x ^ (x >> 16));
+    round(&mut v);
+    v.map(|x| x & 0x7FFF_FFFF)
+}
+
+/// A 31-bit PCG output in [0, 1].
+#[inline]
+pub fn pcg_unit(h: i32) -> f32 {
+    h as f32 * (1.0 / 0x7FFF_FFFFu32 as f32)
+}
+
 // ------------------------------------------------------------------ Perlin noise
 
 #[inline]

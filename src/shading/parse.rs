@@ -39,7 +39,9 @@
 //!   `stops`: [[position, [r, g, b, a]], ...]); `checker_texture`; `gradient_texture`
 //!   (`gradient_type`); `noise_texture` (`dimensions` 1-4 default 3, `noise_type`: fbm |
 //!   multifractal | hybrid_multifractal | ridged_multifractal | hetero_terrain, `normalize`
-//!   default true); `white_noise_texture` (`dimensions`).
+//!   default true); `white_noise_texture` (`dimensions`); `voronoi_texture` (`dimensions`,
+//!   `feature`: f1 | f2 | smooth_f1 | distance_to_edge | n_sphere_radius, `distance`:
+//!   euclidean | manhattan | chebychev | minkowski, `normalize`).
 //! * Links must not form a cycle; nodes no input depends on are ignored. An image that cannot
 //!   be read renders magenta with a warning, as in Blender.
 
@@ -91,6 +93,7 @@ pub const NODE_TYPES: &[&str] = &[
     "gradient_texture",
     "noise_texture",
     "white_noise_texture",
+    "voronoi_texture",
 ];
 
 /// Loads the images graphs name: `(path as written, linear?) -> image`.
@@ -263,6 +266,7 @@ fn node_op(
         "gradient_texture" => &["gradient_type"],
         "noise_texture" => &["dimensions", "noise_type", "normalize"],
         "white_noise_texture" => &["dimensions"],
+        "voronoi_texture" => &["dimensions", "feature", "distance", "normalize"],
         _ => &[],
     };
     let mut allowed = vec!["type", "inputs"];
@@ -418,6 +422,24 @@ fn node_op(
             normalize: flag(m, "normalize", path, true)?,
         },
         "white_noise_texture" => NodeOp::WhiteNoise(dimensions(m, path)?),
+        "voronoi_texture" => NodeOp::Voronoi {
+            dimensions: dimensions(m, path)?,
+            feature: enum_value(
+                m,
+                "feature",
+                path,
+                super::voronoi::FEATURES,
+                super::voronoi::Feature::F1,
+            )?,
+            metric: enum_value(
+                m,
+                "distance",
+                path,
+                super::voronoi::METRICS,
+                super::voronoi::Metric::Euclidean,
+            )?,
+            normalize: flag(m, "normalize", path, false)?,
+        },
         other => {
             return err(
                 &key_path(path, "type"),
