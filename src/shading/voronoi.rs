@@ -508,7 +508,7 @@ mod tests {
         let edge = params(2, Feature::DistanceToEdge, Metric::Euclidean)
             .eval(q, 0.0)
             .distance;
-        assert!(edge >= 0.0 && edge < 1.0);
+        assert!((0.0..1.0).contains(&edge));
         let r = params(3, Feature::NSphereRadius, Metric::Euclidean)
             .eval(q, 0.0)
             .radius;
