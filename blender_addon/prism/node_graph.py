@@ -391,6 +391,33 @@ class GraphBuilder:
             if I("Vector").is_linked:
                 j["inputs"]["vector"] = self.value(I("Vector"), ctx)
             outs = {"Distance": "distance", "Color": "color", "Position": "position", "W": "w", "Radius": "radius"}
+        elif t == "TEX_WAVE":
+            rings = node.wave_type == "RINGS"
+            direction = (node.rings_direction if rings else node.bands_direction).lower()
+            m = {"scale": I("Scale"), "distortion": I("Distortion"), "detail": I("Detail"),
+                 "detail_scale": I("Detail Scale"), "detail_roughness": I("Detail Roughness"),
+                 "phase_offset": I("Phase Offset")}
+            j = {"type": "wave_texture", "wave_type": "rings" if rings else "bands", "direction": direction,
+                 "wave_profile": node.wave_profile.lower(), "inputs": self._inputs(node, ctx, m)}
+            if I("Vector").is_linked:
+                j["inputs"]["vector"] = self.value(I("Vector"), ctx)
+            outs = {"Color": "color", "Fac": "fac"}
+        elif t == "TEX_MAGIC":
+            j = {"type": "magic_texture", "depth": int(node.turbulence_depth),
+                 "inputs": self._inputs(node, ctx, {"scale": I("Scale"), "distortion": I("Distortion")})}
+            if I("Vector").is_linked:
+                j["inputs"]["vector"] = self.value(I("Vector"), ctx)
+            outs = {"Color": "color", "Fac": "fac"}
+        elif t == "TEX_BRICK":
+            m = {"color1": I("Color1"), "color2": I("Color2"), "mortar": I("Mortar"), "scale": I("Scale"),
+                 "mortar_size": I("Mortar Size"), "mortar_smooth": I("Mortar Smooth"), "bias": I("Bias"),
+                 "brick_width": I("Brick Width"), "row_height": I("Row Height")}
+            j = {"type": "brick_texture", "offset": float(node.offset), "offset_frequency": int(node.offset_frequency),
+                 "squash": float(node.squash), "squash_frequency": int(node.squash_frequency),
+                 "inputs": self._inputs(node, ctx, m)}
+            if I("Vector").is_linked:
+                j["inputs"]["vector"] = self.value(I("Vector"), ctx)
+            outs = {"Color": "color", "Fac": "fac"}
         elif t == "TEX_WHITE_NOISE":
             dims = int(getattr(node, "noise_dimensions", "3D")[0])
             j = {"type": "white_noise_texture", "dimensions": dims, "inputs": self._inputs(node, ctx, {"w": I("W")})}

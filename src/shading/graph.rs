@@ -20,7 +20,7 @@ use super::color::{
 use super::image::{Extension, Image, Interpolation};
 use super::math_ops::{safe_divide, smootherstep, smoothstep, MathOp, VectorMathOp};
 use super::noise::{noise_texture, white_noise, Fractal, FractalKind};
-use super::procedural::{checker, gradient, GradientKind};
+use super::procedural::{checker, gradient, magic, Brick, GradientKind, Wave};
 use super::voronoi::{Feature, Metric, VoronoiParams};
 use super::ShadingInputs;
 use crate::bsdf::fresnel_dielectric;
@@ -153,6 +153,11 @@ pub enum NodeOp {
         metric: Metric,
         normalize: bool,
     },
+    Wave(Wave),
+    Magic {
+        depth: i32,
+    },
+    Brick(Brick),
 }
 
 use SocketType::{Color as C, Float as F, Vector as V};
@@ -402,6 +407,47 @@ impl NodeOp {
                     ]
                 },
             ),
+            Wave(_) => (
+                const {
+                    &[
+                        vec("vector", 0.0, 0.0, 0.0),
+                        f("scale", 5.0),
+                        f("distortion", 0.0),
+                        f("detail", 2.0),
+                        f("detail_scale", 1.0),
+                        f("detail_roughness", 0.5),
+                        f("phase_offset", 0.0),
+                    ]
+                },
+                const { &[out("color", C), out("fac", F)] },
+            ),
+            Magic { .. } => (
+                const {
+                    &[
+                        vec("vector", 0.0, 0.0, 0.0),
+                        f("scale", 5.0),
+                        f("distortion", 1.0),
+                    ]
+                },
+                const { &[out("color", C), out("fac", F)] },
+            ),
+            Brick(_) => (
+                const {
+                    &[
+                        vec("vector", 0.0, 0.0, 0.0),
+                        col("color1", 0.8, 0.8, 0.8),
+                        col("color2", 0.2, 0.2, 0.2),
+                        col("mortar", 0.0, 0.0, 0.0),
+                        f("scale", 5.0),
+                        f("mortar_size", 0.02),
+                        f("mortar_smooth", 0.1),
+                        f("bias", 0.0),
+                        f("brick_width", 0.5),
+                        f("row_height", 0.25),
+                    ]
+                },
+                const { &[out("color", C), out("fac", F)] },
+            ),
         };
         NodeSignature { inputs, outputs }
     }
@@ -411,9 +457,17 @@ impl NodeOp {
         use NodeOp::*;
         match (self, input) {
             (ImageTexture { .. }, "vector") => Some(Implicit::Uv),
-            (Checker | Gradient(_) | Noise { .. } | WhiteNoise(_) | Voronoi { .. }, "vector") => {
-                Some(Implicit::Generated)
-            }
+            (
+                Checker
+                | Gradient(_)
+                | Noise { .. }
+                | WhiteNoise(_)
+                | Voronoi { .. }
+                | Wave(_)
+                | Magic { .. }
+                | Brick(_),
+                "vector",
+            ) => Some(Implicit::Generated),
             (Fresnel | LayerWeight, "normal") => Some(Implicit::Normal),
             _ => None,
         }
@@ -839,6 +893,26 @@ fn eval_node(op: &NodeOp, i: &[Vec4; MAX_INPUTS], ctx: &ShadingInputs) -> [Vec4;
             o[3] = s(r.position.w);
             o[4] = s(r.radius);
         }
+        NodeOp::Wave(wave) => {
+            let fac = wave.eval(i[0].xyz() * i[1].x, i[2].x, i[3].x, i[4].x, i[5].x, i[6].x);
+            o[0] = rgb(Vec3::splat(fac));
+            o[1] = s(fac);
+        }
+        NodeOp::Magic { depth } => {
+            let c = magic(i[0].xyz(), i[1].x, *depth, i[2].x);
+            o[0] = rgb(c);
+            o[1] = s((c.x + c.y + c.z) / 3.0);
+        }
+        NodeOp::Brick(brick) => {
+            let (tint, mortar) =
+                brick.eval(i[0].xyz() * i[4].x, i[5].x, i[6].x, i[7].x, i[8].x, i[9].x);
+            let mut c1 = i[1].xyz();
+            if mortar != 1.0 {
+                c1 = c1 * (1.0 - tint) + i[2].xyz() * tint;
+            }
+            o[0] = rgb(c1 * (1.0 - mortar) + i[3].xyz() * mortar);
+            o[1] = s(mortar);
+        }
         NodeOp::WhiteNoise(dimensions) => {
             let (value, color) = white_noise(*dimensions, i[0].xyz(), i[1].x);
             o[0] = s(value);
@@ -848,8 +922,8 @@ fn eval_node(op: &NodeOp, i: &[Vec4; MAX_INPUTS], ctx: &ShadingInputs) -> [Vec4;
     o
 }
 
-/// The most inputs a node has (the Noise texture's).
-pub const MAX_INPUTS: usize = 9;
+/// The most inputs a node has (the Brick texture's).
+pub const MAX_INPUTS: usize = 10;
 
 fn clamp_if(t: f32, clamp: bool) -> f32 {
     if clamp {

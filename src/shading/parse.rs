@@ -41,7 +41,10 @@
 //!   multifractal | hybrid_multifractal | ridged_multifractal | hetero_terrain, `normalize`
 //!   default true); `white_noise_texture` (`dimensions`); `voronoi_texture` (`dimensions`,
 //!   `feature`: f1 | f2 | smooth_f1 | distance_to_edge | n_sphere_radius, `distance`:
-//!   euclidean | manhattan | chebychev | minkowski, `normalize`).
+//!   euclidean | manhattan | chebychev | minkowski, `normalize`); `wave_texture`
+//!   (`wave_type`: bands | rings, `direction`: x | y | z | diagonal (bands) / spherical
+//!   (rings), `wave_profile`: sin | saw | tri); `magic_texture` (`depth` 0-10);
+//!   `brick_texture` (`offset`, `offset_frequency`, `squash`, `squash_frequency`).
 //! * Links must not form a cycle; nodes no input depends on are ignored. An image that cannot
 //!   be read renders magenta with a warning, as in Blender.
 
@@ -94,6 +97,9 @@ pub const NODE_TYPES: &[&str] = &[
     "noise_texture",
     "white_noise_texture",
     "voronoi_texture",
+    "wave_texture",
+    "magic_texture",
+    "brick_texture",
 ];
 
 /// Loads the images graphs name: `(path as written, linear?) -> image`.
@@ -267,6 +273,9 @@ fn node_op(
         "noise_texture" => &["dimensions", "noise_type", "normalize"],
         "white_noise_texture" => &["dimensions"],
         "voronoi_texture" => &["dimensions", "feature", "distance", "normalize"],
+        "wave_texture" => &["wave_type", "direction", "wave_profile"],
+        "magic_texture" => &["depth"],
+        "brick_texture" => &["offset", "offset_frequency", "squash", "squash_frequency"],
         _ => &[],
     };
     let mut allowed = vec!["type", "inputs"];
@@ -422,6 +431,69 @@ fn node_op(
             normalize: flag(m, "normalize", path, true)?,
         },
         "white_noise_texture" => NodeOp::WhiteNoise(dimensions(m, path)?),
+        "wave_texture" => {
+            let rings = enum_value(
+                m,
+                "wave_type",
+                path,
+                &[("bands", false), ("rings", true)],
+                false,
+            )?;
+            let dirs: &[(&str, u8)] = if rings {
+                &[("x", 0), ("y", 1), ("z", 2), ("spherical", 3)]
+            } else {
+                &[("x", 0), ("y", 1), ("z", 2), ("diagonal", 3)]
+            };
+            NodeOp::Wave(super::procedural::Wave {
+                rings,
+                direction: enum_value(m, "direction", path, dirs, 0)?,
+                profile: enum_value(
+                    m,
+                    "wave_profile",
+                    path,
+                    &[("sin", 0), ("saw", 1), ("tri", 2)],
+                    0,
+                )?,
+            })
+        }
+        "magic_texture" => NodeOp::Magic {
+            depth: match m.get("depth") {
+                None => 2,
+                Some(v) => match v.as_f64() {
+                    Some(x) if (0.0..=10.0).contains(&x) && x.fract() == 0.0 => x as i32,
+                    _ => {
+                        return err(
+                            &key_path(path, "depth"),
+                            format!("expected an integer in 0..10, found {v}"),
+                        )
+                    }
+                },
+            },
+        },
+        "brick_texture" => {
+            let int = |k: &str, default: i32| -> R<i32> {
+                match m.get(k) {
+                    None => Ok(default),
+                    Some(v) => match v.as_f64() {
+                        Some(x) if (0.0..=99.0).contains(&x) && x.fract() == 0.0 => Ok(x as i32),
+                        _ => err(
+                            &key_path(path, k),
+                            format!("expected an integer in 0..99, found {v}"),
+                        ),
+                    },
+                }
+            };
+            let float = |k: &str, default: f32| -> R<f32> {
+                m.get(k)
+                    .map_or(Ok(default), |v| number(v, &key_path(path, k)))
+            };
+            NodeOp::Brick(super::procedural::Brick {
+                offset: float("offset", 0.5)?,
+                offset_frequency: int("offset_frequency", 2)?,
+                squash: float("squash", 1.0)?,
+                squash_frequency: int("squash_frequency", 2)?,
+            })
+        }
         "voronoi_texture" => NodeOp::Voronoi {
             dimensions: dimensions(m, path)?,
             feature: enum_value(
