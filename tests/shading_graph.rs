@@ -229,3 +229,41 @@ fn missing_image_is_magenta_with_a_warning_and_bad_graphs_are_errors() {
     );
     assert!(!msg.contains('\n'));
 }
+
+#[test]
+fn mixed_closures_weigh_bsdfs_and_emission() {
+    // Mix Shader (factor 0.3) of a white-ish diffuse BSDF (weight 0.7) and an emission
+    // (weight 0.3, colour (1, 0.5, 0.25) x 2), as the add-on flattens it, on a convex sphere
+    // under a white world: radiance = 0.7 x albedo + 0.3 x emission.
+    let mut desc = furnace_scene(diffuse_material("Sphere", Vec3::ONE), Vec3::ONE);
+    let graph = parse_graph(
+        &json!({"version": 1,
+                "nodes": {"Fac": {"type": "math", "operation": "add", "inputs": {"a": 0.1, "b": 0.2}},
+                          "Inv": {"type": "math", "operation": "subtract",
+                                  "inputs": {"a": 1.0, "b": {"node": "Fac"}}}},
+                "closures": [
+                    {"kind": "bsdf", "weight": {"node": "Inv"},
+                     "inputs": {"base_color": [0.8, 0.6, 0.4], "metallic": 0.0, "specular": 0.0}},
+                    {"kind": "emission", "weight": {"node": "Fac"},
+                     "inputs": {"emission": [1.0, 0.5, 0.25], "emission_strength": 2.0}}]}),
+        "graph",
+        &mut NoImages,
+    )
+    .ok()
+    .expect("graph parses");
+    desc.materials[0].graph = Some(Arc::new(graph));
+    let (_, img) = render_mean(desc, 32, 256, 8, 1);
+    let size = 32;
+    let mut centre = Vec3::ZERO;
+    for y in 14..18 {
+        for x in 14..18 {
+            let p = img[y * size + x];
+            centre += Vec3::new(p[0], p[1], p[2]) / 16.0;
+        }
+    }
+    let want = Vec3::new(0.8, 0.6, 0.4) * 0.7 + Vec3::new(1.0, 0.5, 0.25) * 2.0 * 0.3;
+    assert!(
+        (centre - want).abs().max_element() < 0.03 * want.max_element(),
+        "sphere centre {centre} vs {want}"
+    );
+}

@@ -110,7 +110,10 @@ pub fn has_light(scene: &SceneDesc) -> bool {
             .get(inst.mesh)
             .and_then(|m| m.material)
             .and_then(|mi| scene.materials.get(mi))
-            .is_some_and(|mat| mat.gltf.emissive.max_element() > 0.0)
+            .is_some_and(|mat| {
+                mat.gltf.emissive.max_element() > 0.0
+                    || mat.graph.as_ref().is_some_and(|g| g.drives_emission())
+            })
     });
     let punctual = scene
         .lights

@@ -128,6 +128,7 @@ impl Material {
             Some(t) => self.gltf.emissive * lookup(textures, &t, uv).xyz(),
         };
         match &self.graph {
+            Some(g) if g.has_closures() => g.mixed_emission(inputs),
             Some(g) if g.drives_emission() => {
                 let v = g.evaluate(inputs, true);
                 let color =
@@ -333,7 +334,22 @@ impl Material {
         u_select: f32,
     ) -> Bsdf {
         let g = &self.gltf;
+        let mut u_select = u_select;
         let driven = match (&self.graph, inputs) {
+            (Some(graph), Some(inputs)) if graph.has_closures() => {
+                match graph.pick_closure(inputs, u_select) {
+                    Some((values, u)) => {
+                        u_select = u;
+                        values
+                    }
+                    // No BSDF closure here: nothing scatters.
+                    None => {
+                        return Bsdf::Diffuse(DiffuseBsdf {
+                            reflectance: SampledSpectrum::ZERO,
+                        })
+                    }
+                }
+            }
             (Some(graph), Some(inputs)) => graph.evaluate(inputs, false),
             _ => Default::default(),
         };

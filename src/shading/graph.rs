@@ -524,12 +524,23 @@ impl MaterialInput {
 /// Values of the material inputs the graph drives at one shading point (`None`: not driven).
 pub type InputValues = [Option<Vec4>; N_MATERIAL_INPUTS];
 
+/// One leaf of a Mix / Add Shader tree: a BSDF or an emission with its weight (the product of
+/// the mix factors above it) and its own inputs.
+#[derive(Clone, Debug)]
+pub struct Closure {
+    pub emission: bool,
+    pub weight: Source,
+    pub bindings: Vec<(MaterialInput, Source)>,
+}
+
 /// A compiled graph.
 #[derive(Debug)]
 pub struct ShadingGraph {
     pub nodes: Vec<GraphNode>,
     n_slots: usize,
     bindings: Vec<(MaterialInput, Source)>,
+    /// Mixed closures (empty: the material is the one model `bindings` drive).
+    closures: Vec<Closure>,
     /// Nodes (in evaluation order) the scattering inputs need, and those emission needs.
     surface_program: Vec<u32>,
     emission_program: Vec<u32>,
@@ -547,6 +558,15 @@ fn euler_xyz(r: Vec3) -> Mat3 {
 impl ShadingGraph {
     /// `nodes` must be in evaluation order (links point backwards) with consecutive slots.
     pub fn new(nodes: Vec<GraphNode>, bindings: Vec<(MaterialInput, Source)>) -> Self {
+        Self::with_closures(nodes, bindings, Vec::new())
+    }
+
+    /// A graph whose surface is a mixture of `closures`.
+    pub fn with_closures(
+        nodes: Vec<GraphNode>,
+        bindings: Vec<(MaterialInput, Source)>,
+        closures: Vec<Closure>,
+    ) -> Self {
         let n_slots = nodes
             .iter()
             .map(|n| n.first_slot as usize + n.op.signature().outputs.len())
@@ -555,10 +575,18 @@ impl ShadingGraph {
         let program = |emission: bool| -> Vec<u32> {
             let mut needed = vec![false; nodes.len()];
             let slot_owner = |slot: u32| nodes.iter().rposition(|n| n.first_slot <= slot);
-            let mut stack: Vec<u32> = bindings
+            let mut sources: Vec<Source> = bindings
                 .iter()
                 .filter(|(m, _)| m.is_emission() == emission)
-                .filter_map(|(_, s)| match s {
+                .map(|(_, s)| *s)
+                .collect();
+            for c in closures.iter().filter(|c| c.emission == emission) {
+                sources.push(c.weight);
+                sources.extend(c.bindings.iter().map(|(_, s)| *s));
+            }
+            let mut stack: Vec<u32> = sources
+                .iter()
+                .filter_map(|s| match s {
                     Source::Link { slot, .. } => Some(*slot),
                     _ => None,
                 })
@@ -585,21 +613,18 @@ impl ShadingGraph {
             nodes,
             n_slots,
             bindings,
+            closures,
             surface_program,
             emission_program,
         }
     }
 
-    pub fn drives(&self, input: MaterialInput) -> bool {
-        self.bindings.iter().any(|(m, _)| *m == input)
+    pub fn has_closures(&self) -> bool {
+        !self.closures.is_empty()
     }
 
-    pub fn drives_emission(&self) -> bool {
-        self.bindings.iter().any(|(m, _)| m.is_emission())
-    }
-
-    /// The material inputs for scattering (`emission == false`) or for emission at `ctx`.
-    pub fn evaluate(&self, ctx: &ShadingInputs, emission: bool) -> InputValues {
+    /// Runs `program` into the per-thread slots, then `f` reads them.
+    fn run<T>(&self, ctx: &ShadingInputs, emission: bool, f: impl FnOnce(&[Vec4]) -> T) -> T {
         SLOTS.with(|cell| {
             let mut slots = cell.borrow_mut();
             if slots.len() < self.n_slots {
@@ -621,10 +646,74 @@ impl ShadingGraph {
                 let base = node.first_slot as usize;
                 slots[base..base + n_out].copy_from_slice(&outputs[..n_out]);
             }
+            f(&slots)
+        })
+    }
+
+    /// For a mixture: picks one BSDF closure with probability equal to its weight (weights
+    /// summing above 1 are normalised) and returns its inputs and `u` reused within it; `None`
+    /// when `u` falls beyond the weights' sum (the path is absorbed: the mixture's missing
+    /// BSDF weight, e.g. the emission share of a Mix Shader). Stochastic selection of one
+    /// component keeps the estimator unbiased without evaluating every closure.
+    pub fn pick_closure(&self, ctx: &ShadingInputs, u: f32) -> Option<(InputValues, f32)> {
+        self.run(ctx, false, |slots| {
+            let bsdfs = || self.closures.iter().filter(|c| !c.emission);
+            let weight = |c: &Closure| read(&c.weight, slots, ctx).x.max(0.0);
+            let total: f32 = bsdfs().map(weight).sum();
+            let scale = if total > 1.0 { 1.0 / total } else { 1.0 };
+            let mut acc = 0.0;
+            for c in bsdfs() {
+                let w = weight(c) * scale;
+                if w > 0.0 && u < acc + w {
+                    let mut values: InputValues = [None; N_MATERIAL_INPUTS];
+                    for (m, s) in &c.bindings {
+                        values[m.index()] = Some(read(s, slots, ctx));
+                    }
+                    return Some((values, ((u - acc) / w).clamp(0.0, 1.0)));
+                }
+                acc += w;
+            }
+            None
+        })
+    }
+
+    /// For a mixture: the summed emission of its emission closures (linear RGB).
+    pub fn mixed_emission(&self, ctx: &ShadingInputs) -> Vec3 {
+        self.run(ctx, true, |slots| {
+            let mut sum = Vec3::ZERO;
+            for c in self.closures.iter().filter(|c| c.emission) {
+                let w = read(&c.weight, slots, ctx).x.max(0.0);
+                let mut color = Vec3::ONE;
+                let mut strength = 1.0;
+                for (m, s) in &c.bindings {
+                    match m {
+                        MaterialInput::Emission => color = read(s, slots, ctx).xyz(),
+                        MaterialInput::EmissionStrength => strength = read(s, slots, ctx).x,
+                        _ => {}
+                    }
+                }
+                sum += w * strength * color.max(Vec3::ZERO);
+            }
+            sum
+        })
+    }
+
+    pub fn drives(&self, input: MaterialInput) -> bool {
+        self.bindings.iter().any(|(m, _)| *m == input)
+    }
+
+    pub fn drives_emission(&self) -> bool {
+        self.bindings.iter().any(|(m, _)| m.is_emission())
+            || self.closures.iter().any(|c| c.emission)
+    }
+
+    /// The material inputs for scattering (`emission == false`) or for emission at `ctx`.
+    pub fn evaluate(&self, ctx: &ShadingInputs, emission: bool) -> InputValues {
+        self.run(ctx, emission, |slots| {
             let mut values: InputValues = [None; N_MATERIAL_INPUTS];
             for (m, s) in &self.bindings {
                 if m.is_emission() == emission {
-                    values[m.index()] = Some(read(s, &slots, ctx));
+                    values[m.index()] = Some(read(s, slots, ctx));
                 }
             }
             values

@@ -45,6 +45,12 @@
 //!   (`wave_type`: bands | rings, `direction`: x | y | z | diagonal (bands) / spherical
 //!   (rings), `wave_profile`: sin | saw | tri); `magic_texture` (`depth` 0-10);
 //!   `brick_texture` (`offset`, `offset_frequency`, `squash`, `squash_frequency`).
+//! * `closures` (instead of or with `inputs`): a Mix / Add Shader tree flattened into its
+//!   leaves, `[{"kind": "bsdf" | "emission", "weight": <value or link>, "inputs": {...}}]`.
+//!   Each shading point picks one BSDF leaf with probability equal to its weight (the path is
+//!   absorbed with the remaining probability; weights summing above 1 are normalised) and
+//!   renders it with that leaf's inputs over the glTF defaults; emission leaves add
+//!   weight x `emission` x `emission_strength`.
 //! * Links must not form a cycle; nodes no input depends on are ignored. An image that cannot
 //!   be read renders magenta with a warning, as in Blender.
 
@@ -594,7 +600,7 @@ struct Parsed<'v> {
 /// Parses and compiles a graph; `path` is the graph's JSON path (for messages).
 pub fn parse_graph(v: &Value, path: &str, images: &mut dyn ImageLoader) -> R<ShadingGraph> {
     let m = object(v, path)?;
-    check_keys(m, &["version", "nodes", "inputs"], path)?;
+    check_keys(m, &["version", "nodes", "inputs", "closures"], path)?;
     match m.get("version").and_then(Value::as_f64) {
         Some(x) if x == GRAPH_VERSION as f64 => {}
         Some(x) => {
@@ -648,8 +654,20 @@ pub fn parse_graph(v: &Value, path: &str, images: &mut dyn ImageLoader) -> R<Sha
 
     // Depth-first from the bound inputs: evaluation order, cycle detection, unused nodes dropped.
     let ipath = key_path(path, "inputs");
+    let empty_bindings = Map::new();
+    let closures_json: Vec<&Value> = match m.get("closures") {
+        Some(Value::Array(a)) => a.iter().collect(),
+        Some(v) => {
+            return err(
+                &key_path(path, "closures"),
+                format!("expected an array, found {}", kind(v)),
+            )
+        }
+        None => Vec::new(),
+    };
     let bindings_json = match m.get("inputs") {
         Some(b) => object(b, &ipath)?,
+        None if !closures_json.is_empty() => &empty_bindings,
         None => {
             return err(
                 &ipath,
@@ -698,6 +716,23 @@ pub fn parse_graph(v: &Value, path: &str, images: &mut dyn ImageLoader) -> R<Sha
     for (k, v) in bindings_json {
         if let Some(t) = link_target(v) {
             visit(t, &key_path(&ipath, k), &parsed, &mut state, &mut order)?;
+        }
+    }
+    let cpath = key_path(path, "closures");
+    for (ci, c) in closures_json.iter().enumerate() {
+        let p = format!("{cpath}[{ci}]");
+        let cm = object(c, &p)?;
+        check_keys(cm, &["kind", "weight", "inputs"], &p)?;
+        if let Some(t) = cm.get("weight").and_then(link_target) {
+            visit(t, &key_path(&p, "weight"), &parsed, &mut state, &mut order)?;
+        }
+        if let Some(inputs) = cm.get("inputs").and_then(Value::as_object) {
+            for (k, v) in inputs {
+                if let Some(t) = link_target(v) {
+                    let ip = key_path(&key_path(&p, "inputs"), k);
+                    visit(t, &ip, &parsed, &mut state, &mut order)?;
+                }
+            }
         }
     }
 
@@ -783,20 +818,50 @@ pub fn parse_graph(v: &Value, path: &str, images: &mut dyn ImageLoader) -> R<Sha
             first_slot: first_slot[name],
         });
     }
-    let mut bindings = Vec::new();
-    for (k, v) in bindings_json {
-        let p = key_path(&ipath, k);
-        let Some((_, input, ty)) = MATERIAL_INPUTS.iter().find(|(n, _, _)| n == k) else {
-            let names: Vec<&str> = MATERIAL_INPUTS.iter().map(|(n, _, _)| *n).collect();
-            return err(
-                &p,
-                format!("unknown material input '{k}' (valid: {})", names.join(", ")),
-            );
+    let binding_list =
+        |json: &Map<String, Value>, ipath: &str| -> R<Vec<(MaterialInput, Source)>> {
+            let mut bindings = Vec::new();
+            for (k, v) in json {
+                let p = key_path(ipath, k);
+                let Some((_, input, ty)) = MATERIAL_INPUTS.iter().find(|(n, _, _)| n == k) else {
+                    let names: Vec<&str> = MATERIAL_INPUTS.iter().map(|(n, _, _)| *n).collect();
+                    return err(
+                        &p,
+                        format!("unknown material input '{k}' (valid: {})", names.join(", ")),
+                    );
+                };
+                bindings.push((*input, resolve(v, &p, *ty)?));
+            }
+            Ok(bindings)
         };
-        bindings.push((*input, resolve(v, &p, *ty)?));
+    let bindings = binding_list(bindings_json, &ipath)?;
+    let mut closures = Vec::new();
+    for (ci, c) in closures_json.iter().enumerate() {
+        let p = format!("{cpath}[{ci}]");
+        let cm = object(c, &p)?;
+        let emission = enum_value(
+            cm,
+            "kind",
+            &p,
+            &[("bsdf", false), ("emission", true)],
+            false,
+        )?;
+        let weight = match cm.get("weight") {
+            Some(w) => resolve(w, &key_path(&p, "weight"), SocketType::Float)?,
+            None => Source::Const(Vec4::ONE),
+        };
+        let ipath = key_path(&p, "inputs");
+        let inputs = match cm.get("inputs") {
+            Some(i) => binding_list(object(i, &ipath)?, &ipath)?,
+            None => Vec::new(),
+        };
+        closures.push(super::graph::Closure {
+            emission,
+            weight,
+            bindings: inputs,
+        });
     }
-    let _ = MaterialInput::BaseColor;
-    Ok(ShadingGraph::new(nodes, bindings))
+    Ok(ShadingGraph::with_closures(nodes, bindings, closures))
 }
 
 #[cfg(test)]
