@@ -812,6 +812,128 @@ class Exporter:
             self._linked_warnings(name, node, handled)
         return gb.result()
 
+    def _mixed_graph(self, name, root, m):
+        """A Mix / Add Shader tree as graph closures: the tree flattened into weighted leaves
+        (weight = product of the mix factors on the way down). m gets the first BSDF leaf's
+        constants as the glTF material's (for light power estimates and other viewers)."""
+        gb = GraphBuilder(name, self._graph_image, self._uv_set, self._color_set, self.warnings.append)
+        counter = [0]
+
+        def node_name(kind):
+            counter[0] += 1
+            return "__%s_%d" % (kind, counter[0])
+
+        def math(op, a, b):
+            if isinstance(a, float) and isinstance(b, float):
+                return {"multiply": a * b, "subtract": a - b}[op]
+            n = node_name(op)
+            gb.nodes[n] = {"type": "math", "operation": op, "inputs": {"a": a, "b": b}}
+            return {"node": n, "output": "value"}
+
+        def source(sock):
+            link = gb._live_link(sock) if sock is not None else None
+            if link is None:
+                return None
+            node = link.from_node
+            for _ in range(64):
+                if node.type == "REROUTE" or getattr(node, "mute", False):
+                    nxt = node.inputs[0] if node.inputs else None
+                    if getattr(node, "mute", False):
+                        nxt = next((x for x in node.inputs if x.type == "SHADER"), None)
+                    link = gb._live_link(nxt) if nxt is not None else None
+                    if link is None:
+                        return None
+                    node = link.from_node
+                    continue
+                break
+            return node
+
+        leaves = []
+
+        def walk(node, weight, depth=0):
+            if node is None or depth > 32:
+                return
+            if node.type == "MIX_SHADER":
+                fac = gb.value(node.inputs[0], ())
+                if isinstance(fac, float):
+                    fac = min(max(fac, 0.0), 1.0)
+                else:
+                    n = node_name("clamp")
+                    gb.nodes[n] = {"type": "clamp", "inputs": {"value": fac, "min": 0.0, "max": 1.0}}
+                    fac = {"node": n, "output": "result"}
+                walk(source(node.inputs[1]), math("multiply", weight, math("subtract", 1.0, fac)), depth + 1)
+                walk(source(node.inputs[2]), math("multiply", weight, fac), depth + 1)
+            elif node.type == "ADD_SHADER":
+                walk(source(node.inputs[0]), weight, depth + 1)
+                walk(source(node.inputs[1]), weight, depth + 1)
+            else:
+                leaves.append((node, weight))
+
+        walk(root, 1.0)
+        closures = []
+        first = True
+        for leaf, weight in leaves:
+            t = leaf.type
+            S = lambda *n: _socket(leaf, *n)  # noqa: E731
+            V = lambda sock, default: gb.value(sock, ()) if sock is not None else default  # noqa: E731
+            inputs = None
+            if t == "EMISSION":
+                closures.append({"kind": "emission", "weight": weight,
+                                 "inputs": {"emission": V(S("Color"), [1.0, 1.0, 1.0]),
+                                            "emission_strength": V(S("Strength"), 1.0)}})
+                continue
+            if t == "BSDF_DIFFUSE":
+                inputs = {"base_color": V(S("Color"), [0.8, 0.8, 0.8]), "metallic": 0.0, "specular": 0.0,
+                          "transmission": 0.0, "roughness": 1.0}
+            elif t in {"BSDF_GLOSSY", "BSDF_ANISOTROPIC"}:
+                inputs = {"base_color": V(S("Color"), [0.8, 0.8, 0.8]), "metallic": 1.0,
+                          "roughness": V(S("Roughness"), 0.5), "transmission": 0.0}
+            elif t == "BSDF_GLASS":
+                inputs = {"base_color": V(S("Color"), [1.0, 1.0, 1.0]), "metallic": 0.0,
+                          "roughness": V(S("Roughness"), 0.0), "transmission": 1.0}
+                m["ior"] = float(_val(leaf, "IOR", default=1.5))
+            elif t == "BSDF_PRINCIPLED":
+                spec = S("Specular IOR Level", "Specular")
+                inputs = {"base_color": V(S("Base Color"), [0.8, 0.8, 0.8]), "metallic": V(S("Metallic"), 0.0),
+                          "roughness": V(S("Roughness"), 0.5), "specular": math("multiply", V(spec, 0.5), 2.0),
+                          "transmission": V(S("Transmission Weight", "Transmission"), 0.0)}
+                m["ior"] = float(_val(leaf, "IOR", default=1.5))
+                e_col, e_str = S("Emission Color", "Emission"), S("Emission Strength")
+                ev, sv = V(e_col, [0.0, 0.0, 0.0]), V(e_str, 1.0)
+                if isinstance(ev, dict) or isinstance(sv, dict) or (max(ev[:3]) > 0.0 and sv > 0.0):
+                    closures.append({"kind": "emission", "weight": weight,
+                                     "inputs": {"emission": ev, "emission_strength": sv}})
+                self._principled_warnings(name, leaf, {"Base Color", "Metallic", "Roughness", "Specular IOR Level",
+                                                        "Specular", "Transmission Weight", "Transmission",
+                                                        "Emission Color", "Emission", "Emission Strength", "IOR",
+                                                        "Normal"})
+            else:
+                self.warnings.append(
+                    "material '%s': shader '%s' (%s) inside a Mix/Add Shader is not supported; its share renders black"
+                    % (name, leaf.name, leaf.bl_idname))
+                continue
+            if leaf.inputs.get("Normal") is not None and leaf.inputs["Normal"].is_linked:
+                self.warnings.append("material '%s': the Normal input of '%s' inside a Mix/Add Shader is not supported"
+                                     % (name, leaf.name))
+            closures.append({"kind": "bsdf", "weight": weight, "inputs": inputs})
+            if first:
+                first = False
+                for k in ("metallic", "roughness"):
+                    if isinstance(inputs.get(k), float):
+                        m[k] = inputs[k]
+                if isinstance(inputs.get("base_color"), list):
+                    m["base"] = inputs["base_color"][:3]
+                if inputs.get("transmission") == 1.0:
+                    m["transmission"] = 1.0
+                m["specular"] = 0.0 if t == "BSDF_DIFFUSE" else None
+        if root.type == "ADD_SHADER" and sum(1 for c in closures if c["kind"] == "bsdf") > 1:
+            self.warnings.append(
+                "material '%s': an Add Shader of BSDFs can reflect more than it receives; Prism normalises the sum"
+                % name)
+        if not closures:
+            return None
+        return {"version": 1, "nodes": gb.nodes, "closures": closures}
+
     def _linked_warnings(self, name, node, handled):
         for sock in node.inputs:
             if sock.is_linked and sock.identifier not in handled and sock.name not in handled and sock.enabled:
@@ -861,6 +983,11 @@ class Exporter:
             return self.material_index[key]
         name = mat.name if mat is not None else "PrismDefault"
         m, sss, ok = convert_material(mat)
+        mixed = None
+        surface = _surface_node(mat) if mat is not None else None
+        if surface is not None and surface.type in {"MIX_SHADER", "ADD_SHADER"}:
+            mixed = self._mixed_graph(name, surface, m)
+            ok = mixed is not None
         if not ok:
             self.unsupported.append(name)
             node = _surface_node(mat)
@@ -869,7 +996,7 @@ class Exporter:
                     "material '%s': surface shader '%s' (%s) is not supported; rendered grey diffuse"
                     % (name, node.name, node.bl_idname)
                 )
-        graph = self._graph(mat, name, m) if ok and mat is not None else None
+        graph = mixed or (self._graph(mat, name, m) if ok and mat is not None else None)
         g = {
             "name": name,
             "pbrMetallicRoughness": {

@@ -240,6 +240,42 @@ def setups():
     nt.links.new(inv.outputs["Color"], sh.inputs["Color"])
     out.append(("MutedNode", mat))
 
+    def mixed(name, fac_builder=None, add=False):
+        mat = bpy.data.materials.new(name)
+        mat.use_nodes = True
+        nt = mat.node_tree
+        nt.nodes.clear()
+        outn = nt.nodes.new("ShaderNodeOutputMaterial")
+        a = nt.nodes.new("ShaderNodeBsdfDiffuse")
+        a.inputs["Color"].default_value = (0.8, 0.15, 0.1, 1.0)
+        if add:
+            b = nt.nodes.new("ShaderNodeEmission")
+            b.inputs["Color"].default_value = (0.1, 0.3, 0.9, 1.0)
+            b.inputs["Strength"].default_value = 0.5
+            mix = nt.nodes.new("ShaderNodeAddShader")
+            nt.links.new(a.outputs[0], mix.inputs[0])
+            nt.links.new(b.outputs[0], mix.inputs[1])
+        else:
+            b = nt.nodes.new("ShaderNodeBsdfGlossy")
+            b.inputs["Color"].default_value = (0.9, 0.9, 0.9, 1.0)
+            b.inputs["Roughness"].default_value = 0.35
+            mix = nt.nodes.new("ShaderNodeMixShader")
+            mix.inputs["Fac"].default_value = 0.4
+            if fac_builder is not None:
+                nt.links.new(fac_builder(nt), mix.inputs["Fac"])
+            nt.links.new(a.outputs[0], mix.inputs[1])
+            nt.links.new(b.outputs[0], mix.inputs[2])
+        nt.links.new(mix.outputs[0], outn.inputs["Surface"])
+        out.append((name, mat))
+
+    def checker_fac(nt):
+        chk = nt.nodes.new("ShaderNodeTexChecker")
+        chk.inputs["Scale"].default_value = 3.0
+        return chk.outputs["Fac"]
+
+    mixed("MixDiffuseGlossy")
+    mixed("MixCheckerFac", checker_fac)
+    mixed("AddEmission", add=True)
     return out
 
 
