@@ -789,6 +789,10 @@ class Exporter:
                     gb.bind_const("emission", _rgb(e_col.default_value))
                 if "emission_strength" not in gb.inputs:
                     gb.bind_const("emission_strength", float(e_str.default_value) if e_str is not None else 1.0)
+            alpha = S("Alpha")
+            if alpha is not None and not bind("alpha", alpha) and float(alpha.default_value) < 1.0:
+                gb.bind_const("alpha", float(alpha.default_value))
+                handled.add(alpha.identifier)
             handled.add("Normal")
             self._principled_warnings(name, node, handled)
         elif t in {"BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_ANISOTROPIC", "BSDF_GLASS"}:
@@ -877,6 +881,13 @@ class Exporter:
             S = lambda *n: _socket(leaf, *n)  # noqa: E731
             V = lambda sock, default: gb.value(sock, ()) if sock is not None else default  # noqa: E731
             inputs = None
+            if t == "BSDF_TRANSPARENT":
+                col = S("Color")
+                if col is not None and (col.is_linked or any(abs(float(c) - 1.0) > 1e-6 for c in list(col.default_value)[:3])):
+                    self.warnings.append("material '%s': a tinted Transparent BSDF ('%s') is rendered untinted"
+                                         % (name, leaf.name))
+                closures.append({"kind": "transparent", "weight": weight})
+                continue
             if t == "EMISSION":
                 closures.append({"kind": "emission", "weight": weight,
                                  "inputs": {"emission": V(S("Color"), [1.0, 1.0, 1.0]),
@@ -950,7 +961,6 @@ class Exporter:
         # Inputs the exporter translates from their values (subsurface, IOR) are handled when unlinked.
         self._linked_warnings(name, node, handled)
         checks = [
-            ("Alpha", lambda v: v < 1.0, "Alpha below 1 (transparency)"),
             ("Coat Weight", lambda v: v > 0.0, "Coat"),
             ("Clearcoat", lambda v: v > 0.0, "Clearcoat"),
             ("Sheen Weight", lambda v: v > 0.0, "Sheen"),
@@ -985,7 +995,7 @@ class Exporter:
         m, sss, ok = convert_material(mat)
         mixed = None
         surface = _surface_node(mat) if mat is not None else None
-        if surface is not None and surface.type in {"MIX_SHADER", "ADD_SHADER"}:
+        if surface is not None and surface.type in {"MIX_SHADER", "ADD_SHADER", "BSDF_TRANSPARENT"}:
             mixed = self._mixed_graph(name, surface, m)
             ok = mixed is not None
         if not ok:

@@ -107,7 +107,8 @@ class GraphBuilder:
         self.inputs[key] = value
 
     def result(self):
-        if not self.inputs or not any(isinstance(v, dict) for v in self.inputs.values()):
+        linked = any(isinstance(v, dict) for v in self.inputs.values())
+        if not self.inputs or not (linked or "alpha" in self.inputs):
             return None
         return {"version": 1, "nodes": self.nodes, "inputs": self.inputs}
 

@@ -22,6 +22,8 @@ pub struct PathTracer<'a> {
     max_depth: u32,
     /// How next-event estimation chooses lights.
     selection: LightSelection,
+    /// Some material is partly transparent (alpha): rays and shadow rays may pass surfaces.
+    alpha: bool,
 }
 
 /// What one camera path returns.
@@ -65,7 +67,49 @@ impl<'a> PathTracer<'a> {
             scene,
             max_depth,
             selection,
+            alpha: scene.materials.iter().any(|m| m.has_alpha()),
         }
+    }
+
+    /// The fraction of light that reaches `distance` along `ray` (0 = blocked): the product of
+    /// the transparency (1 - alpha) of the surfaces in between, as Cycles' transparent
+    /// shadows. Without alpha materials, a plain occlusion test.
+    fn transmittance(&self, ray: Ray, distance: f32) -> f32 {
+        let geometry = &self.scene.geometry;
+        if !self.alpha {
+            return if geometry.occluded(&ray, distance) {
+                0.0
+            } else {
+                1.0
+            };
+        }
+        let (mut ray, mut remaining, mut t) = (ray, distance, 1.0f32);
+        for _ in 0..64 {
+            let Some(h) = geometry.intersect(&ray, remaining) else {
+                return t;
+            };
+            let sp = geometry.surface_point(&h);
+            if geometry.instances[h.instance as usize].casts_shadows {
+                let m = &self.scene.materials[sp.material as usize];
+                if !m.has_alpha() {
+                    return 0.0;
+                }
+                let inputs = m
+                    .has_graph()
+                    .then(|| geometry.shading_inputs(&sp, -ray.dir, false));
+                t *= 1.0 - m.alpha(&self.scene.textures, sp.uv, inputs.as_ref());
+                if t <= 0.0 {
+                    return 0.0;
+                }
+            }
+            let origin = offset_ray_origin(sp.p, sp.ng, ray.dir);
+            remaining -= (origin - ray.origin).dot(ray.dir);
+            if !(remaining > 0.0) {
+                return t;
+            }
+            ray = Ray::new(origin, ray.dir);
+        }
+        0.0
     }
 
     /// Radiance arriving along `ray` for the path's wavelengths, already weighted by the
@@ -138,27 +182,45 @@ impl<'a> PathTracer<'a> {
                 }
                 None => geometry.intersect(&ray, f32::INFINITY),
             };
-            // Camera rays pass through instances hidden from the camera (meshes standing for
-            // Blender area lights), as Blender's ray visibility does.
+            // Rays pass through surfaces they do not shade: camera rays through instances hidden
+            // from the camera (meshes standing for Blender area lights), as Blender's ray
+            // visibility does, and every ray through the transparent share of alpha surfaces
+            // (stochastic transparency: pass with probability 1 - alpha, as Cycles' transparent
+            // bounces; these do not count as bounces).
             let mut next_hit = next_hit;
-            // Distance from the camera to the current ray origin (past hidden surfaces).
+            // Distance from the current ray's origin to where the path left its last vertex.
             let mut camera_offset = 0.0f32;
-            if depth == 0 {
-                let mut skipped = 0;
-                while let Some(h) = next_hit.filter(|h| !geometry.camera_visible(h.instance)) {
-                    skipped += 1;
-                    if skipped > 64 {
-                        // Degenerate stack of hidden surfaces: give up on this path.
-                        next_hit = None;
+            let mut skipped = 0;
+            while let Some(h) = next_hit {
+                let hidden = depth == 0 && !geometry.camera_visible(h.instance);
+                let may_pass = self.alpha && walk_medium.is_none();
+                if !(hidden || may_pass) {
+                    break;
+                }
+                let sp = geometry.surface_point(&h);
+                if !hidden {
+                    let m = &scene.materials[sp.material as usize];
+                    if !m.has_alpha() {
                         break;
                     }
-                    rays += 1;
-                    let sp = geometry.surface_point(&h);
-                    let origin = offset_ray_origin(sp.p, sp.ng, ray.dir);
-                    camera_offset += (origin - ray.origin).dot(ray.dir);
-                    ray = Ray::new(origin, ray.dir);
-                    next_hit = geometry.intersect(&ray, f32::INFINITY);
+                    let inputs = m
+                        .has_graph()
+                        .then(|| geometry.shading_inputs(&sp, -ray.dir, depth == 0));
+                    if sampler.next_1d() < m.alpha(&scene.textures, sp.uv, inputs.as_ref()) {
+                        break;
+                    }
                 }
+                skipped += 1;
+                if skipped > 64 {
+                    // Degenerate stack of skipped surfaces: give up on this path.
+                    next_hit = None;
+                    break;
+                }
+                rays += 1;
+                let origin = offset_ray_origin(sp.p, sp.ng, ray.dir);
+                camera_offset += (origin - ray.origin).dot(ray.dir);
+                ray = Ray::new(origin, ray.dir);
+                next_hit = geometry.intersect(&ray, f32::INFINITY);
             }
             let Some(hit) = next_hit else {
                 // The world and any sun disc along the ray, each with its own MIS weight.
@@ -177,7 +239,7 @@ impl<'a> PathTracer<'a> {
                 guides.first_distance = camera_offset + hit.t;
             }
             if let Some(sigma_a) = medium {
-                beta *= (sigma_a * -hit.t).exp();
+                beta *= (sigma_a * -(camera_offset + hit.t)).exp();
             }
             let mut sp = geometry.surface_point(&hit);
             let material = &scene.materials[sp.material as usize];
@@ -206,7 +268,7 @@ impl<'a> PathTracer<'a> {
                             hit.instance,
                             hit.prim,
                             sp.area,
-                            hit.t,
+                            camera_offset + hit.t,
                             cos_light,
                             selection,
                         );
@@ -317,7 +379,8 @@ impl<'a> PathTracer<'a> {
                     if side_ok && !f.is_black() {
                         rays += 1;
                         let origin = offset_ray_origin(sp.p, ng, ls.wi);
-                        let visible = !geometry.occluded(&Ray::new(origin, ls.wi), ls.distance);
+                        let shadow = self.transmittance(Ray::new(origin, ls.wi), ls.distance);
+                        let visible = shadow > 0.0;
                         if visible && eval_after_shadow {
                             (f, bsdf_pdfs) = bsdf.eval_pdf_wavelengths(wo, wi);
                         }
@@ -332,7 +395,7 @@ impl<'a> PathTracer<'a> {
                                 mis.light_weight(ls.pdf, bsdf_pdfs)
                             };
                             let mut contrib =
-                                beta * f * ls.li * (weight / (ls.pdf * mis.denominator()));
+                                beta * f * ls.li * (shadow * weight / (ls.pdf * mis.denominator()));
                             if let Some(sigma_a) = medium {
                                 // Only reachable through a transmissive surface of the same object.
                                 if ls.distance.is_finite() {
@@ -493,13 +556,16 @@ impl<'a> PathTracer<'a> {
                     if f > 0.0 && ls.wi.dot(ng_i) > 0.0 {
                         rays += 1;
                         let origin = offset_ray_origin(p_exit, ng_i, ls.wi);
-                        if !geometry.occluded(&Ray::new(origin, ls.wi), ls.distance) {
+                        let shadow = self.transmittance(Ray::new(origin, ls.wi), ls.distance);
+                        if shadow > 0.0 {
                             let weight = if ls.delta {
                                 1.0
                             } else {
                                 mis.light_weight(ls.pdf, SampledSpectrum::splat(lobe.pdf(cos)))
                             };
-                            l += beta * ls.li * (f * cos * weight / (ls.pdf * mis.denominator()));
+                            l += beta
+                                * ls.li
+                                * (shadow * f * cos * weight / (ls.pdf * mis.denominator()));
                         }
                     }
                 }

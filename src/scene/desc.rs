@@ -98,6 +98,17 @@ pub struct GltfMaterialDesc {
     pub attenuation_color: Vec3,
     pub attenuation_distance: f32,
     pub double_sided: bool,
+    /// glTF alphaMode: opaque, MASK (coverage = alpha >= `alpha_cutoff`) or BLEND
+    /// (coverage = alpha); alpha = baseColorFactor.a x the base colour texture's alpha.
+    pub alpha_mode: AlphaMode,
+    pub alpha_cutoff: f32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AlphaMode {
+    Opaque,
+    Mask,
+    Blend,
 }
 
 impl Default for GltfMaterialDesc {
@@ -121,6 +132,8 @@ impl Default for GltfMaterialDesc {
             attenuation_color: Vec3::ONE,
             attenuation_distance: f32::INFINITY,
             double_sided: false,
+            alpha_mode: AlphaMode::Opaque,
+            alpha_cutoff: 0.5,
         }
     }
 }

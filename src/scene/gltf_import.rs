@@ -1334,12 +1334,12 @@ impl Importer<'_> {
                 ignored.join(", ")
             ));
         }
-        if !matches!(m.alpha_mode(), gltf::material::AlphaMode::Opaque) {
-            self.warn_once(format!(
-                "{label}: alphaMode {:?} is not supported yet; rendered opaque",
-                m.alpha_mode()
-            ));
-        }
+        let alpha_mode = match m.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => crate::scene::desc::AlphaMode::Opaque,
+            gltf::material::AlphaMode::Mask => crate::scene::desc::AlphaMode::Mask,
+            gltf::material::AlphaMode::Blend => crate::scene::desc::AlphaMode::Blend,
+        };
+        let alpha_cutoff = m.alpha_cutoff().unwrap_or(0.5);
         let base_color_texture = match pbr.base_color_texture() {
             Some(t) => Some(self.texture_ref(&t, ColorSpace::Srgb, &label, "baseColorTexture")?),
             None => None,
@@ -1405,6 +1405,12 @@ impl Importer<'_> {
             attenuation_color: Vec3::from_array(attenuation_color),
             attenuation_distance,
             double_sided: m.double_sided(),
+            alpha_mode,
+            alpha_cutoff: if alpha_cutoff.is_finite() {
+                alpha_cutoff
+            } else {
+                0.5
+            },
         })
     }
 

@@ -111,6 +111,42 @@ impl Material {
         self.emission.is_some() || self.graph.as_ref().is_some_and(|g| g.drives_emission())
     }
 
+    /// The surface is partly transparent somewhere (graph Alpha / Transparent BSDF, glTF
+    /// alphaMode MASK or BLEND): rays pass through it with probability 1 - [`Material::alpha`].
+    pub fn has_alpha(&self) -> bool {
+        self.graph.as_ref().is_some_and(|g| g.has_alpha())
+            || self.gltf.alpha_mode != crate::scene::desc::AlphaMode::Opaque
+    }
+
+    /// Coverage in [0, 1] at a surface point (1 = opaque). A graph's alpha replaces glTF's.
+    pub fn alpha(&self, textures: &[TextureDesc], uv: Vec2, inputs: Option<&ShadingInputs>) -> f32 {
+        use crate::scene::desc::AlphaMode;
+        if let (Some(g), Some(inputs)) = (&self.graph, inputs) {
+            if g.has_alpha() {
+                return g.alpha(inputs);
+            }
+        }
+        let g = &self.gltf;
+        let a = match g.alpha_mode {
+            AlphaMode::Opaque => return 1.0,
+            _ => {
+                g.base_color.w
+                    * g.base_color_texture
+                        .map_or(1.0, |t| lookup(textures, &t, uv).w)
+            }
+        };
+        match g.alpha_mode {
+            AlphaMode::Mask => {
+                if a >= g.alpha_cutoff {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            _ => a.clamp(0.0, 1.0),
+        }
+    }
+
     /// The material reads a shading graph: the integrator then gathers [`ShadingInputs`].
     pub fn has_graph(&self) -> bool {
         self.graph.is_some()

@@ -495,6 +495,8 @@ pub enum MaterialInput {
     Transmission,
     Emission,
     EmissionStrength,
+    /// Coverage: 1 opaque, 0 fully transparent (Principled Alpha; stochastic transparency).
+    Alpha,
 }
 
 pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
@@ -505,9 +507,10 @@ pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
     ("transmission", MaterialInput::Transmission, F),
     ("emission", MaterialInput::Emission, C),
     ("emission_strength", MaterialInput::EmissionStrength, F),
+    ("alpha", MaterialInput::Alpha, F),
 ];
 
-pub const N_MATERIAL_INPUTS: usize = 7;
+pub const N_MATERIAL_INPUTS: usize = 8;
 
 impl MaterialInput {
     pub fn index(self) -> usize {
@@ -529,6 +532,8 @@ pub type InputValues = [Option<Vec4>; N_MATERIAL_INPUTS];
 #[derive(Clone, Debug)]
 pub struct Closure {
     pub emission: bool,
+    /// A Transparent BSDF leaf: its weight is the surface's transparency.
+    pub transparent: bool,
     pub weight: Source,
     pub bindings: Vec<(MaterialInput, Source)>,
 }
@@ -580,7 +585,10 @@ impl ShadingGraph {
                 .filter(|(m, _)| m.is_emission() == emission)
                 .map(|(_, s)| *s)
                 .collect();
-            for c in closures.iter().filter(|c| c.emission == emission) {
+            for c in closures
+                .iter()
+                .filter(|c| c.emission == emission || c.transparent)
+            {
                 sources.push(c.weight);
                 sources.extend(c.bindings.iter().map(|(_, s)| *s));
             }
@@ -623,6 +631,35 @@ impl ShadingGraph {
         !self.closures.is_empty()
     }
 
+    /// The graph makes the surface partly transparent somewhere (an Alpha input or a
+    /// Transparent BSDF leaf).
+    pub fn has_alpha(&self) -> bool {
+        self.bindings
+            .iter()
+            .any(|(m, _)| *m == MaterialInput::Alpha)
+            || self.closures.iter().any(|c| c.transparent)
+    }
+
+    /// Coverage at `ctx` in [0, 1]: the Alpha input (1 when unbound) times the share of the
+    /// mixture that is not a Transparent BSDF.
+    pub fn alpha(&self, ctx: &ShadingInputs) -> f32 {
+        self.run(ctx, false, |slots| {
+            let mut a = 1.0f32;
+            for (m, s) in &self.bindings {
+                if *m == MaterialInput::Alpha {
+                    a = read(s, slots, ctx).x;
+                }
+            }
+            let transparent: f32 = self
+                .closures
+                .iter()
+                .filter(|c| c.transparent)
+                .map(|c| read(&c.weight, slots, ctx).x.max(0.0))
+                .sum();
+            (a * (1.0 - transparent)).clamp(0.0, 1.0)
+        })
+    }
+
     /// Runs `program` into the per-thread slots, then `f` reads them.
     fn run<T>(&self, ctx: &ShadingInputs, emission: bool, f: impl FnOnce(&[Vec4]) -> T) -> T {
         SLOTS.with(|cell| {
@@ -657,10 +694,21 @@ impl ShadingGraph {
     /// component keeps the estimator unbiased without evaluating every closure.
     pub fn pick_closure(&self, ctx: &ShadingInputs, u: f32) -> Option<(InputValues, f32)> {
         self.run(ctx, false, |slots| {
-            let bsdfs = || self.closures.iter().filter(|c| !c.emission);
+            let bsdfs = || {
+                self.closures
+                    .iter()
+                    .filter(|c| !c.emission && !c.transparent)
+            };
             let weight = |c: &Closure| read(&c.weight, slots, ctx).x.max(0.0);
-            let total: f32 = bsdfs().map(weight).sum();
-            let scale = if total > 1.0 { 1.0 / total } else { 1.0 };
+            // A surface point is shaded only where the path did not pass through the mixture's
+            // transparent share T: given that, each BSDF's probability is its weight / (1 - T).
+            let coverage = 1.0 - self.transparent_share(slots, ctx);
+            let total: f32 = bsdfs().map(weight).sum::<f32>() / coverage.max(1e-6);
+            let scale = if total > 1.0 {
+                1.0 / (total * coverage.max(1e-6))
+            } else {
+                1.0 / coverage.max(1e-6)
+            };
             let mut acc = 0.0;
             for c in bsdfs() {
                 let w = weight(c) * scale;
@@ -694,8 +742,24 @@ impl ShadingGraph {
                 }
                 sum += w * strength * color.max(Vec3::ZERO);
             }
-            sum
+            // Seen only where the path did not pass through (see `pick_closure`).
+            let coverage = 1.0 - self.transparent_share(slots, ctx);
+            if coverage > 1e-6 {
+                sum / coverage
+            } else {
+                Vec3::ZERO
+            }
         })
+    }
+
+    /// The summed weight of the Transparent BSDF leaves, in [0, 1].
+    fn transparent_share(&self, slots: &[Vec4], ctx: &ShadingInputs) -> f32 {
+        self.closures
+            .iter()
+            .filter(|c| c.transparent)
+            .map(|c| read(&c.weight, slots, ctx).x.max(0.0))
+            .sum::<f32>()
+            .min(1.0)
     }
 
     pub fn drives(&self, input: MaterialInput) -> bool {

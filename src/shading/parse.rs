@@ -17,7 +17,7 @@
 //! ```
 //!
 //! * `inputs` binds material inputs (`base_color`, `metallic`, `roughness`, `specular`,
-//!   `transmission`, `emission`, `emission_strength`) to a node output or a constant; a bound
+//!   `transmission`, `emission`, `emission_strength`, `alpha`) to a node output or a constant; a bound
 //!   input replaces the glTF material's factor and texture, the others keep the glTF values.
 //! * A node's `inputs` give each socket a number, an array of 3 (vector, colour) or 4 (RGBA)
 //!   numbers, or a link `{ "node": <name>, "output": <socket> }`. Unlinked sockets take the
@@ -46,7 +46,8 @@
 //!   (rings), `wave_profile`: sin | saw | tri); `magic_texture` (`depth` 0-10);
 //!   `brick_texture` (`offset`, `offset_frequency`, `squash`, `squash_frequency`).
 //! * `closures` (instead of or with `inputs`): a Mix / Add Shader tree flattened into its
-//!   leaves, `[{"kind": "bsdf" | "emission", "weight": <value or link>, "inputs": {...}}]`.
+//!   leaves, `[{"kind": "bsdf" | "emission" | "transparent", "weight": <value or link>,
+//!   "inputs": {...}}]` (a transparent leaf's weight is the surface's transparency).
 //!   Each shading point picks one BSDF leaf with probability equal to its weight (the path is
 //!   absorbed with the remaining probability; weights summing above 1 are normalised) and
 //!   renders it with that leaf's inputs over the glTF defaults; emission leaves add
@@ -839,12 +840,12 @@ pub fn parse_graph(v: &Value, path: &str, images: &mut dyn ImageLoader) -> R<Sha
     for (ci, c) in closures_json.iter().enumerate() {
         let p = format!("{cpath}[{ci}]");
         let cm = object(c, &p)?;
-        let emission = enum_value(
+        let closure_kind = enum_value(
             cm,
             "kind",
             &p,
-            &[("bsdf", false), ("emission", true)],
-            false,
+            &[("bsdf", 0), ("emission", 1), ("transparent", 2)],
+            0,
         )?;
         let weight = match cm.get("weight") {
             Some(w) => resolve(w, &key_path(&p, "weight"), SocketType::Float)?,
@@ -856,7 +857,8 @@ pub fn parse_graph(v: &Value, path: &str, images: &mut dyn ImageLoader) -> R<Sha
             None => Vec::new(),
         };
         closures.push(super::graph::Closure {
-            emission,
+            emission: closure_kind == 1,
+            transparent: closure_kind == 2,
             weight,
             bindings: inputs,
         });

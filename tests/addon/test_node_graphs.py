@@ -273,6 +273,33 @@ def setups():
         chk.inputs["Scale"].default_value = 3.0
         return chk.outputs["Fac"]
 
+    mat, nt, sh = new_material("AlphaChecker", "ShaderNodeBsdfPrincipled")
+    sh.inputs["Base Color"].default_value = (0.9, 0.2, 0.1, 1.0)
+    chk = nt.nodes.new("ShaderNodeTexChecker")
+    chk.inputs["Scale"].default_value = 2.0
+    nt.links.new(chk.outputs["Fac"], sh.inputs["Alpha"])
+    out.append(("AlphaChecker", mat))
+
+    mat, nt, sh = new_material("AlphaConst", "ShaderNodeBsdfPrincipled")
+    sh.inputs["Base Color"].default_value = (0.1, 0.7, 0.2, 1.0)
+    sh.inputs["Alpha"].default_value = 0.4
+    out.append(("AlphaConst", mat))
+
+    mat = bpy.data.materials.new("MixTransparent")
+    mat.use_nodes = True
+    nt = mat.node_tree
+    nt.nodes.clear()
+    outn = nt.nodes.new("ShaderNodeOutputMaterial")
+    tr = nt.nodes.new("ShaderNodeBsdfTransparent")
+    df = nt.nodes.new("ShaderNodeBsdfDiffuse")
+    df.inputs["Color"].default_value = (0.2, 0.3, 0.9, 1.0)
+    mx = nt.nodes.new("ShaderNodeMixShader")
+    mx.inputs["Fac"].default_value = 0.6
+    nt.links.new(tr.outputs[0], mx.inputs[1])
+    nt.links.new(df.outputs[0], mx.inputs[2])
+    nt.links.new(mx.outputs[0], outn.inputs["Surface"])
+    out.append(("MixTransparent", mat))
+
     mixed("MixDiffuseGlossy")
     mixed("MixCheckerFac", checker_fac)
     mixed("AddEmission", add=True)
@@ -287,6 +314,8 @@ def build_scene():
     for i, (name, mat) in enumerate(tiles):
         r, c = divmod(i, COLS)
         C.mesh_object(name, tile_mesh, mat, location=(c * 1.2 - (COLS - 1) * 0.6, (rows - 1) * 0.6 - r * 1.2, 0.0))
+    floor = C.material("Floor", "ShaderNodeBsdfDiffuse", (0.5, 0.45, 0.4))
+    C.mesh_object("Floor", C.plane(40.0), floor, location=(0.0, 0.0, -0.5))
     C.world((1.0, 1.0, 1.0), 0.3)
     C.light("Sun", "SUN", 4.0, (0, 0, 5), rotation=(1.0, 0.0, 0.5), angle=0.0)
     cam = C.camera((0.0, 0.0, 5.0), (0.0, 0.0, 0.0))
