@@ -532,7 +532,11 @@ fn material_fields() {
     );
     // alphaMode is rendered (stochastic transparency), not warned about.
     assert_eq!(g.alpha_mode, prism::scene::AlphaMode::Blend);
-    assert!(!s.warnings.iter().any(|w| w.contains("alphaMode")), "{:?}", s.warnings);
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("alphaMode")),
+        "{:?}",
+        s.warnings
+    );
 }
 
 #[test]

@@ -793,14 +793,15 @@ class Exporter:
             if alpha is not None and not bind("alpha", alpha) and float(alpha.default_value) < 1.0:
                 gb.bind_const("alpha", float(alpha.default_value))
                 handled.add(alpha.identifier)
-            handled.add("Normal")
+            self._graph_normal(gb, node, m, handled)
             self._principled_warnings(name, node, handled)
         elif t in {"BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_ANISOTROPIC", "BSDF_GLASS"}:
             if bind("base_color", S("Color")):
                 m["image"] = None
             if t != "BSDF_DIFFUSE":
                 bind("roughness", S("Roughness"))
-            handled.update({"Normal", "Weight"})
+            self._graph_normal(gb, node, m, handled)
+            handled.add("Weight")
             self._linked_warnings(name, node, handled)
         elif t == "EMISSION":
             e_col, e_str = S("Color"), S("Strength")
@@ -944,6 +945,16 @@ class Exporter:
         if not closures:
             return None
         return {"version": 1, "nodes": gb.nodes, "closures": closures}
+
+    def _graph_normal(self, gb, node, m, handled):
+        """The shader's Normal input through the graph (Bump nodes, ...) unless it is the
+        tangent-space normal map the glTF path carries."""
+        handled.add("Normal")
+        sock = node.inputs.get("Normal")
+        if sock is None or not sock.is_linked or m.get("normal") is not None:
+            return
+        if gb.bind("normal", sock):
+            m.pop("normal_unsupported", None)
 
     def _linked_warnings(self, name, node, handled):
         for sock in node.inputs:

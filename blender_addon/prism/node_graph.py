@@ -392,6 +392,12 @@ class GraphBuilder:
             if I("Vector").is_linked:
                 j["inputs"]["vector"] = self.value(I("Vector"), ctx)
             outs = {"Distance": "distance", "Color": "color", "Position": "position", "W": "w", "Radius": "radius"}
+        elif t == "BUMP":
+            m = {"strength": I("Strength"), "distance": I("Distance"), "height": I("Height")}
+            j = {"type": "bump", "invert": bool(node.invert), "inputs": self._inputs(node, ctx, m)}
+            if I("Normal").is_linked:
+                j["inputs"]["normal"] = self.value(I("Normal"), ctx)
+            outs = {"Normal": "normal"}
         elif t == "TEX_WAVE":
             rings = node.wave_type == "RINGS"
             direction = (node.rings_direction if rings else node.bands_direction).lower()

@@ -507,6 +507,42 @@ impl Geometry {
         out
     }
 
+    /// The shading inputs a Bump node needs at two points `step` (world units) from `sp` along
+    /// the triangle's edges (attributes extrapolate linearly past the triangle, as with ray
+    /// differentials).
+    pub fn bump_inputs(
+        &self,
+        sp: &SurfacePoint,
+        wo: Vec3,
+        camera_ray: bool,
+        step: f32,
+    ) -> crate::shading::BumpInputs {
+        let inst = &self.instances[sp.instance as usize];
+        let mesh = &self.meshes[inst.mesh as usize];
+        let [v0, v1, v2] = mesh
+            .vertices(sp.prim as usize)
+            .map(|v| inst.object_to_world.transform_point3(v));
+        let e1 = (v1 - v0).length().max(1e-30);
+        let e2 = (v2 - v0).length().max(1e-30);
+        let sx = self.surface_point_at(sp.instance, sp.prim, sp.b1 + step / e1, sp.b2);
+        let sy = self.surface_point_at(sp.instance, sp.prim, sp.b1, sp.b2 + step / e2);
+        let mut dx = self.shading_inputs(&sx, wo, camera_ray);
+        let mut dy = self.shading_inputs(&sy, wo, camera_ray);
+        // The offset points belong to the same surface side as `sp`.
+        let centre = self.shading_inputs(sp, wo, camera_ray);
+        for d in [&mut dx, &mut dy] {
+            d.backfacing = centre.backfacing;
+            d.normal = centre.normal;
+            d.true_normal = centre.true_normal;
+        }
+        crate::shading::BumpInputs {
+            dx,
+            dy,
+            dpdx: sx.p - sp.p,
+            dpdy: sy.p - sp.p,
+        }
+    }
+
     /// World-space surface data at barycentrics (b1, b2) of a triangle of an instance.
     pub fn surface_point_at(&self, instance: u32, prim: u32, b1: f32, b2: f32) -> SurfacePoint {
         let inst = &self.instances[instance as usize];
@@ -666,7 +702,13 @@ impl Geometry {
     /// the geometric normal's side.
     pub fn apply_normal_map(&self, sp: &mut SurfacePoint, nt: Vec3, wo: Option<Vec3>) {
         let (t, b) = self.normal_map_frame(sp);
-        let Some(n) = (t * nt.x + b * nt.y + sp.ns * nt.z).try_normalize() else {
+        self.apply_world_normal(sp, t * nt.x + b * nt.y + sp.ns * nt.z, wo);
+    }
+
+    /// Replaces `sp.ns` by the world-space normal `n` (a bump or normal map's), kept a valid
+    /// shading normal as [`Geometry::apply_normal_map`] does.
+    pub fn apply_world_normal(&self, sp: &mut SurfacePoint, n: Vec3, wo: Option<Vec3>) {
+        let Some(n) = n.try_normalize() else {
             return;
         };
         sp.ns = match wo.and_then(Vec3::try_normalize) {

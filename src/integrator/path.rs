@@ -246,9 +246,19 @@ impl<'a> PathTracer<'a> {
             let wo_world = -ray.dir;
             material.apply_normal_map(geometry, &scene.textures, &mut sp, Some(wo_world));
             // What a shading graph reads here (only gathered for materials that have one).
-            let graph_inputs = material
+            let mut graph_inputs = material
                 .has_graph()
                 .then(|| geometry.shading_inputs(&sp, wo_world, depth == 0));
+            if let Some(inputs) = graph_inputs.filter(|_| material.has_graph_normal()) {
+                // Bump offsets of about a pixel's footprint at the camera (the height's
+                // gradient is what matters; Cycles uses ray differentials).
+                let step = ((camera_offset + hit.t) * 1e-3).max(1e-6);
+                let bump = geometry.bump_inputs(&sp, wo_world, depth == 0, step);
+                if let Some(n) = material.graph_normal(&inputs, &bump) {
+                    geometry.apply_world_normal(&mut sp, n, None);
+                    graph_inputs = Some(geometry.shading_inputs(&sp, wo_world, depth == 0));
+                }
+            }
 
             if material.is_emissive() {
                 let cos_light = sp.ng.dot(wo_world);

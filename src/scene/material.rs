@@ -147,6 +147,21 @@ impl Material {
         }
     }
 
+    /// The graph sets the shading normal (a Bump node): see [`Material::graph_normal`].
+    pub fn has_graph_normal(&self) -> bool {
+        self.graph.as_ref().is_some_and(|g| g.drives_normal())
+    }
+
+    /// The graph's shading normal, outward (on `ng`'s side, as `SurfacePoint::ns`).
+    pub fn graph_normal(
+        &self,
+        inputs: &ShadingInputs,
+        bump: &crate::shading::BumpInputs,
+    ) -> Option<Vec3> {
+        let n = self.graph.as_ref()?.normal(inputs, bump)?;
+        Some(if inputs.backfacing { -n } else { n })
+    }
+
     /// The material reads a shading graph: the integrator then gathers [`ShadingInputs`].
     pub fn has_graph(&self) -> bool {
         self.graph.is_some()

@@ -22,7 +22,7 @@ use super::math_ops::{safe_divide, smootherstep, smoothstep, MathOp, VectorMathO
 use super::noise::{noise_texture, white_noise, Fractal, FractalKind};
 use super::procedural::{checker, gradient, magic, Brick, GradientKind, Wave};
 use super::voronoi::{Feature, Metric, VoronoiParams};
-use super::ShadingInputs;
+use super::{BumpInputs, ShadingInputs};
 use crate::bsdf::fresnel_dielectric;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -154,6 +154,11 @@ pub enum NodeOp {
         normalize: bool,
     },
     Wave(Wave),
+    /// Bump: the normal tilted by the gradient of the height input, from the height at the
+    /// point and at two nearby points (see `BumpInputs`).
+    Bump {
+        invert: bool,
+    },
     Magic {
         depth: i32,
     },
@@ -407,6 +412,17 @@ impl NodeOp {
                     ]
                 },
             ),
+            Bump { .. } => (
+                const {
+                    &[
+                        f("strength", 1.0),
+                        f("distance", 1.0),
+                        f("height", 1.0),
+                        vec("normal", 0.0, 0.0, 0.0),
+                    ]
+                },
+                const { &[out("normal", V)] },
+            ),
             Wave(_) => (
                 const {
                     &[
@@ -468,7 +484,7 @@ impl NodeOp {
                 | Brick(_),
                 "vector",
             ) => Some(Implicit::Generated),
-            (Fresnel | LayerWeight, "normal") => Some(Implicit::Normal),
+            (Fresnel | LayerWeight | Bump { .. }, "normal") => Some(Implicit::Normal),
             _ => None,
         }
     }
@@ -497,6 +513,9 @@ pub enum MaterialInput {
     EmissionStrength,
     /// Coverage: 1 opaque, 0 fully transparent (Principled Alpha; stochastic transparency).
     Alpha,
+    /// The shading normal (world space, on the viewer's side like `ShadingInputs::normal`),
+    /// from a Bump node or any vector graph.
+    Normal,
 }
 
 pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
@@ -508,9 +527,10 @@ pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
     ("emission", MaterialInput::Emission, C),
     ("emission_strength", MaterialInput::EmissionStrength, F),
     ("alpha", MaterialInput::Alpha, F),
+    ("normal", MaterialInput::Normal, V),
 ];
 
-pub const N_MATERIAL_INPUTS: usize = 8;
+pub const N_MATERIAL_INPUTS: usize = 9;
 
 impl MaterialInput {
     pub fn index(self) -> usize {
@@ -521,6 +541,15 @@ impl MaterialInput {
             self,
             MaterialInput::Emission | MaterialInput::EmissionStrength
         )
+    }
+
+    /// Which evaluation program computes the input: 0 scattering, 1 emission, 2 normal.
+    fn program(self) -> usize {
+        match self {
+            MaterialInput::Emission | MaterialInput::EmissionStrength => 1,
+            MaterialInput::Normal => 2,
+            _ => 0,
+        }
     }
 }
 
@@ -549,10 +578,38 @@ pub struct ShadingGraph {
     /// Nodes (in evaluation order) the scattering inputs need, and those emission needs.
     surface_program: Vec<u32>,
     emission_program: Vec<u32>,
+    normal_program: Vec<u32>,
+    /// (Bump node, the nodes its height input needs), for evaluation at offset points.
+    bump_cones: Vec<(u32, Vec<u32>)>,
 }
 
 thread_local! {
     static SLOTS: RefCell<Vec<Vec4>> = const { RefCell::new(Vec::new()) };
+    static BUMP_SLOTS: RefCell<Vec<Vec4>> = const { RefCell::new(Vec::new()) };
+}
+
+/// The Bump node's normal (Cycles' formulation of Mikkelsen 2010, "Bump Mapping Unparametrized
+/// Surfaces on the GPU"): with R_x = dPdy x N, R_y = N x dPdx and det = dPdx . R_x, the surface
+/// gradient dh_x R_x + dh_y R_y tilts N: normalize(|det| N - distance sign(det) grad), blended
+/// with N by `strength`.
+pub fn bump_normal(
+    n: Vec3,
+    dpdx: Vec3,
+    dpdy: Vec3,
+    dhx: f32,
+    dhy: f32,
+    strength: f32,
+    distance: f32,
+) -> Vec3 {
+    let rx = dpdy.cross(n);
+    let ry = n.cross(dpdx);
+    let det = dpdx.dot(rx);
+    let grad = dhx * rx + dhy * ry;
+    let bumped = (det.abs() * n - distance * det.signum() * grad)
+        .try_normalize()
+        .unwrap_or(n);
+    let s = strength.max(0.0);
+    (s * bumped + (1.0 - s) * n).try_normalize().unwrap_or(n)
 }
 
 /// Rotation of Blender's Mapping node: Euler XYZ (X applied first).
@@ -577,21 +634,9 @@ impl ShadingGraph {
             .map(|n| n.first_slot as usize + n.op.signature().outputs.len())
             .max()
             .unwrap_or(0);
-        let program = |emission: bool| -> Vec<u32> {
+        let slot_owner = |slot: u32| nodes.iter().rposition(|n| n.first_slot <= slot);
+        let cone = |sources: Vec<Source>| -> Vec<u32> {
             let mut needed = vec![false; nodes.len()];
-            let slot_owner = |slot: u32| nodes.iter().rposition(|n| n.first_slot <= slot);
-            let mut sources: Vec<Source> = bindings
-                .iter()
-                .filter(|(m, _)| m.is_emission() == emission)
-                .map(|(_, s)| *s)
-                .collect();
-            for c in closures
-                .iter()
-                .filter(|c| c.emission == emission || c.transparent)
-            {
-                sources.push(c.weight);
-                sources.extend(c.bindings.iter().map(|(_, s)| *s));
-            }
             let mut stack: Vec<u32> = sources
                 .iter()
                 .filter_map(|s| match s {
@@ -615,8 +660,32 @@ impl ShadingGraph {
                 .filter(|&i| needed[i as usize])
                 .collect()
         };
-        let surface_program = program(false);
-        let emission_program = program(true);
+        let program = |which: usize| -> Vec<u32> {
+            let mut sources: Vec<Source> = bindings
+                .iter()
+                .filter(|(m, _)| m.program() == which)
+                .map(|(_, s)| *s)
+                .collect();
+            let emission = which == 1;
+            for c in closures
+                .iter()
+                .filter(|c| which < 2 && (c.emission == emission || c.transparent))
+            {
+                sources.push(c.weight);
+                sources.extend(c.bindings.iter().map(|(_, s)| *s));
+            }
+            cone(sources)
+        };
+        let surface_program = program(0);
+        let emission_program = program(1);
+        let normal_program = program(2);
+        // The height cone of every Bump node: re-run at the offset points.
+        let bump_cones = nodes
+            .iter()
+            .enumerate()
+            .filter(|(_, n)| matches!(n.op, NodeOp::Bump { .. }))
+            .map(|(i, n)| (i as u32, cone(vec![n.inputs[2]])))
+            .collect();
         ShadingGraph {
             nodes,
             n_slots,
@@ -624,7 +693,78 @@ impl ShadingGraph {
             closures,
             surface_program,
             emission_program,
+            normal_program,
+            bump_cones,
         }
+    }
+
+    pub fn drives_normal(&self) -> bool {
+        self.bindings
+            .iter()
+            .any(|(m, _)| *m == MaterialInput::Normal)
+    }
+
+    /// The graph's shading normal at `ctx` (viewer's side, unit), Bump nodes using `bump`.
+    pub fn normal(&self, ctx: &ShadingInputs, bump: &BumpInputs) -> Option<Vec3> {
+        let source = self
+            .bindings
+            .iter()
+            .find(|(m, _)| *m == MaterialInput::Normal)?
+            .1;
+        self.run_with(ctx, 2, Some(bump), |slots| read(&source, slots, ctx))
+            .xyz()
+            .try_normalize()
+    }
+
+    /// The height input of Bump node `node` evaluated at the offset point `alt`.
+    fn height_at(&self, node: u32, alt: &ShadingInputs) -> f32 {
+        let Some((_, cone)) = self.bump_cones.iter().find(|(n, _)| *n == node) else {
+            return 0.0;
+        };
+        BUMP_SLOTS.with(|cell| {
+            let mut slots = cell.borrow_mut();
+            if slots.len() < self.n_slots {
+                slots.resize(self.n_slots, Vec4::ZERO);
+            }
+            for &i in cone {
+                self.eval_into(i, &mut slots, alt, None);
+            }
+            read(&self.nodes[node as usize].inputs[2], &slots, alt).x
+        })
+    }
+
+    /// Evaluates node `i` into `slots`; a Bump node with `bump` gets its tilted normal.
+    fn eval_into(
+        &self,
+        i: u32,
+        slots: &mut [Vec4],
+        ctx: &ShadingInputs,
+        bump: Option<&BumpInputs>,
+    ) {
+        let node = &self.nodes[i as usize];
+        let mut inputs = [Vec4::ZERO; MAX_INPUTS];
+        for (k, s) in node.inputs.iter().enumerate() {
+            inputs[k] = read(s, slots, ctx);
+        }
+        let mut outputs = eval_node(&node.op, &inputs, ctx);
+        if let (NodeOp::Bump { invert }, Some(b)) = (&node.op, bump) {
+            let h = inputs[2].x;
+            let hx = self.height_at(i, &b.dx);
+            let hy = self.height_at(i, &b.dy);
+            let n = inputs[3].xyz().try_normalize().unwrap_or(ctx.normal);
+            outputs[0] = v3(bump_normal(
+                n,
+                b.dpdx,
+                b.dpdy,
+                hx - h,
+                hy - h,
+                inputs[0].x,
+                if *invert { -inputs[1].x } else { inputs[1].x },
+            ));
+        }
+        let n_out = node.op.signature().outputs.len();
+        let base = node.first_slot as usize;
+        slots[base..base + n_out].copy_from_slice(&outputs[..n_out]);
     }
 
     pub fn has_closures(&self) -> bool {
@@ -660,28 +800,31 @@ impl ShadingGraph {
         })
     }
 
-    /// Runs `program` into the per-thread slots, then `f` reads them.
+    /// Runs the scattering (`emission == false`) or emission program, then `f` reads the slots.
     fn run<T>(&self, ctx: &ShadingInputs, emission: bool, f: impl FnOnce(&[Vec4]) -> T) -> T {
+        self.run_with(ctx, emission as usize, None, f)
+    }
+
+    /// Runs program `which` (0 scattering, 1 emission, 2 normal) into the per-thread slots.
+    fn run_with<T>(
+        &self,
+        ctx: &ShadingInputs,
+        which: usize,
+        bump: Option<&BumpInputs>,
+        f: impl FnOnce(&[Vec4]) -> T,
+    ) -> T {
         SLOTS.with(|cell| {
             let mut slots = cell.borrow_mut();
             if slots.len() < self.n_slots {
                 slots.resize(self.n_slots, Vec4::ZERO);
             }
-            let program = if emission {
-                &self.emission_program
-            } else {
-                &self.surface_program
+            let program = match which {
+                0 => &self.surface_program,
+                1 => &self.emission_program,
+                _ => &self.normal_program,
             };
             for &i in program {
-                let node = &self.nodes[i as usize];
-                let mut inputs = [Vec4::ZERO; MAX_INPUTS];
-                for (k, s) in node.inputs.iter().enumerate() {
-                    inputs[k] = read(s, &slots, ctx);
-                }
-                let outputs = eval_node(&node.op, &inputs, ctx);
-                let n_out = node.op.signature().outputs.len();
-                let base = node.first_slot as usize;
-                slots[base..base + n_out].copy_from_slice(&outputs[..n_out]);
+                self.eval_into(i, &mut slots, ctx, bump);
             }
             f(&slots)
         })
@@ -776,7 +919,7 @@ impl ShadingGraph {
         self.run(ctx, emission, |slots| {
             let mut values: InputValues = [None; N_MATERIAL_INPUTS];
             for (m, s) in &self.bindings {
-                if m.is_emission() == emission {
+                if m.program() == emission as usize {
                     values[m.index()] = Some(read(s, slots, ctx));
                 }
             }
@@ -1046,6 +1189,9 @@ fn eval_node(op: &NodeOp, i: &[Vec4; MAX_INPUTS], ctx: &ShadingInputs) -> [Vec4;
             o[3] = s(r.position.w);
             o[4] = s(r.radius);
         }
+        // Without offsets (evaluated outside a normal binding) the normal passes unchanged;
+        // `ShadingGraph::run` computes the bumped one.
+        NodeOp::Bump { .. } => o[0] = v3(i[3].xyz().try_normalize().unwrap_or(ctx.normal)),
         NodeOp::Wave(wave) => {
             let fac = wave.eval(i[0].xyz() * i[1].x, i[2].x, i[3].x, i[4].x, i[5].x, i[6].x);
             o[0] = rgb(Vec3::splat(fac));
@@ -1152,6 +1298,20 @@ mod tests {
 
     fn link(slot: u32, from: SocketType, to: SocketType) -> Source {
         Source::Link { slot, from, to }
+    }
+
+    #[test]
+    fn bump_of_a_linear_height_tilts_by_its_slope() {
+        // h = k x on the plane z = 0: the bumped normal is normalize(-distance k, 0, 1).
+        let (k, dist) = (0.5f32, 0.8f32);
+        let (dx, dy) = (Vec3::new(1e-3, 0.0, 0.0), Vec3::new(2e-4, 1e-3, 0.0));
+        let n = bump_normal(Vec3::Z, dx, dy, k * dx.x, k * dy.x, 1.0, dist);
+        let want = Vec3::new(-dist * k, 0.0, 1.0).normalize();
+        assert!((n - want).length() < 1e-4, "{n} vs {want}");
+        // Strength 0 keeps the normal; swapped offsets (det < 0) give the same tilt.
+        assert_eq!(bump_normal(Vec3::Z, dx, dy, 1e-3, 0.0, 0.0, dist), Vec3::Z);
+        let m = bump_normal(Vec3::Z, dy, dx, k * dy.x, k * dx.x, 1.0, dist);
+        assert!((m - want).length() < 1e-4, "{m}");
     }
 
     #[test]

@@ -52,6 +52,17 @@ pub struct ShadingInputs {
     pub camera_ray: bool,
 }
 
+/// The shading inputs at two nearby points of the surface, for Bump nodes: the height is
+/// evaluated at the point and at `p + dpdx`, `p + dpdy` (Cycles takes the offsets from ray
+/// differentials, Prism from a pixel-sized step along two triangle edges).
+#[derive(Clone, Copy, Debug)]
+pub struct BumpInputs {
+    pub dx: ShadingInputs,
+    pub dy: ShadingInputs,
+    pub dpdx: Vec3,
+    pub dpdy: Vec3,
+}
+
 impl Default for ShadingInputs {
     fn default() -> Self {
         ShadingInputs {

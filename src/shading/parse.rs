@@ -44,7 +44,9 @@
 //!   euclidean | manhattan | chebychev | minkowski, `normalize`); `wave_texture`
 //!   (`wave_type`: bands | rings, `direction`: x | y | z | diagonal (bands) / spherical
 //!   (rings), `wave_profile`: sin | saw | tri); `magic_texture` (`depth` 0-10);
-//!   `brick_texture` (`offset`, `offset_frequency`, `squash`, `squash_frequency`).
+//!   `brick_texture` (`offset`, `offset_frequency`, `squash`, `squash_frequency`); `bump`
+//!   (`invert`; inputs `strength`, `distance`, `height`, `normal`), whose output goes to the
+//!   material input `normal`.
 //! * `closures` (instead of or with `inputs`): a Mix / Add Shader tree flattened into its
 //!   leaves, `[{"kind": "bsdf" | "emission" | "transparent", "weight": <value or link>,
 //!   "inputs": {...}}]` (a transparent leaf's weight is the surface's transparency).
@@ -107,6 +109,7 @@ pub const NODE_TYPES: &[&str] = &[
     "wave_texture",
     "magic_texture",
     "brick_texture",
+    "bump",
 ];
 
 /// Loads the images graphs name: `(path as written, linear?) -> image`.
@@ -282,6 +285,7 @@ fn node_op(
         "voronoi_texture" => &["dimensions", "feature", "distance", "normalize"],
         "wave_texture" => &["wave_type", "direction", "wave_profile"],
         "magic_texture" => &["depth"],
+        "bump" => &["invert"],
         "brick_texture" => &["offset", "offset_frequency", "squash", "squash_frequency"],
         _ => &[],
     };
@@ -463,6 +467,9 @@ fn node_op(
                 )?,
             })
         }
+        "bump" => NodeOp::Bump {
+            invert: flag(m, "invert", path, false)?,
+        },
         "magic_texture" => NodeOp::Magic {
             depth: match m.get("depth") {
                 None => 2,

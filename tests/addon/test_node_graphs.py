@@ -300,6 +300,18 @@ def setups():
     nt.links.new(mx.outputs[0], outn.inputs["Surface"])
     out.append(("MixTransparent", mat))
 
+    mat, nt, sh = new_material("BumpNoise", "ShaderNodeBsdfPrincipled")
+    sh.inputs["Base Color"].default_value = (0.7, 0.7, 0.7, 1.0)
+    sh.inputs["Roughness"].default_value = 0.4
+    nz = nt.nodes.new("ShaderNodeTexNoise")
+    nz.inputs["Scale"].default_value = 3.0
+    bump = nt.nodes.new("ShaderNodeBump")
+    bump.inputs["Strength"].default_value = 0.8
+    bump.inputs["Distance"].default_value = 0.3
+    nt.links.new(nz.outputs["Fac"], bump.inputs["Height"])
+    nt.links.new(bump.outputs["Normal"], sh.inputs["Normal"])
+    out.append(("BumpNoise", mat))
+
     mixed("MixDiffuseGlossy")
     mixed("MixCheckerFac", checker_fac)
     mixed("AddEmission", add=True)
@@ -351,6 +363,12 @@ def test_node_setups_match_cycles():
         ratio = ma / np.maximum(mb, 1e-4)
         rel = C.rel_mse(C.blur(a), C.blur(b))
         ok = np.all(np.abs(ratio - 1.0) < 0.10) and rel <= 0.03
+        if name == "BumpNoise":
+            # The bump pattern itself (a flat tile would match the means too).
+            la, lb = a.mean(axis=-1).ravel(), b.mean(axis=-1).ravel()
+            corr = float(np.corrcoef(la, lb)[0, 1])
+            print("  BumpNoise: pattern std %.4f (Cycles %.4f), correlation %.3f" % (la.std(), lb.std(), corr))
+            ok = ok and lb.std() > 0.01 and corr > 0.9
         print("  %-15s prism %s cycles %s relMSE %.4f %s" % (name, np.round(ma, 3), np.round(mb, 3), rel, "" if ok else "FAIL"))
         if not ok:
             failures.append(name)
