@@ -392,6 +392,9 @@ class GraphBuilder:
             if I("Vector").is_linked:
                 j["inputs"]["vector"] = self.value(I("Vector"), ctx)
             outs = {"Distance": "distance", "Color": "color", "Position": "position", "W": "w", "Radius": "radius"}
+        elif t in {"CURVE_RGB", "CURVE_FLOAT"}:
+            j = self._curves_node(node, ctx, t == "CURVE_RGB")
+            outs = {"Color": "color", "Value": "value"} if j is not None else None
         elif t == "BUMP":
             m = {"strength": I("Strength"), "distance": I("Distance"), "height": I("Height")}
             j = {"type": "bump", "invert": bool(node.invert), "inputs": self._inputs(node, ctx, m)}
@@ -442,6 +445,34 @@ class GraphBuilder:
                 self.warn(node, "the node's own texture mapping (N panel) is not supported; use a Mapping node")
         self.nodes[name] = j
         return outs
+
+    def _curves_node(self, node, ctx, rgb):
+        """RGB Curves / Float Curve as tables of 257 samples over the curve's clipping range, as
+        Cycles bakes them (RGB: each channel's curve after the combined one, as Blender's
+        curvemapping_evaluate_premulRGBF)."""
+        cm = node.mapping
+        try:
+            cm.initialize()
+        except Exception:
+            pass
+        lo, hi = float(cm.clip_min_x), float(cm.clip_max_x)
+        if not cm.use_clip or hi <= lo:
+            lo, hi = 0.0, 1.0
+        xs = [lo + (hi - lo) * k / 256.0 for k in range(257)]
+        curves = list(cm.curves)
+        tables = []
+        if rgb:
+            combined = curves[3]
+            for c in curves[:3]:
+                vals = [float(cm.evaluate(c, cm.evaluate(combined, x))) for x in xs]
+                tables.append({"lo": lo, "hi": hi, "values": vals, "extrapolate": cm.extend == "EXTRAPOLATED"})
+            m = {"fac": _in(node, "Fac", "Factor"), "color": _in(node, "Color")}
+        else:
+            c = curves[0]
+            tables.append({"lo": lo, "hi": hi, "values": [float(cm.evaluate(c, x)) for x in xs],
+                           "extrapolate": cm.extend == "EXTRAPOLATED"})
+            m = {"fac": _in(node, "Factor", "Fac"), "value": _in(node, "Value")}
+        return {"type": "curves", "tables": tables, "inputs": self._inputs(node, ctx, m)}
 
     def _image_node(self, node, ctx):
         img = node.image

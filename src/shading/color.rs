@@ -356,6 +356,53 @@ impl ColorRamp {
     }
 }
 
+/// A curve tabulated at `values.len()` evenly spaced points over [`lo`, `hi`] (Cycles bakes
+/// RGB Curves and Float Curve into such tables too): linear between samples, and outside the
+/// range either the end value or the end segment's slope (Blender's Extend Horizontal /
+/// Extrapolated).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CurveTable {
+    pub lo: f32,
+    pub hi: f32,
+    pub values: Vec<f32>,
+    pub extrapolate: bool,
+}
+
+impl CurveTable {
+    pub fn eval(&self, x: f32) -> f32 {
+        let v = &self.values;
+        let n = v.len();
+        if n == 0 {
+            return x;
+        }
+        if n == 1 || self.hi <= self.lo {
+            return v[0];
+        }
+        let t = (x - self.lo) / (self.hi - self.lo) * (n - 1) as f32;
+        if !t.is_finite() {
+            return v[0];
+        }
+        if t <= 0.0 {
+            return if self.extrapolate {
+                v[0] + (v[1] - v[0]) * t
+            } else {
+                v[0]
+            };
+        }
+        if t >= (n - 1) as f32 {
+            let over = t - (n - 1) as f32;
+            return if self.extrapolate {
+                v[n - 1] + (v[n - 1] - v[n - 2]) * over
+            } else {
+                v[n - 1]
+            };
+        }
+        let i = t.floor() as usize;
+        let f = t - i as f32;
+        v[i] + (v[i + 1] - v[i]) * f
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -448,6 +495,26 @@ mod tests {
             Vec3::splat(0.5)
         ));
         assert!(close(gamma(c, 2.0), c * c));
+    }
+
+    #[test]
+    fn curve_tables() {
+        let c = CurveTable {
+            lo: 0.0,
+            hi: 1.0,
+            values: vec![0.0, 0.25, 1.0],
+            extrapolate: false,
+        };
+        assert_eq!(c.eval(0.25), 0.125);
+        assert_eq!(c.eval(0.75), 0.625);
+        assert_eq!(c.eval(2.0), 1.0);
+        assert_eq!(c.eval(-1.0), 0.0);
+        let e = CurveTable {
+            extrapolate: true,
+            ..c
+        };
+        assert!((e.eval(1.5) - 1.75).abs() < 1e-6);
+        assert!((e.eval(-0.5) + 0.25).abs() < 1e-6);
     }
 
     #[test]

@@ -15,7 +15,7 @@ use glam::{Mat3, Vec2, Vec3, Vec4, Vec4Swizzles};
 
 use super::color::{
     bright_contrast, gamma, hsl_to_rgb, hsv_to_rgb, hue_saturation_value, luminance, rgb_to_hsl,
-    rgb_to_hsv, BlendMode, ColorRamp,
+    rgb_to_hsv, BlendMode, ColorRamp, CurveTable,
 };
 use super::image::{Extension, Image, Interpolation};
 use super::math_ops::{safe_divide, smootherstep, smoothstep, MathOp, VectorMathOp};
@@ -159,6 +159,8 @@ pub enum NodeOp {
     Bump {
         invert: bool,
     },
+    /// RGB Curves (3 tables: R, G, B, each with the combined curve applied) or Float Curve (1).
+    Curves(Vec<CurveTable>),
     Magic {
         depth: i32,
     },
@@ -411,6 +413,14 @@ impl NodeOp {
                         out("radius", F),
                     ]
                 },
+            ),
+            Curves(t) if t.len() == 1 => (
+                const { &[f("fac", 1.0), f("value", 1.0)] },
+                const { &[out("value", F)] },
+            ),
+            Curves(_) => (
+                const { &[f("fac", 1.0), col("color", 1.0, 1.0, 1.0)] },
+                const { &[out("color", C)] },
             ),
             Bump { .. } => (
                 const {
@@ -1191,6 +1201,17 @@ fn eval_node(op: &NodeOp, i: &[Vec4; MAX_INPUTS], ctx: &ShadingInputs) -> [Vec4;
         }
         // Without offsets (evaluated outside a normal binding) the normal passes unchanged;
         // `ShadingGraph::run` computes the bumped one.
+        NodeOp::Curves(t) => {
+            let fac = i[0].x;
+            if t.len() == 1 {
+                let v = i[1].x;
+                o[0] = s(v + (t[0].eval(v) - v) * fac);
+            } else {
+                let c = i[1].xyz();
+                let curved = Vec3::new(t[0].eval(c.x), t[1].eval(c.y), t[2].eval(c.z));
+                o[0] = rgb(c.lerp(curved, fac));
+            }
+        }
         NodeOp::Bump { .. } => o[0] = v3(i[3].xyz().try_normalize().unwrap_or(ctx.normal)),
         NodeOp::Wave(wave) => {
             let fac = wave.eval(i[0].xyz() * i[1].x, i[2].x, i[3].x, i[4].x, i[5].x, i[6].x);

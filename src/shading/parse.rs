@@ -46,7 +46,9 @@
 //!   (rings), `wave_profile`: sin | saw | tri); `magic_texture` (`depth` 0-10);
 //!   `brick_texture` (`offset`, `offset_frequency`, `squash`, `squash_frequency`); `bump`
 //!   (`invert`; inputs `strength`, `distance`, `height`, `normal`), whose output goes to the
-//!   material input `normal`.
+//!   material input `normal`; `curves` (`tables`: 1 for Float Curve, 3 for RGB Curves, each
+//!   `{"lo", "hi", "values": [...], "extrapolate"}` sampled evenly over [lo, hi]; inputs `fac`
+//!   and `value` / `color`).
 //! * `closures` (instead of or with `inputs`): a Mix / Add Shader tree flattened into its
 //!   leaves, `[{"kind": "bsdf" | "emission" | "transparent", "weight": <value or link>,
 //!   "inputs": {...}}]` (a transparent leaf's weight is the surface's transparency).
@@ -110,6 +112,7 @@ pub const NODE_TYPES: &[&str] = &[
     "magic_texture",
     "brick_texture",
     "bump",
+    "curves",
 ];
 
 /// Loads the images graphs name: `(path as written, linear?) -> image`.
@@ -286,6 +289,7 @@ fn node_op(
         "wave_texture" => &["wave_type", "direction", "wave_profile"],
         "magic_texture" => &["depth"],
         "bump" => &["invert"],
+        "curves" => &["tables"],
         "brick_texture" => &["offset", "offset_frequency", "squash", "squash_frequency"],
         _ => &[],
     };
@@ -467,6 +471,7 @@ fn node_op(
                 )?,
             })
         }
+        "curves" => NodeOp::Curves(curve_tables(m, path)?),
         "bump" => NodeOp::Bump {
             invert: flag(m, "invert", path, false)?,
         },
@@ -536,6 +541,45 @@ fn node_op(
             )
         }
     })
+}
+
+/// `tables`: 1 (Float Curve) or 3 (RGB Curves: R, G, B) of
+/// `{"lo": x, "hi": x, "values": [y, ...], "extrapolate": bool}`.
+fn curve_tables(m: &Map<String, Value>, path: &str) -> R<Vec<super::color::CurveTable>> {
+    let p = key_path(path, "tables");
+    let Some(list) = m.get("tables").and_then(Value::as_array) else {
+        return err(&p, "a curves node needs 'tables' (1 or 3 curve tables)");
+    };
+    if list.len() != 1 && list.len() != 3 {
+        return err(&p, format!("expected 1 or 3 tables, found {}", list.len()));
+    }
+    let mut out = Vec::new();
+    for (i, t) in list.iter().enumerate() {
+        let tp = format!("{p}[{i}]");
+        let tm = object(t, &tp)?;
+        check_keys(tm, &["lo", "hi", "values", "extrapolate"], &tp)?;
+        let num = |k: &str, d: f32| tm.get(k).map_or(Ok(d), |v| number(v, &key_path(&tp, k)));
+        let values = match tm.get("values").and_then(Value::as_array) {
+            Some(a) if !a.is_empty() => a
+                .iter()
+                .enumerate()
+                .map(|(j, v)| number(v, &format!("{tp}.values[{j}]")))
+                .collect::<R<Vec<f32>>>()?,
+            _ => {
+                return err(
+                    &key_path(&tp, "values"),
+                    "expected a non-empty array of numbers",
+                )
+            }
+        };
+        out.push(super::color::CurveTable {
+            lo: num("lo", 0.0)?,
+            hi: num("hi", 1.0)?,
+            values,
+            extrapolate: flag(tm, "extrapolate", &tp, false)?,
+        });
+    }
+    Ok(out)
 }
 
 fn ramp(m: &Map<String, Value>, path: &str) -> R<ColorRamp> {

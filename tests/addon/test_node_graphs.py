@@ -312,6 +312,20 @@ def setups():
     nt.links.new(bump.outputs["Normal"], sh.inputs["Normal"])
     out.append(("BumpNoise", mat))
 
+    mat, nt, sh = new_material("RGBCurves")
+    tex = nt.nodes.new("ShaderNodeTexImage")
+    tex.image = stripes
+    tex.interpolation = "Closest"
+    cu = nt.nodes.new("ShaderNodeRGBCurve")
+    pts = cu.mapping.curves[3].points
+    pts.new(0.3, 0.7)
+    red = cu.mapping.curves[0].points
+    red[1].location = (1.0, 0.6)
+    cu.mapping.update()
+    nt.links.new(tex.outputs["Color"], cu.inputs["Color"])
+    nt.links.new(cu.outputs["Color"], sh.inputs["Color"])
+    out.append(("RGBCurves", mat))
+
     mixed("MixDiffuseGlossy")
     mixed("MixCheckerFac", checker_fac)
     mixed("AddEmission", add=True)
