@@ -255,6 +255,11 @@ def _normal_map(node):
     img = _linked_image(src.inputs.get("Color"))
     if img is None:
         return None, False
+    tex = src.inputs["Color"].links[0].from_node
+    vec = tex.inputs.get("Vector")
+    if (vec is not None and vec.is_linked) or tex.interpolation != "Linear" or tex.extension != "REPEAT":
+        # Mapped, filtered or extended unlike glTF's sampler: the shading graph carries it.
+        return None, False
     strength = src.inputs.get("Strength")
     if strength is not None and strength.is_linked:
         return None, False
@@ -944,7 +949,7 @@ class Exporter:
                 % name)
         if not closures:
             return None
-        return {"version": 1, "nodes": gb.nodes, "closures": closures}
+        return {"version": 1, "world_up": "z", "nodes": gb.nodes, "closures": closures}
 
     def _graph_normal(self, gb, node, m, handled):
         """The shader's Normal input through the graph (Bump nodes, ...) unless it is the
@@ -1085,7 +1090,7 @@ class Exporter:
             materials[mi] = self._material(slots[mi] if 0 <= mi < len(slots) else None)
         # Normal-mapped materials need per-corner MikkTSpace tangents, so per-corner arrays;
         # so do the UV maps and colour attributes that shading graphs read.
-        needs_tangents = any("normalTexture" in self.materials[i] for i in materials.values())
+        needs_tangents = any(self._uses_tangents(self.materials[i]) for i in materials.values())
         graph_names = [self.materials[i]["name"] for i in materials.values()]
         reads_attributes = any("graph" in self.material_json.get(n, {}) for n in graph_names)
         corner = {}
@@ -1118,9 +1123,17 @@ class Exporter:
         self.mesh_cache[key] = len(self.meshes) - 1
         return self.mesh_cache[key]
 
+    def _uses_tangents(self, g):
+        """The glTF material has a normal map, or its shading graph a tangent-space one."""
+        if "normalTexture" in g:
+            return True
+        graph = self.material_json.get(g["name"], {}).get("graph", {})
+        return any(n.get("type") == "normal_map" and n.get("space") == "tangent"
+                   for n in graph.get("nodes", {}).values())
+
     def _mesh_tangent_attribute(self, me, attrs, materials):
         """Adds TANGENT (MikkTSpace, as Cycles uses) when a material of the mesh is normal-mapped."""
-        mapped = [g["name"] for g in materials if "normalTexture" in g]
+        mapped = [g["name"] for g in materials if self._uses_tangents(g)]
         if not mapped or "TEXCOORD_0" not in attrs:
             return
         layer = me.uv_layers.active  # the exported TEXCOORD_0

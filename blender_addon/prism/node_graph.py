@@ -110,7 +110,9 @@ class GraphBuilder:
         linked = any(isinstance(v, dict) for v in self.inputs.values())
         if not self.inputs or not (linked or "alpha" in self.inputs):
             return None
-        return {"version": 1, "nodes": self.nodes, "inputs": self.inputs}
+        # World-space vectors (Geometry, Normal Map in world space, ...) in Blender's Z-up
+        # frame, not the glTF file's Y-up one.
+        return {"version": 1, "world_up": "z", "nodes": self.nodes, "inputs": self.inputs}
 
     # -- links
     def value(self, sock, ctx):
@@ -395,6 +397,14 @@ class GraphBuilder:
         elif t in {"CURVE_RGB", "CURVE_FLOAT"}:
             j = self._curves_node(node, ctx, t == "CURVE_RGB")
             outs = {"Color": "color", "Value": "value"} if j is not None else None
+        elif t == "NORMAL_MAP":
+            if node.space not in {"TANGENT", "WORLD"}:
+                self.warn(node, "%s space is not supported; tangent space is used" % node.space)
+            if node.space == "TANGENT" and node.uv_map:
+                self.warn(node, "the UV map '%s' is not used for tangents; the active UV map is" % node.uv_map)
+            j = {"type": "normal_map", "space": "world" if node.space == "WORLD" else "tangent",
+                 "inputs": self._inputs(node, ctx, {"strength": I("Strength"), "color": I("Color")})}
+            outs = {"Normal": "normal"}
         elif t == "BUMP":
             m = {"strength": I("Strength"), "distance": I("Distance"), "height": I("Height")}
             j = {"type": "bump", "invert": bool(node.invert), "inputs": self._inputs(node, ctx, m)}

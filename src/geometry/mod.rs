@@ -489,6 +489,7 @@ impl Geometry {
         out.backfacing = backfacing;
         out.normal = sp.ns * flip;
         out.true_normal = sp.ng * flip;
+        (out.tangent, out.bitangent) = self.normal_map_frame(sp);
         out.object = inst.world_to_object.transform_point3(sp.p);
         out.object_normal = inst
             .object_to_world

@@ -159,6 +159,10 @@ pub enum NodeOp {
     Bump {
         invert: bool,
     },
+    /// Normal Map: a colour-encoded normal in tangent space (TEXCOORD_0's frame) or world space.
+    NormalMap {
+        world: bool,
+    },
     /// RGB Curves (3 tables: R, G, B, each with the combined curve applied) or Float Curve (1).
     Curves(Vec<CurveTable>),
     Magic {
@@ -422,6 +426,10 @@ impl NodeOp {
                 const { &[f("fac", 1.0), col("color", 1.0, 1.0, 1.0)] },
                 const { &[out("color", C)] },
             ),
+            NormalMap { .. } => (
+                const { &[f("strength", 1.0), col("color", 0.5, 0.5, 1.0)] },
+                const { &[out("normal", V)] },
+            ),
             Bump { .. } => (
                 const {
                     &[
@@ -589,6 +597,9 @@ pub struct ShadingGraph {
     surface_program: Vec<u32>,
     emission_program: Vec<u32>,
     normal_program: Vec<u32>,
+    /// World-space inputs and the normal output are in a Z-up frame (Blender's; the add-on's
+    /// graphs) rather than the scene's glTF Y-up one.
+    pub z_up: bool,
     /// (Bump node, the nodes its height input needs), for evaluation at offset points.
     bump_cones: Vec<(u32, Vec<u32>)>,
 }
@@ -705,6 +716,7 @@ impl ShadingGraph {
             emission_program,
             normal_program,
             bump_cones,
+            z_up: false,
         }
     }
 
@@ -721,9 +733,50 @@ impl ShadingGraph {
             .iter()
             .find(|(m, _)| *m == MaterialInput::Normal)?
             .1;
-        self.run_with(ctx, 2, Some(bump), |slots| read(&source, slots, ctx))
+        let ctx = &self.local(ctx);
+        let bump = BumpInputs {
+            dx: self.local(&bump.dx),
+            dy: self.local(&bump.dy),
+            dpdx: self.vector_in(bump.dpdx),
+            dpdy: self.vector_in(bump.dpdy),
+        };
+        let n = self
+            .run_with(ctx, 2, Some(&bump), |slots| read(&source, slots, ctx))
             .xyz()
-            .try_normalize()
+            .try_normalize()?;
+        Some(if self.z_up {
+            Vec3::new(n.x, n.z, -n.y)
+        } else {
+            n
+        })
+    }
+
+    /// A world-space vector of the scene in the graph's world frame.
+    fn vector_in(&self, v: Vec3) -> Vec3 {
+        if self.z_up {
+            // glTF (Y up) -> Blender (Z up): the inverse of the exporter's root rotation.
+            Vec3::new(v.x, -v.z, v.y)
+        } else {
+            v
+        }
+    }
+
+    /// `ctx` with its world-space vectors in the graph's world frame.
+    fn local(&self, ctx: &ShadingInputs) -> ShadingInputs {
+        let mut c = *ctx;
+        if self.z_up {
+            for v in [
+                &mut c.position,
+                &mut c.normal,
+                &mut c.true_normal,
+                &mut c.incoming,
+                &mut c.tangent,
+                &mut c.bitangent,
+            ] {
+                *v = self.vector_in(*v);
+            }
+        }
+        c
     }
 
     /// The height input of Bump node `node` evaluated at the offset point `alt`.
@@ -793,6 +846,7 @@ impl ShadingGraph {
     /// Coverage at `ctx` in [0, 1]: the Alpha input (1 when unbound) times the share of the
     /// mixture that is not a Transparent BSDF.
     pub fn alpha(&self, ctx: &ShadingInputs) -> f32 {
+        let ctx = &self.local(ctx);
         self.run(ctx, false, |slots| {
             let mut a = 1.0f32;
             for (m, s) in &self.bindings {
@@ -846,6 +900,7 @@ impl ShadingGraph {
     /// BSDF weight, e.g. the emission share of a Mix Shader). Stochastic selection of one
     /// component keeps the estimator unbiased without evaluating every closure.
     pub fn pick_closure(&self, ctx: &ShadingInputs, u: f32) -> Option<(InputValues, f32)> {
+        let ctx = &self.local(ctx);
         self.run(ctx, false, |slots| {
             let bsdfs = || {
                 self.closures
@@ -880,6 +935,7 @@ impl ShadingGraph {
 
     /// For a mixture: the summed emission of its emission closures (linear RGB).
     pub fn mixed_emission(&self, ctx: &ShadingInputs) -> Vec3 {
+        let ctx = &self.local(ctx);
         self.run(ctx, true, |slots| {
             let mut sum = Vec3::ZERO;
             for c in self.closures.iter().filter(|c| c.emission) {
@@ -926,6 +982,7 @@ impl ShadingGraph {
 
     /// The material inputs for scattering (`emission == false`) or for emission at `ctx`.
     pub fn evaluate(&self, ctx: &ShadingInputs, emission: bool) -> InputValues {
+        let ctx = &self.local(ctx);
         self.run(ctx, emission, |slots| {
             let mut values: InputValues = [None; N_MATERIAL_INPUTS];
             for (m, s) in &self.bindings {
@@ -1201,6 +1258,23 @@ fn eval_node(op: &NodeOp, i: &[Vec4; MAX_INPUTS], ctx: &ShadingInputs) -> [Vec4;
         }
         // Without offsets (evaluated outside a normal binding) the normal passes unchanged;
         // `ShadingGraph::run` computes the bumped one.
+        NodeOp::NormalMap { world } => {
+            // Work with the outward normal and frame, answer on the viewer's side.
+            let side = if ctx.backfacing { -1.0 } else { 1.0 };
+            let n_out = ctx.normal * side;
+            let c = i[1].xyz() * 2.0 - Vec3::ONE;
+            let mapped = if *world {
+                c
+            } else {
+                ctx.tangent * c.x + ctx.bitangent * c.y + n_out * c.z
+            };
+            let mapped = mapped.try_normalize().unwrap_or(n_out);
+            let strength = i[0].x.max(0.0);
+            let n = (n_out + (mapped - n_out) * strength)
+                .try_normalize()
+                .unwrap_or(n_out);
+            o[0] = v3(n * side);
+        }
         NodeOp::Curves(t) => {
             let fac = i[0].x;
             if t.len() == 1 {

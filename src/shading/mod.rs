@@ -44,6 +44,10 @@ pub struct ShadingInputs {
     pub object_normal: Vec3,
     /// Geometric normal, world space, flipped like `normal`.
     pub true_normal: Vec3,
+    /// The tangent frame of TEXCOORD_0 (MikkTSpace tangents when the mesh has them), world
+    /// space, around the outward shading normal: what tangent-space normal maps use.
+    pub tangent: Vec3,
+    pub bitangent: Vec3,
     /// Unit vector towards the viewer (the previous path vertex).
     pub incoming: Vec3,
     /// The ray hit the back of the surface (against the geometric normal).
@@ -74,6 +78,8 @@ impl Default for ShadingInputs {
             normal: Vec3::Z,
             object_normal: Vec3::Z,
             true_normal: Vec3::Z,
+            tangent: Vec3::X,
+            bitangent: Vec3::Y,
             incoming: Vec3::Z,
             backfacing: false,
             camera_ray: false,

@@ -16,6 +16,9 @@
 //!               "metallic": 0.0 } } }
 //! ```
 //!
+//! * `world_up`: `"y"` (default: the glTF scene's world) or `"z"` (Blender's world, which the
+//!   add-on writes): the frame of world-space vectors the graph reads (Geometry, Texture
+//!   Coordinate > Reflection, world-space normal maps) and of the normal it returns.
 //! * `inputs` binds material inputs (`base_color`, `metallic`, `roughness`, `specular`,
 //!   `transmission`, `emission`, `emission_strength`, `alpha`) to a node output or a constant; a bound
 //!   input replaces the glTF material's factor and texture, the others keep the glTF values.
@@ -48,7 +51,8 @@
 //!   (`invert`; inputs `strength`, `distance`, `height`, `normal`), whose output goes to the
 //!   material input `normal`; `curves` (`tables`: 1 for Float Curve, 3 for RGB Curves, each
 //!   `{"lo", "hi", "values": [...], "extrapolate"}` sampled evenly over [lo, hi]; inputs `fac`
-//!   and `value` / `color`).
+//!   and `value` / `color`); `normal_map` (`space`: tangent (TEXCOORD_0's frame) | world;
+//!   inputs `strength`, `color`).
 //! * `closures` (instead of or with `inputs`): a Mix / Add Shader tree flattened into its
 //!   leaves, `[{"kind": "bsdf" | "emission" | "transparent", "weight": <value or link>,
 //!   "inputs": {...}}]` (a transparent leaf's weight is the surface's transparency).
@@ -113,6 +117,7 @@ pub const NODE_TYPES: &[&str] = &[
     "brick_texture",
     "bump",
     "curves",
+    "normal_map",
 ];
 
 /// Loads the images graphs name: `(path as written, linear?) -> image`.
@@ -290,6 +295,7 @@ fn node_op(
         "magic_texture" => &["depth"],
         "bump" => &["invert"],
         "curves" => &["tables"],
+        "normal_map" => &["space"],
         "brick_texture" => &["offset", "offset_frequency", "squash", "squash_frequency"],
         _ => &[],
     };
@@ -472,6 +478,15 @@ fn node_op(
             })
         }
         "curves" => NodeOp::Curves(curve_tables(m, path)?),
+        "normal_map" => NodeOp::NormalMap {
+            world: enum_value(
+                m,
+                "space",
+                path,
+                &[("tangent", false), ("world", true)],
+                false,
+            )?,
+        },
         "bump" => NodeOp::Bump {
             invert: flag(m, "invert", path, false)?,
         },
@@ -652,7 +667,12 @@ struct Parsed<'v> {
 /// Parses and compiles a graph; `path` is the graph's JSON path (for messages).
 pub fn parse_graph(v: &Value, path: &str, images: &mut dyn ImageLoader) -> R<ShadingGraph> {
     let m = object(v, path)?;
-    check_keys(m, &["version", "nodes", "inputs", "closures"], path)?;
+    check_keys(
+        m,
+        &["version", "world_up", "nodes", "inputs", "closures"],
+        path,
+    )?;
+    let z_up = enum_value(m, "world_up", path, &[("y", false), ("z", true)], false)?;
     match m.get("version").and_then(Value::as_f64) {
         Some(x) if x == GRAPH_VERSION as f64 => {}
         Some(x) => {
@@ -914,7 +934,9 @@ pub fn parse_graph(v: &Value, path: &str, images: &mut dyn ImageLoader) -> R<Sha
             bindings: inputs,
         });
     }
-    Ok(ShadingGraph::with_closures(nodes, bindings, closures))
+    let mut graph = ShadingGraph::with_closures(nodes, bindings, closures);
+    graph.z_up = z_up;
+    Ok(graph)
 }
 
 #[cfg(test)]
