@@ -1435,7 +1435,7 @@ class Exporter:
         if self.unsupported_normals:
             self.warnings.insert(
                 0,
-                "unsupported Normal inputs ignored (only a tangent-space Normal Map node with an Image Texture is exported): "
+                "unsupported Normal inputs ignored (the nodes on them are named in their own warnings): "
                 + ", ".join(sorted(set(self.unsupported_normals))),
             )
         gltf = {

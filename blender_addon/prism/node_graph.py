@@ -399,7 +399,8 @@ class GraphBuilder:
             outs = {"Color": "color", "Value": "value"} if j is not None else None
         elif t == "NORMAL_MAP":
             if node.space not in {"TANGENT", "WORLD"}:
-                self.warn(node, "%s space is not supported; tangent space is used" % node.space)
+                self.warn(node, "%s space is not supported; the normal is left unperturbed" % node.space)
+                return None
             if node.space == "TANGENT" and node.uv_map:
                 self.warn(node, "the UV map '%s' is not used for tangents; the active UV map is" % node.uv_map)
             j = {"type": "normal_map", "space": "world" if node.space == "WORLD" else "tangent",

@@ -179,14 +179,22 @@ def test_export_normal_texture_and_tangents():
 
 
 def test_unsupported_normal_inputs_warn():
-    """A Bump node or an object-space Normal Map: no normalTexture, no TANGENT, one warning
-    naming the material; the export still succeeds."""
+    """An object-space Normal Map: no normalTexture, no TANGENT, one warning naming the
+    material; the export still succeeds. A Bump node is exported through the shading graph."""
     for mode in ("BUMP", "OBJECT"):
-        g, _d, warnings = export(scene(mode=mode))
+        g, d, warnings = export(scene(mode=mode))
         mat = g["materials"][0]
         prim = g["meshes"][0]["primitives"][0]
-        C.check("normalTexture" not in mat and "TANGENT" not in prim["attributes"], "%s: nothing exported" % mode)
-        C.check(any("Normal inputs ignored" in w and "Mapped" in w for w in warnings), "%s: warning %s" % (mode, warnings))
+        C.check("normalTexture" not in mat and "TANGENT" not in prim["attributes"], "%s: no glTF normal map" % mode)
+        if mode == "BUMP":
+            # A Bump node goes through the shading graph (tests/addon/test_node_graphs.py).
+            with open(os.path.join(d, "scene.materials.json")) as f:
+                graph = json.load(f)["materials"][mat["name"]]["graph"]
+            C.check(any(n["type"] == "bump" for n in graph["nodes"].values()) and "normal" in graph["inputs"],
+                    "BUMP: exported as a graph bump (%s)" % graph)
+            C.check(not warnings, "BUMP: no warnings %s" % warnings)
+        else:
+            C.check(any("Normal inputs ignored" in w and "Mapped" in w for w in warnings), "%s: warning %s" % (mode, warnings))
 
 
 def test_normal_map_parity():
