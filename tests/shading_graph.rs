@@ -75,6 +75,27 @@ fn render_file(gltf: &std::path::Path, size: u32, spp: u32) -> (Vec<[f32; 4]>, V
     (film.to_rgba(), warnings)
 }
 
+/// A graph from its JSON form (images are placeholders).
+fn graph(v: serde_json::Value) -> Arc<prism::shading::ShadingGraph> {
+    Arc::new(
+        parse_graph(&v, "graph", &mut NoImages)
+            .ok()
+            .expect("graph parses"),
+    )
+}
+
+/// Mean of the 4 x 4 centre pixels of a `size` x `size` image (the furnace sphere).
+fn centre_mean(img: &[[f32; 4]], size: usize) -> Vec3 {
+    let mut centre = Vec3::ZERO;
+    for y in size / 2 - 2..size / 2 + 2 {
+        for x in size / 2 - 2..size / 2 + 2 {
+            let p = img[y * size + x];
+            centre += Vec3::new(p[0], p[1], p[2]) / 16.0;
+        }
+    }
+    centre
+}
+
 fn px(img: &[[f32; 4]], size: u32, x: u32, y: u32) -> Vec3 {
     let p = img[(y * size + x) as usize];
     Vec3::new(p[0], p[1], p[2])
@@ -159,28 +180,14 @@ fn graph_base_colour_on_a_convex_diffuse_object_under_a_white_world() {
     // furnace_scene: a sphere of albedo `a` in a uniform white world, seen whole.
     let world = Vec3::ONE;
     let mut desc = furnace_scene(diffuse_material("Sphere", Vec3::ONE), world);
-    let graph = parse_graph(
-        &json!({"version": 1,
+    desc.materials[0].graph = Some(graph(json!({"version": 1,
                 "nodes": {"Half": {"type": "math", "operation": "multiply", "inputs": {"a": 0.25, "b": 2.0}},
                           "RGB": {"type": "combine_color",
                                   "inputs": {"red": {"node": "Half"}, "green": 0.25, "blue": 0.75}}},
-                "inputs": {"base_color": {"node": "RGB", "output": "color"}}}),
-        "graph",
-        &mut NoImages,
-    )
-    .ok()
-    .expect("graph parses");
-    desc.materials[0].graph = Some(Arc::new(graph));
+                "inputs": {"base_color": {"node": "RGB", "output": "color"}}})));
     let (_, img) = render_mean(desc, 32, 64, 8, 1);
     // The centre pixels see the sphere: radiance = albedo x world, one bounce.
-    let size = 32;
-    let mut centre = Vec3::ZERO;
-    for y in 14..18 {
-        for x in 14..18 {
-            let p = img[y * size + x];
-            centre += Vec3::new(p[0], p[1], p[2]) / 16.0;
-        }
-    }
+    let centre = centre_mean(&img, 32);
     let want = Vec3::new(0.5, 0.25, 0.75);
     assert!(
         (centre - want).abs().max_element() < 0.02,
@@ -236,8 +243,7 @@ fn mixed_closures_weigh_bsdfs_and_emission() {
     // (weight 0.3, colour (1, 0.5, 0.25) x 2), as the add-on flattens it, on a convex sphere
     // under a white world: radiance = 0.7 x albedo + 0.3 x emission.
     let mut desc = furnace_scene(diffuse_material("Sphere", Vec3::ONE), Vec3::ONE);
-    let graph = parse_graph(
-        &json!({"version": 1,
+    desc.materials[0].graph = Some(graph(json!({"version": 1,
                 "nodes": {"Fac": {"type": "math", "operation": "add", "inputs": {"a": 0.1, "b": 0.2}},
                           "Inv": {"type": "math", "operation": "subtract",
                                   "inputs": {"a": 1.0, "b": {"node": "Fac"}}}},
@@ -245,22 +251,9 @@ fn mixed_closures_weigh_bsdfs_and_emission() {
                     {"kind": "bsdf", "weight": {"node": "Inv"},
                      "inputs": {"base_color": [0.8, 0.6, 0.4], "metallic": 0.0, "specular": 0.0}},
                     {"kind": "emission", "weight": {"node": "Fac"},
-                     "inputs": {"emission": [1.0, 0.5, 0.25], "emission_strength": 2.0}}]}),
-        "graph",
-        &mut NoImages,
-    )
-    .ok()
-    .expect("graph parses");
-    desc.materials[0].graph = Some(Arc::new(graph));
+                     "inputs": {"emission": [1.0, 0.5, 0.25], "emission_strength": 2.0}}]})));
     let (_, img) = render_mean(desc, 32, 256, 8, 1);
-    let size = 32;
-    let mut centre = Vec3::ZERO;
-    for y in 14..18 {
-        for x in 14..18 {
-            let p = img[y * size + x];
-            centre += Vec3::new(p[0], p[1], p[2]) / 16.0;
-        }
-    }
+    let centre = centre_mean(&img, 32);
     let want = Vec3::new(0.8, 0.6, 0.4) * 0.7 + Vec3::new(1.0, 0.5, 0.25) * 2.0 * 0.3;
     assert!(
         (centre - want).abs().max_element() < 0.03 * want.max_element(),
