@@ -20,7 +20,7 @@ import numpy as np  # noqa: E402
 
 import common as C  # noqa: E402
 
-OUT = tempfile.mkdtemp(prefix="prism_graph_test_")
+OUT = tempfile.mkdtemp(prefix="prism_addon_test_graph_")
 prism = C.enable_addon()
 C.prefs().binary_path = C.BINARY
 
