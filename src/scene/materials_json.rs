@@ -20,7 +20,8 @@
 //!               "wavelengths": "hero", "wavelength_pdf": "visible" } }
 //! ```
 //!
-//! * `materials.<glTF material name>`: exactly one of `subsurface` | `dielectric`.
+//! * `materials.<glTF material name>`: at most one of `subsurface` | `dielectric`, and/or a
+//!   `graph` (a shading graph driving the material's inputs: `crate::shading::parse`).
 //! * `subsurface`: exactly one of `preset` | `sigma_a` + `sigma_s` | `reflectance` + `mfp`;
 //!   optional `scale` (> 0, default 1), `eta` (> 0, default 1.33) or `ior` (a number >= 1 or an
 //!   object with exactly one of the dielectric IOR forms below; the BSSRDF then uses its n_d as
