@@ -397,6 +397,9 @@ class GraphBuilder:
         elif t in {"CURVE_RGB", "CURVE_FLOAT"}:
             j = self._curves_node(node, ctx, t == "CURVE_RGB")
             outs = {"Color": "color", "Value": "value"} if j is not None else None
+        elif t == "BLACKBODY":
+            j = {"type": "blackbody", "inputs": self._inputs(node, ctx, {"temperature": I("Temperature")})}
+            outs = {"Color": "color"}
         elif t == "NORMAL_MAP":
             if node.space not in {"TANGENT", "WORLD"}:
                 self.warn(node, "%s space is not supported; the normal is left unperturbed" % node.space)

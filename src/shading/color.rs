@@ -356,6 +356,41 @@ impl ColorRamp {
     }
 }
 
+/// The Blackbody node: linear Rec.709 colour of a black body at `kelvin`, scaled to
+/// luminance 1, as Blender defines it (colours outside Rec.709 clamped to 0; temperatures held
+/// at 800 K and 12000 K beyond that range, as Cycles does). Computed from Planck's law and the
+/// CIE 1931 observer (tabulated once over reciprocal temperature, where the colour varies
+/// smoothly).
+pub fn blackbody(kelvin: f32) -> Vec3 {
+    use std::sync::OnceLock;
+    const N: usize = 512;
+    const MIRED_LO: f64 = 1e6 / 12000.0;
+    const MIRED_HI: f64 = 1e6 / 800.0;
+    static TABLE: OnceLock<Vec<Vec3>> = OnceLock::new();
+    let table = TABLE.get_or_init(|| {
+        (0..N)
+            .map(|k| {
+                let mired = MIRED_LO + (MIRED_HI - MIRED_LO) * k as f64 / (N - 1) as f64;
+                let t = 1e6 / mired;
+                // Planck's law up to a constant factor (normalised below), lambda in nm.
+                let planck = |lambda: f32| {
+                    let l = lambda as f64 * 1e-9;
+                    (1.0 / (l.powi(5) * ((1.438_776_877e-2 / (l * t)).exp() - 1.0)) * 1e-30) as f32
+                };
+                let xyz = crate::spectrum::cie::integrate_xyz(planck, 2);
+                let rgb = crate::spectrum::rgb::xyz_to_linear_srgb(xyz);
+                rgb / luminance(rgb)
+            })
+            .collect()
+    });
+    let mired = 1e6 / (kelvin.clamp(800.0, 12000.0) as f64);
+    let x =
+        ((mired - MIRED_LO) / (MIRED_HI - MIRED_LO) * (N - 1) as f64).clamp(0.0, (N - 1) as f64);
+    let i = (x.floor() as usize).min(N - 2);
+    let f = (x - i as f64) as f32;
+    table[i].lerp(table[i + 1], f).max(Vec3::ZERO)
+}
+
 /// A curve tabulated at `values.len()` evenly spaced points over [`lo`, `hi`] (Cycles bakes
 /// RGB Curves and Float Curve into such tables too): linear between samples, and outside the
 /// range either the end value or the end segment's slope (Blender's Extend Horizontal /
@@ -495,6 +530,21 @@ mod tests {
             Vec3::splat(0.5)
         ));
         assert!(close(gamma(c, 2.0), c * c));
+    }
+
+    #[test]
+    fn blackbody_is_normalised_and_ordered() {
+        for t in [1000.0, 2700.0, 6500.0, 10000.0] {
+            let c = blackbody(t);
+            // Luminance 1 (up to the clamping of out-of-gamut channels at low temperatures).
+            assert!((luminance(c) - 1.0).abs() < 0.08, "{t}: {c}");
+        }
+        let warm = blackbody(2000.0);
+        let cool = blackbody(10000.0);
+        assert!(warm.x > warm.z && cool.z > cool.x);
+        // 6500 K is close to D65, Rec.709's white: nearly neutral.
+        let d = blackbody(6504.0);
+        assert!((d - Vec3::ONE).abs().max_element() < 0.06, "{d}");
     }
 
     #[test]

@@ -14,8 +14,8 @@ use std::sync::Arc;
 use glam::{Mat3, Vec2, Vec3, Vec4, Vec4Swizzles};
 
 use super::color::{
-    bright_contrast, gamma, hsl_to_rgb, hsv_to_rgb, hue_saturation_value, luminance, rgb_to_hsl,
-    rgb_to_hsv, BlendMode, ColorRamp, CurveTable,
+    blackbody, bright_contrast, gamma, hsl_to_rgb, hsv_to_rgb, hue_saturation_value, luminance,
+    rgb_to_hsl, rgb_to_hsv, BlendMode, ColorRamp, CurveTable,
 };
 use super::image::{Extension, Image, Interpolation};
 use super::math_ops::{safe_divide, smootherstep, smoothstep, MathOp, VectorMathOp};
@@ -159,6 +159,7 @@ pub enum NodeOp {
     Bump {
         invert: bool,
     },
+    Blackbody,
     /// Normal Map: a colour-encoded normal in tangent space (TEXCOORD_0's frame) or world space.
     NormalMap {
         world: bool,
@@ -424,6 +425,10 @@ impl NodeOp {
             ),
             Curves(_) => (
                 const { &[f("fac", 1.0), col("color", 1.0, 1.0, 1.0)] },
+                const { &[out("color", C)] },
+            ),
+            Blackbody => (
+                const { &[f("temperature", 1500.0)] },
                 const { &[out("color", C)] },
             ),
             NormalMap { .. } => (
@@ -1258,6 +1263,7 @@ fn eval_node(op: &NodeOp, i: &[Vec4; MAX_INPUTS], ctx: &ShadingInputs) -> [Vec4;
         }
         // Without offsets (evaluated outside a normal binding) the normal passes unchanged;
         // `ShadingGraph::run` computes the bumped one.
+        NodeOp::Blackbody => o[0] = rgb(blackbody(i[0].x)),
         NodeOp::NormalMap { world } => {
             // Work with the outward normal and frame, answer on the viewer's side.
             let side = if ctx.backfacing { -1.0 } else { 1.0 };

@@ -52,7 +52,7 @@
 //!   material input `normal`; `curves` (`tables`: 1 for Float Curve, 3 for RGB Curves, each
 //!   `{"lo", "hi", "values": [...], "extrapolate"}` sampled evenly over [lo, hi]; inputs `fac`
 //!   and `value` / `color`); `normal_map` (`space`: tangent (TEXCOORD_0's frame) | world;
-//!   inputs `strength`, `color`).
+//!   inputs `strength`, `color`); `blackbody` (input `temperature` in kelvin).
 //! * `closures` (instead of or with `inputs`): a Mix / Add Shader tree flattened into its
 //!   leaves, `[{"kind": "bsdf" | "emission" | "transparent", "weight": <value or link>,
 //!   "inputs": {...}}]` (a transparent leaf's weight is the surface's transparency).
@@ -118,6 +118,7 @@ pub const NODE_TYPES: &[&str] = &[
     "bump",
     "curves",
     "normal_map",
+    "blackbody",
 ];
 
 /// Loads the images graphs name: `(path as written, linear?) -> image`.
@@ -478,6 +479,7 @@ fn node_op(
             })
         }
         "curves" => NodeOp::Curves(curve_tables(m, path)?),
+        "blackbody" => NodeOp::Blackbody,
         "normal_map" => NodeOp::NormalMap {
             world: enum_value(
                 m,
