@@ -13,7 +13,9 @@ mod stats;
 
 use glam::{Vec2, Vec3};
 use prism::bsdf::microfacet::TrowbridgeReitz;
-use prism::bsdf::{fresnel_dielectric, Bsdf, DielectricBsdf, DiffuseBsdf, MetallicRoughnessBsdf};
+use prism::bsdf::{
+    fresnel_dielectric, Bsdf, DielectricBsdf, DiffuseBsdf, MetallicRoughnessBsdf, TranslucentBsdf,
+};
 use prism::spectrum::SampledSpectrum;
 use rayon::prelude::*;
 use stats::{adaptive_simpson_2d, chi2_test, Pcg32};
@@ -111,6 +113,18 @@ fn chi2_cases() -> Vec<Chi2Case> {
             "diffuse",
             Target::Bsdf(diffuse(color())),
             wo_at(c),
+            [c, 0.0, 0.0],
+        );
+    }
+    // Lambertian transmission from either side.
+    for c in [0.2f32, -0.7] {
+        push(
+            "diffuse",
+            "translucent(cos_o)",
+            Target::Bsdf(Bsdf::Translucent(TranslucentBsdf {
+                transmittance: color(),
+            })),
+            wo_at(c.abs()) * Vec3::new(1.0, 1.0, c.signum()),
             [c, 0.0, 0.0],
         );
     }

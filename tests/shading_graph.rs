@@ -260,3 +260,18 @@ fn mixed_closures_weigh_bsdfs_and_emission() {
         "sphere centre {centre} vs {want}"
     );
 }
+
+#[test]
+fn translucent_sphere_in_a_white_furnace_returns_all_light() {
+    // A closed sphere of lossless Lambertian transmission: every path leaves it again.
+    let mut desc = furnace_scene(diffuse_material("Sphere", Vec3::ONE), Vec3::ONE);
+    desc.materials[0].graph = Some(graph(json!({"version": 1, "nodes": {},
+        "closures": [{"kind": "translucent", "weight": 1.0,
+                      "inputs": {"base_color": [1.0, 1.0, 1.0]}}]})));
+    let (_, img) = render_mean(desc, 32, 64, 64, 1);
+    let centre = centre_mean(&img, 32);
+    assert!(
+        (centre - Vec3::ONE).abs().max_element() < 0.02,
+        "translucent furnace {centre}"
+    );
+}

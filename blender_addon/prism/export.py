@@ -894,6 +894,10 @@ class Exporter:
                                          % (name, leaf.name))
                 closures.append({"kind": "transparent", "weight": weight})
                 continue
+            if t == "BSDF_TRANSLUCENT":
+                closures.append({"kind": "translucent", "weight": weight,
+                                 "inputs": {"base_color": V(S("Color"), [0.8, 0.8, 0.8])}})
+                continue
             if t == "EMISSION":
                 closures.append({"kind": "emission", "weight": weight,
                                  "inputs": {"emission": V(S("Color"), [1.0, 1.0, 1.0]),
@@ -1011,7 +1015,7 @@ class Exporter:
         m, sss, ok = convert_material(mat)
         mixed = None
         surface = _surface_node(mat) if mat is not None else None
-        if surface is not None and surface.type in {"MIX_SHADER", "ADD_SHADER", "BSDF_TRANSPARENT"}:
+        if surface is not None and surface.type in {"MIX_SHADER", "ADD_SHADER", "BSDF_TRANSPARENT", "BSDF_TRANSLUCENT"}:
             mixed = self._mixed_graph(name, surface, m)
             ok = mixed is not None
         if not ok:

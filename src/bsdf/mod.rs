@@ -52,6 +52,13 @@ pub enum Bsdf {
     Diffuse(DiffuseBsdf),
     MetallicRoughness(MetallicRoughnessBsdf),
     Dielectric(DielectricBsdf),
+    Translucent(TranslucentBsdf),
+}
+
+/// Lambertian transmission (Blender's Translucent BSDF): light leaves on the other side.
+#[derive(Clone, Copy, Debug)]
+pub struct TranslucentBsdf {
+    pub transmittance: SampledSpectrum,
 }
 
 /// Lambertian reflection.
@@ -95,6 +102,7 @@ impl Bsdf {
             Bsdf::Diffuse(b) => b.eval(wo, wi),
             Bsdf::MetallicRoughness(b) => b.eval(wo, wi),
             Bsdf::Dielectric(b) => b.eval(wo, wi),
+            Bsdf::Translucent(b) => b.eval(wo, wi),
         }
     }
 
@@ -105,6 +113,7 @@ impl Bsdf {
             Bsdf::Diffuse(b) => b.pdf(wo, wi),
             Bsdf::MetallicRoughness(b) => b.pdf(wo, wi),
             Bsdf::Dielectric(b) => b.pdf(wo, wi),
+            Bsdf::Translucent(b) => b.pdf(wo, wi),
         }
     }
 
@@ -116,7 +125,7 @@ impl Bsdf {
         match self {
             Bsdf::Diffuse(b) => b.eval(wo, wi),
             Bsdf::MetallicRoughness(b) => b.diffuse_part(wo, wi),
-            Bsdf::Dielectric(_) => SampledSpectrum::ZERO,
+            Bsdf::Dielectric(_) | Bsdf::Translucent(_) => SampledSpectrum::ZERO,
         }
     }
 
@@ -126,6 +135,7 @@ impl Bsdf {
             Bsdf::Diffuse(b) => b.eval_pdf(wo, wi),
             Bsdf::MetallicRoughness(b) => b.eval_pdf(wo, wi),
             Bsdf::Dielectric(b) => b.eval_pdf(wo, wi),
+            Bsdf::Translucent(b) => b.eval_pdf(wo, wi),
         }
     }
 
@@ -149,6 +159,7 @@ impl Bsdf {
             Bsdf::Diffuse(b) => b.sample(wo, uc, u),
             Bsdf::MetallicRoughness(b) => b.sample(wo, uc, u),
             Bsdf::Dielectric(b) => b.sample(wo, uc, u),
+            Bsdf::Translucent(b) => b.sample(wo, uc, u),
         }?;
         if s.pdf > 0.0 && s.pdf.is_finite() && s.f.is_finite() && s.wi.is_finite() {
             Some(s)
@@ -163,7 +174,7 @@ impl Bsdf {
     /// `BsdfSample::specular`.)
     pub fn is_specular(&self) -> bool {
         match self {
-            Bsdf::Diffuse(_) => false,
+            Bsdf::Diffuse(_) | Bsdf::Translucent(_) => false,
             Bsdf::MetallicRoughness(b) => b.is_specular(),
             Bsdf::Dielectric(b) => b.is_specular(),
         }
@@ -176,6 +187,7 @@ impl Bsdf {
             Bsdf::Diffuse(b) => b.reflectance,
             Bsdf::MetallicRoughness(b) => b.base_color,
             Bsdf::Dielectric(b) => b.transmission_tint,
+            Bsdf::Translucent(b) => b.transmittance,
         }
     }
 
@@ -196,6 +208,6 @@ impl Bsdf {
     /// True if the BSDF can scatter to the other side of the surface (the integrator must not
     /// flip the frame to face `wo` for these).
     pub fn has_transmission(&self) -> bool {
-        matches!(self, Bsdf::Dielectric(_))
+        matches!(self, Bsdf::Dielectric(_) | Bsdf::Translucent(_))
     }
 }

@@ -303,7 +303,7 @@ impl<'a> PathTracer<'a> {
             // leaves through the exit lobe below (`bssrdf::WalkBoundary`), which gets its own
             // next-event estimation; internal reflection cannot reach a light outside.
             let walk_exit = subsurface.filter(|_| walk_medium.is_some());
-            let transmissive = matches!(bsdf, Bsdf::Dielectric(_));
+            let transmissive = bsdf.has_transmission();
             // Reflective models shade both faces alike: turn the normals towards the viewer.
             // Dielectrics keep the outward normal so that inside/outside (eta) stays meaningful.
             let (ns, ng) = if !transmissive && sp.ng.dot(wo_world) < 0.0 {
@@ -320,7 +320,7 @@ impl<'a> PathTracer<'a> {
                 && match &bsdf {
                     Bsdf::Diffuse(_) => true,
                     Bsdf::MetallicRoughness(b) => b.metallic < 1.0,
-                    Bsdf::Dielectric(_) => false,
+                    Bsdf::Dielectric(_) | Bsdf::Translucent(_) => false,
                 };
             let wo = if bumped_diffuse {
                 glam::Vec3::new(wo.x, wo.y, wo.z.abs())

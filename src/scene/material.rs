@@ -5,7 +5,7 @@ use super::desc::{
     GltfMaterialDesc, IorDesc, MaterialDesc, MaterialOverride, TextureDesc, TextureRef,
 };
 use super::texture::sample_texture;
-use crate::bsdf::{Bsdf, DielectricBsdf, DiffuseBsdf, MetallicRoughnessBsdf};
+use crate::bsdf::{Bsdf, DielectricBsdf, DiffuseBsdf, MetallicRoughnessBsdf, TranslucentBsdf};
 use crate::bssrdf::SubsurfaceMaterial;
 use crate::geometry::{Geometry, SurfacePoint};
 use crate::shading::{MaterialInput, ShadingGraph, ShadingInputs};
@@ -413,6 +413,11 @@ impl Material {
                 RgbAlbedoSpectrum::new(rgb).sample(w)
             }
         };
+        if get(MaterialInput::Translucent).is_some_and(|t| t.x > 0.5) {
+            return Bsdf::Translucent(TranslucentBsdf {
+                transmittance: base,
+            });
+        }
         let (mut metallic, mut roughness) = (g.metallic, g.roughness);
         if let Some(t) = g.metallic_roughness_texture {
             let texel = lookup(textures, &t, uv);

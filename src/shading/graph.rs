@@ -539,6 +539,8 @@ pub enum MaterialInput {
     /// The shading normal (world space, on the viewer's side like `ShadingInputs::normal`),
     /// from a Bump node or any vector graph.
     Normal,
+    /// 1: the closure is Lambertian transmission (Translucent BSDF) of colour `base_color`.
+    Translucent,
 }
 
 pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
@@ -551,9 +553,10 @@ pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
     ("emission_strength", MaterialInput::EmissionStrength, F),
     ("alpha", MaterialInput::Alpha, F),
     ("normal", MaterialInput::Normal, V),
+    ("translucent", MaterialInput::Translucent, F),
 ];
 
-pub const N_MATERIAL_INPUTS: usize = 9;
+pub const N_MATERIAL_INPUTS: usize = 10;
 
 impl MaterialInput {
     pub fn index(self) -> usize {

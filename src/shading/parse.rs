@@ -54,7 +54,7 @@
 //!   and `value` / `color`); `normal_map` (`space`: tangent (TEXCOORD_0's frame) | world;
 //!   inputs `strength`, `color`); `blackbody` (input `temperature` in kelvin).
 //! * `closures` (instead of or with `inputs`): a Mix / Add Shader tree flattened into its
-//!   leaves, `[{"kind": "bsdf" | "emission" | "transparent", "weight": <value or link>,
+//!   leaves, `[{"kind": "bsdf" | "emission" | "transparent" | "translucent", "weight": <value or link>,
 //!   "inputs": {...}}]` (a transparent leaf's weight is the surface's transparency).
 //!   Each shading point picks one BSDF leaf with probability equal to its weight (the path is
 //!   absorbed with the remaining probability; weights summing above 1 are normalised) and
@@ -917,7 +917,12 @@ pub fn parse_graph(v: &Value, path: &str, images: &mut dyn ImageLoader) -> R<Sha
             cm,
             "kind",
             &p,
-            &[("bsdf", 0), ("emission", 1), ("transparent", 2)],
+            &[
+                ("bsdf", 0),
+                ("emission", 1),
+                ("transparent", 2),
+                ("translucent", 3),
+            ],
             0,
         )?;
         let weight = match cm.get("weight") {
@@ -925,10 +930,13 @@ pub fn parse_graph(v: &Value, path: &str, images: &mut dyn ImageLoader) -> R<Sha
             None => Source::Const(Vec4::ONE),
         };
         let ipath = key_path(&p, "inputs");
-        let inputs = match cm.get("inputs") {
+        let mut inputs = match cm.get("inputs") {
             Some(i) => binding_list(object(i, &ipath)?, &ipath)?,
             None => Vec::new(),
         };
+        if closure_kind == 3 {
+            inputs.push((MaterialInput::Translucent, Source::Const(Vec4::ONE)));
+        }
         closures.push(super::graph::Closure {
             emission: closure_kind == 1,
             transparent: closure_kind == 2,

@@ -304,6 +304,10 @@ def setups():
     nt.links.new(mx.outputs[0], outn.inputs["Surface"])
     out.append(("MixTransparent", mat))
 
+    mat, nt, sh = new_material("Translucent", "ShaderNodeBsdfTranslucent")
+    sh.inputs["Color"].default_value = (0.9, 0.6, 0.3, 1.0)
+    out.append(("Translucent", mat))
+
     mat, nt, sh = new_material("BumpNoise", "ShaderNodeBsdfPrincipled")
     sh.inputs["Base Color"].default_value = (0.7, 0.7, 0.7, 1.0)
     sh.inputs["Roughness"].default_value = 0.4
