@@ -74,15 +74,44 @@ impl<'a> PathTracer<'a> {
     /// The fraction of light that reaches `distance` along `ray` (0 = blocked): the product of
     /// the transparency (1 - alpha) of the surfaces in between, as Cycles' transparent
     /// shadows. Without alpha materials, a plain occlusion test.
+    #[inline]
     fn transmittance(&self, ray: Ray, distance: f32) -> f32 {
-        let geometry = &self.scene.geometry;
         if !self.alpha {
-            return if geometry.occluded(&ray, distance) {
+            return if self.scene.geometry.occluded(&ray, distance) {
                 0.0
             } else {
                 1.0
             };
         }
+        self.transmittance_through_alpha(ray, distance)
+    }
+
+    /// Stochastic transparency at `sp`: true with probability 1 - alpha (opaque materials:
+    /// never).
+    #[inline(never)]
+    fn passes_through(
+        &self,
+        sp: &crate::geometry::SurfacePoint,
+        dir: glam::Vec3,
+        camera_ray: bool,
+        sampler: &mut Sampler,
+    ) -> bool {
+        let scene = self.scene;
+        let m = &scene.materials[sp.material as usize];
+        if !m.has_alpha() {
+            return false;
+        }
+        let inputs = m
+            .has_graph()
+            .then(|| scene.geometry.shading_inputs(sp, -dir, camera_ray));
+        sampler.next_1d() >= m.alpha(&scene.textures, sp.uv, inputs.as_ref())
+    }
+
+    /// [`PathTracer::transmittance`] in a scene with alpha materials (kept out of line: the
+    /// common opaque case stays small).
+    #[inline(never)]
+    fn transmittance_through_alpha(&self, ray: Ray, distance: f32) -> f32 {
+        let geometry = &self.scene.geometry;
         let (mut ray, mut remaining, mut t) = (ray, distance, 1.0f32);
         for _ in 0..64 {
             let Some(h) = geometry.intersect(&ray, remaining) else {
@@ -198,17 +227,8 @@ impl<'a> PathTracer<'a> {
                     break;
                 }
                 let sp = geometry.surface_point(&h);
-                if !hidden {
-                    let m = &scene.materials[sp.material as usize];
-                    if !m.has_alpha() {
-                        break;
-                    }
-                    let inputs = m
-                        .has_graph()
-                        .then(|| geometry.shading_inputs(&sp, -ray.dir, depth == 0));
-                    if sampler.next_1d() < m.alpha(&scene.textures, sp.uv, inputs.as_ref()) {
-                        break;
-                    }
+                if !hidden && !self.passes_through(&sp, ray.dir, depth == 0, sampler) {
+                    break;
                 }
                 skipped += 1;
                 if skipped > 64 {

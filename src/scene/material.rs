@@ -386,12 +386,12 @@ impl Material {
     ) -> Bsdf {
         let g = &self.gltf;
         let mut u_select = u_select;
-        let driven = match (&self.graph, inputs) {
+        let driven: Option<crate::shading::graph::InputValues> = match (&self.graph, inputs) {
             (Some(graph), Some(inputs)) if graph.has_closures() => {
                 match graph.pick_closure(inputs, u_select) {
                     Some((values, u)) => {
                         u_select = u;
-                        values
+                        Some(values)
                     }
                     // No BSDF closure here: nothing scatters.
                     None => {
@@ -401,10 +401,10 @@ impl Material {
                     }
                 }
             }
-            (Some(graph), Some(inputs)) => graph.evaluate(inputs, false),
-            _ => Default::default(),
+            (Some(graph), Some(inputs)) => Some(graph.evaluate(inputs, false)),
+            _ => None,
         };
-        let get = |m: MaterialInput| driven[m.index()];
+        let get = |m: MaterialInput| driven.as_ref().and_then(|d| d[m.index()]);
         let base = match (get(MaterialInput::BaseColor), g.base_color_texture) {
             (Some(c), _) => RgbAlbedoSpectrum::new(c.xyz().clamp(Vec3::ZERO, Vec3::ONE)).sample(w),
             (None, None) => self.base_albedo.sample(w),
