@@ -131,6 +131,11 @@ class GraphBuilder:
                 return link
         return None
 
+    def _upstream(self, sock):
+        """(node, output socket) that drives input `sock`, or None when unlinked (or muted)."""
+        link = self._live_link(sock)
+        return None if link is None else (link.from_node, link.from_socket)
+
     def _output(self, node, out, ctx, target):
         """JSON value for output `out` of `node`, read by input socket `target`."""
         for _ in range(256):  # reroutes, muted nodes and group boundaries
@@ -147,10 +152,10 @@ class GraphBuilder:
                         src = il.from_socket
                 if src is None:
                     return _const(target)
-                link = self._live_link(src)
-                if link is None:
+                up = self._upstream(src)
+                if up is None:
                     return _const(src)
-                node, out = link.from_node, link.from_socket
+                node, out = up
                 continue
             if node.type == "GROUP":
                 tree = node.node_tree
@@ -167,10 +172,10 @@ class GraphBuilder:
                     self.warn(node, "the group has no output '%s'" % out.name)
                     return _const(target)
                 ctx = ctx + (node,)
-                link = self._live_link(inner)
-                if link is None:
+                up = self._upstream(inner)
+                if up is None:
                     return _const(inner)
-                node, out = link.from_node, link.from_socket
+                node, out = up
                 continue
             if node.type == "GROUP_INPUT":
                 if not ctx:
@@ -183,10 +188,10 @@ class GraphBuilder:
                         outer = s
                 if outer is None:
                     return _const(target)
-                link = self._live_link(outer)
-                if link is None:
+                up = self._upstream(outer)
+                if up is None:
                     return _const(outer)
-                node, out = link.from_node, link.from_socket
+                node, out = up
                 continue
             break
         if node.type == "VALUE":
