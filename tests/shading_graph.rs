@@ -29,8 +29,20 @@ fn panel_scene(
     graph: serde_json::Value,
     color: [f32; 4],
 ) -> std::path::PathBuf {
+    panel_scene_with(dir, Some(graph), color, |b| {
+        b.emissive_material("Panel", 1.0)
+    })
+}
+
+/// [`panel_scene`] with the material `material` builds and an optional graph.
+fn panel_scene_with(
+    dir: &std::path::Path,
+    graph: Option<serde_json::Value>,
+    color: [f32; 4],
+    material: impl FnOnce(&mut GltfBuilder) -> usize,
+) -> std::path::PathBuf {
     let mut b = GltfBuilder::new();
-    let m = b.emissive_material("Panel", 1.0);
+    let m = material(&mut b);
     let pos = b.positions(&[
         [-1.0, -1.0, 0.0],
         [1.0, -1.0, 0.0],
@@ -51,11 +63,17 @@ fn panel_scene(
     let c = b.camera("CameraData", 0.5, Some(1.0));
     b.root(json!({ "name": "Camera", "camera": c, "translation": [0.0, 0.0, 3.0] }));
     let gltf = b.write_gltf(&dir.join("panel.gltf"));
-    std::fs::write(
-        dir.join("panel.materials.json"),
-        json!({"version": 1, "materials": {"Panel": {"graph": graph}}}).to_string(),
-    )
-    .unwrap();
+    let sidecar = dir.join("panel.materials.json");
+    match graph {
+        Some(graph) => std::fs::write(
+            sidecar,
+            json!({"version": 1, "materials": {"Panel": {"graph": graph}}}).to_string(),
+        )
+        .unwrap(),
+        None => {
+            let _ = std::fs::remove_file(sidecar);
+        }
+    }
     gltf
 }
 
@@ -142,17 +160,53 @@ fn image_texture_on_a_uv_set_drives_emission_upright() {
     let (img, warnings) = render_file(&gltf, size, 32);
     assert!(warnings.is_empty(), "{warnings:?}");
     // Image y runs down the film: the top-left quarter shows the image's top-left texel.
-    let red = block(&img, size, 1, 1, 6);
-    let green = block(&img, size, 9, 1, 6);
-    let blue = block(&img, size, 1, 9, 6);
-    let white = block(&img, size, 9, 9, 6);
-    // Saturated primaries are at the edge of what smooth reflectance-style spectra reproduce:
-    // 3% of the peak.
-    let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() < 0.03 * 2.0;
-    assert!(close(red, Vec3::new(2.0, 0.0, 0.0)), "top-left {red}");
-    assert!(close(green, Vec3::new(0.0, 2.0, 0.0)), "top-right {green}");
-    assert!(close(blue, Vec3::new(0.0, 0.0, 2.0)), "bottom-left {blue}");
-    assert!(close(white, Vec3::splat(2.0)), "bottom-right {white}");
+    // Saturated primaries are at the edge of what smooth spectra reproduce: 3% of the peak.
+    assert_quadrants(&img, size, 2.0);
+}
+
+/// The quadrants of `img` (16 x 16) hold red, green, blue and white at `peak`.
+fn assert_quadrants(img: &[[f32; 4]], size: u32, peak: f32) {
+    let red = block(img, size, 1, 1, 6);
+    let green = block(img, size, 9, 1, 6);
+    let blue = block(img, size, 1, 9, 6);
+    let white = block(img, size, 9, 9, 6);
+    let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() < 0.03 * peak;
+    assert!(close(red, Vec3::new(peak, 0.0, 0.0)), "top-left {red}");
+    assert!(close(green, Vec3::new(0.0, peak, 0.0)), "top-right {green}");
+    assert!(close(blue, Vec3::new(0.0, 0.0, peak)), "bottom-left {blue}");
+    assert!(close(white, Vec3::splat(peak)), "bottom-right {white}");
+}
+
+#[test]
+fn gltf_texture_on_texcoord_1() {
+    // A plain glTF emissive texture with texCoord 1: read from TEXCOORD_1 (TEXCOORD_0 is all 0).
+    let dir = test_dir("gltf_texcoord_1");
+    let png = png_bytes(
+        2,
+        2,
+        &[
+            [255, 0, 0, 255],
+            [0, 255, 0, 255],
+            [0, 0, 255, 255],
+            [255, 255, 255, 255],
+        ],
+    );
+    let gltf = panel_scene_with(&dir, None, [1.0; 4], |b| {
+        let img = b.image_embedded(&png, "image/png");
+        let tex = b.texture(img, Some(json!({"magFilter": 9728, "minFilter": 9728})));
+        b.use_ext("KHR_materials_emissive_strength");
+        b.material(json!({"name": "Panel", "emissiveFactor": [1.0, 1.0, 1.0],
+            "emissiveTexture": {"index": tex, "texCoord": 1},
+            "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0]},
+            "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2.0}}}))
+    });
+    let size = 16;
+    let (img, warnings) = render_file(&gltf, size, 32);
+    assert!(
+        !warnings.iter().any(|w| w.contains("TEXCOORD")),
+        "{warnings:?}"
+    );
+    assert_quadrants(&img, size, 2.0);
 }
 
 #[test]

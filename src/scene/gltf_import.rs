@@ -1461,9 +1461,13 @@ impl Importer<'_> {
             }
             uv_transform = texture_transform_matrix(o, r, s);
         }
-        if tex_coord != 0 {
+        // Base colour, metallic-roughness and emissive slots read any set up to TEXCOORD_3
+        // (`Material::lookup_at`); normal maps take their tangent frame from TEXCOORD_0.
+        let readable =
+            slot != "normalTexture" && (tex_coord as usize) < crate::shading::MAX_ATTRIBUTE_SETS;
+        if tex_coord != 0 && !readable {
             self.warn_once(format!(
-                "{label}: {slot} uses TEXCOORD_{tex_coord}; only TEXCOORD_0 is loaded and used instead"
+                "{label}: {slot} uses TEXCOORD_{tex_coord}; TEXCOORD_0 is used instead"
             ));
         }
         let image = texture.source().index();

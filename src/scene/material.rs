@@ -53,6 +53,8 @@ pub struct Material {
     absorption: Option<RgbUnboundedSpectrum>,
     /// A shading graph driving some inputs (they replace the glTF factors and textures).
     graph: Option<Arc<ShadingGraph>>,
+    /// A glTF texture slot reads TEXCOORD_1 or above (from `ShadingInputs`).
+    uses_uv_sets: bool,
 }
 
 /// Smallest GGX alpha treated as rough; below it lobes are taken as perfectly specular.
@@ -104,6 +106,14 @@ impl Material {
             emission,
             absorption,
             graph: desc.graph.clone(),
+            uses_uv_sets: [
+                g.base_color_texture,
+                g.metallic_roughness_texture,
+                g.emissive_texture,
+            ]
+            .iter()
+            .flatten()
+            .any(|t| t.tex_coord > 0),
         }
     }
 
@@ -132,7 +142,7 @@ impl Material {
             _ => {
                 g.base_color.w
                     * g.base_color_texture
-                        .map_or(1.0, |t| lookup(textures, &t, uv).w)
+                        .map_or(1.0, |t| lookup_at(textures, &t, uv, inputs).w)
             }
         };
         match g.alpha_mode {
@@ -162,9 +172,10 @@ impl Material {
         Some(if inputs.backfacing { -n } else { n })
     }
 
-    /// The material reads a shading graph: the integrator then gathers [`ShadingInputs`].
+    /// The material reads [`ShadingInputs`] (a shading graph, or glTF textures on TEXCOORD_1
+    /// and above): the integrator then gathers them.
     pub fn has_graph(&self) -> bool {
-        self.graph.is_some()
+        self.graph.is_some() || self.uses_uv_sets
     }
 
     /// Linear RGB emitted radiance at a surface point (front side), for light power estimates.
@@ -176,7 +187,7 @@ impl Material {
     ) -> Vec3 {
         let texture_rgb = || match self.gltf.emissive_texture {
             None => self.gltf.emissive,
-            Some(t) => self.gltf.emissive * lookup(textures, &t, uv).xyz(),
+            Some(t) => self.gltf.emissive * lookup_at(textures, &t, uv, Some(inputs)).xyz(),
         };
         match &self.graph {
             Some(g) if g.has_closures() => g.mixed_emission(inputs),
@@ -257,7 +268,7 @@ impl Material {
         match self.gltf.emissive_texture {
             None => e.sample(w),
             Some(t) => {
-                let rgb = self.gltf.emissive * lookup(textures, &t, uv).xyz();
+                let rgb = self.gltf.emissive * lookup_at(textures, &t, uv, inputs).xyz();
                 RgbIlluminantSpectrum::new(rgb).sample(w)
             }
         }
@@ -409,7 +420,7 @@ impl Material {
             (Some(c), _) => RgbAlbedoSpectrum::new(c.xyz().clamp(Vec3::ZERO, Vec3::ONE)).sample(w),
             (None, None) => self.base_albedo.sample(w),
             (None, Some(t)) => {
-                let rgb = g.base_color.xyz() * lookup(textures, &t, uv).xyz();
+                let rgb = g.base_color.xyz() * lookup_at(textures, &t, uv, inputs).xyz();
                 RgbAlbedoSpectrum::new(rgb).sample(w)
             }
         };
@@ -420,7 +431,7 @@ impl Material {
         }
         let (mut metallic, mut roughness) = (g.metallic, g.roughness);
         if let Some(t) = g.metallic_roughness_texture {
-            let texel = lookup(textures, &t, uv);
+            let texel = lookup_at(textures, &t, uv, inputs);
             roughness *= texel.y;
             metallic *= texel.z;
         }
@@ -456,6 +467,23 @@ impl Material {
             ior: g.ior,
         })
     }
+}
+
+/// Like [`lookup`], at the texture's own TEXCOORD set when it is not 0 and the shading
+/// inputs are known (they hold every set, in Blender's v-up convention).
+fn lookup_at(
+    textures: &[TextureDesc],
+    tref: &TextureRef,
+    uv: Vec2,
+    inputs: Option<&ShadingInputs>,
+) -> Vec4 {
+    let uv = match (tref.tex_coord as usize, inputs) {
+        (n @ 1..crate::shading::MAX_ATTRIBUTE_SETS, Some(i)) => {
+            Vec2::new(i.uv[n].x, 1.0 - i.uv[n].y)
+        }
+        _ => uv,
+    };
+    lookup(textures, tref, uv)
 }
 
 /// Texture value at `uv` for a material's texture reference (white if the index is invalid).
