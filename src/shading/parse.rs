@@ -994,6 +994,24 @@ mod tests {
     }
 
     #[test]
+    fn world_up_z_reads_blender_world_vectors() {
+        // glTF's up (+Y) is Blender's +Z: a graph in Blender's frame sees the normal as +Z.
+        let g = parse(json!({"version": 1, "world_up": "z",
+            "nodes": {"Geo": {"type": "geometry"},
+                      "Sep": {"type": "separate_xyz", "inputs": {"vector": {"node": "Geo", "output": "normal"}}}},
+            "inputs": {"roughness": {"node": "Sep", "output": "z"},
+                       "metallic": {"node": "Sep", "output": "y"}}}))
+        .unwrap();
+        let ctx = ShadingInputs {
+            normal: glam::Vec3::Y,
+            ..Default::default()
+        };
+        let v = g.evaluate(&ctx, false);
+        assert_eq!(v[MaterialInput::Roughness.index()].unwrap().x, 1.0);
+        assert_eq!(v[MaterialInput::Metallic.index()].unwrap().x, 0.0);
+    }
+
+    #[test]
     fn errors_name_the_path() {
         let cases = [
             (
