@@ -511,13 +511,14 @@ impl Geometry {
     /// The shading inputs a Bump node needs at two points `step` (world units) from `sp` along
     /// the triangle's edges (attributes extrapolate linearly past the triangle, as with ray
     /// differentials).
+    /// `centre` are the inputs at `sp` itself.
     pub fn bump_inputs(
         &self,
         sp: &SurfacePoint,
-        wo: Vec3,
-        camera_ray: bool,
+        centre: &crate::shading::ShadingInputs,
         step: f32,
     ) -> crate::shading::BumpInputs {
+        let (wo, camera_ray) = (centre.incoming, centre.camera_ray);
         let inst = &self.instances[sp.instance as usize];
         let mesh = &self.meshes[inst.mesh as usize];
         let [v0, v1, v2] = mesh
@@ -530,7 +531,6 @@ impl Geometry {
         let mut dx = self.shading_inputs(&sx, wo, camera_ray);
         let mut dy = self.shading_inputs(&sy, wo, camera_ray);
         // The offset points belong to the same surface side as `sp`.
-        let centre = self.shading_inputs(sp, wo, camera_ray);
         for d in [&mut dx, &mut dy] {
             d.backfacing = centre.backfacing;
             d.normal = centre.normal;

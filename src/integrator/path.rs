@@ -273,7 +273,7 @@ impl<'a> PathTracer<'a> {
                 // Bump offsets of about a pixel's footprint at the camera (the height's
                 // gradient is what matters; Cycles uses ray differentials).
                 let step = ((camera_offset + hit.t) * 1e-3).max(1e-6);
-                let bump = geometry.bump_inputs(&sp, wo_world, depth == 0, step);
+                let bump = geometry.bump_inputs(&sp, &inputs, step);
                 if let Some(n) = material.graph_normal(&inputs, &bump) {
                     geometry.apply_world_normal(&mut sp, n, None);
                     graph_inputs = Some(geometry.shading_inputs(&sp, wo_world, depth == 0));

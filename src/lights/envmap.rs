@@ -36,9 +36,7 @@ pub struct EnvImage {
     pub texels: Vec<Vec3>,
 }
 
-fn luminance(rgb: Vec3) -> f32 {
-    0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z
-}
+use crate::spectrum::rgb::luminance;
 
 /// Blender's Z-up frame from glTF's Y-up frame and back.
 #[inline]

@@ -197,9 +197,7 @@ pub struct Lights {
     scene_radius: f32,
 }
 
-fn luminance(rgb: Vec3) -> f32 {
-    0.2126 * rgb.x + 0.7152 * rgb.y + 0.0722 * rgb.z
-}
+use crate::spectrum::rgb::luminance;
 
 fn mean_texture_rgb(tex: &TextureDesc) -> Vec3 {
     if tex.texels.is_empty() {

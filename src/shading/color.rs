@@ -4,14 +4,9 @@
 
 use glam::{Vec3, Vec4};
 
-/// Rec.709 luminance weights of Blender's default scene-linear space (what Blender uses to
-/// turn a colour into a float: RGB to BW, and implicit colour -> float socket conversion).
-pub const LUMINANCE: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
-
-#[inline]
-pub fn luminance(c: Vec3) -> f32 {
-    c.dot(LUMINANCE)
-}
+/// What Blender uses to turn a colour into a float (RGB to BW, implicit colour -> float
+/// socket conversion).
+pub use crate::spectrum::rgb::luminance;
 
 /// RGB -> (hue in [0,1), saturation, value), the hexcone model.
 pub fn rgb_to_hsv(c: Vec3) -> Vec3 {

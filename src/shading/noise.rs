@@ -230,9 +230,10 @@ fn negate_if(v: f32, cond: u32) -> f32 {
     }
 }
 
+/// `(1 - t) a + t b`, the form of Blender's noise interpolation.
 #[inline]
 fn lerp(a: f32, b: f32, t: f32) -> f32 {
-    (1.0 - t) * a + t * b
+    crate::math::lerp(t, a, b)
 }
 
 /// Integer cell and fraction.

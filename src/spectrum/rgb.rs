@@ -24,6 +24,13 @@ pub fn xyz_to_linear_srgb(xyz: Vec3) -> Vec3 {
     XYZ_TO_SRGB * xyz
 }
 
+/// Rec.709 luminance of linear RGB (Blender's colour -> float weights in its default
+/// scene-linear space).
+#[inline]
+pub fn luminance(rgb: Vec3) -> f32 {
+    rgb.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
 /// sRGB electro-optical transfer function (decode 8-bit texture values to linear).
 #[inline]
 pub fn srgb_to_linear(v: f32) -> f32 {
