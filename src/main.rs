@@ -3,7 +3,8 @@
 
 use clap::{Parser, Subcommand, ValueEnum};
 use prism::error::{PrismError, Result};
-use prism::film::{ExrCompression, FilterKind, PixelFilter};
+use prism::film::denoise::{Oidn, OidnLocation};
+use prism::film::{ExrCompression, FilterKind, PixelFilter, SampleClamp};
 use prism::integrator::{WavelengthPdf, WavelengthSampling, WavelengthStrategy};
 use prism::lights::LightSelection;
 use prism::render::{render, AdaptiveSampling, Progress, RenderSettings, RenderStats};
@@ -109,6 +110,30 @@ struct SceneArgs {
     /// limit (default: the JSON's render.time_limit, else 0)
     #[arg(long)]
     time_limit: Option<f64>,
+    /// Limit each sample's direct light (at most one bounce) to this luminance, as Cycles'
+    /// Clamp Direct; 0 = off (default: the JSON's render.clamp_direct, else 0)
+    #[arg(long)]
+    clamp_direct: Option<f32>,
+    /// Limit each sample's indirect light (two or more bounces) to this luminance, as Cycles'
+    /// Clamp Indirect; 0 = off (default: the JSON's render.clamp_indirect, else 0)
+    #[arg(long)]
+    clamp_indirect: Option<f32>,
+}
+
+#[derive(clap::Args, Clone)]
+struct DenoiseArgs {
+    /// Denoise the final image with Intel Open Image Denoise (RT filter, albedo and normal
+    /// guides); the noisy image is kept in the EXR's Noisy.RGBA channels. Without a usable
+    /// library: a warning and the noisy image (default: the JSON's render.denoise, else off)
+    #[arg(long)]
+    denoise: bool,
+    /// Also denoise the progressive previews (--preview); they stay noisy (and fast) otherwise
+    #[arg(long)]
+    denoise_previews: bool,
+    /// The Open Image Denoise library, or a folder holding it (e.g. Blender's lib folder);
+    /// default: $PRISM_OIDN, else the system's library
+    #[arg(long)]
+    oidn: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -174,34 +199,39 @@ struct BenchArgs {
     wavelengths: Option<WavelengthsArg>,
 }
 
+#[derive(clap::Args)]
+struct RenderArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Output EXR (default: <scene stem>.exr in the current directory)
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// Worker threads (default: all cores)
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Progress on stderr: an interactive bar, JSON lines, or nothing (default: bar on a terminal)
+    #[arg(long, value_enum)]
+    progress: Option<ProgressMode>,
+    /// Also write the image after every progressive pass to this EXR (for live previews)
+    #[arg(long)]
+    preview: Option<PathBuf>,
+    /// Also write denoising guides and Blender passes as extra EXR channels: Albedo.RGB
+    /// (first non-Dirac surface, under white light), Normal.XYZ (world space, glTF axes),
+    /// Depth.Z (distance along the view axis, 1e10 for the background)
+    #[arg(long)]
+    guides: bool,
+    /// Compression of the EXR output and previews (all lossless): rle (default), zip
+    /// (smallest files) or none (fastest to write and read; the Blender add-on uses it)
+    #[arg(long, value_enum, default_value = "rle")]
+    exr_compression: ExrCompressionArg,
+    #[command(flatten)]
+    denoise: DenoiseArgs,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene to an OpenEXR file (float32 RGBA, linear Rec.709).
-    Render {
-        #[command(flatten)]
-        scene: SceneArgs,
-        /// Output EXR (default: <scene stem>.exr in the current directory)
-        #[arg(short, long)]
-        output: Option<PathBuf>,
-        /// Worker threads (default: all cores)
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Progress on stderr: an interactive bar, JSON lines, or nothing (default: bar on a terminal)
-        #[arg(long, value_enum)]
-        progress: Option<ProgressMode>,
-        /// Also write the image after every progressive pass to this EXR (for live previews)
-        #[arg(long)]
-        preview: Option<PathBuf>,
-        /// Also write denoising guides and Blender passes as extra EXR channels: Albedo.RGB
-        /// (first non-Dirac surface, under white light), Normal.XYZ (world space, glTF axes),
-        /// Depth.Z (distance along the view axis, 1e10 for the background)
-        #[arg(long)]
-        guides: bool,
-        /// Compression of the EXR output and previews (all lossless): rle (default), zip
-        /// (smallest files) or none (fastest to write and read; the Blender add-on uses it)
-        #[arg(long, value_enum, default_value = "rle")]
-        exr_compression: ExrCompressionArg,
-    },
+    Render(Box<RenderArgs>),
     /// Convert an EXR to an sRGB PNG for viewing (clamped, optional exposure in stops).
     ToPng {
         input: PathBuf,
@@ -227,30 +257,7 @@ enum Command {
 fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Render {
-            scene,
-            output,
-            threads,
-            progress,
-            preview,
-            guides,
-            exr_compression,
-        } => {
-            let compression = match exr_compression {
-                ExrCompressionArg::Rle => ExrCompression::Rle,
-                ExrCompressionArg::Zip => ExrCompression::Zip,
-                ExrCompressionArg::None => ExrCompression::None,
-            };
-            run_render(
-                &scene,
-                output,
-                threads,
-                progress,
-                preview,
-                guides,
-                compression,
-            )
-        }
+        Command::Render(args) => run_render(&args),
         Command::Compare {
             test,
             reference,
@@ -274,9 +281,19 @@ fn main() {
     }
 }
 
-/// Loads and builds the scene; also returns the seconds spent in [`Scene::build`] (BVHs, light
-/// tables), reported in the JSON start event so round-trip benchmarks can split the load.
-fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings, f64)> {
+/// A loaded scene with its settings.
+struct Loaded {
+    scene: Scene,
+    settings: RenderSettings,
+    /// Seconds spent in [`Scene::build`] (BVHs, light tables), reported in the JSON start event
+    /// so round-trip benchmarks can split the load.
+    build_seconds: f64,
+    /// The JSON's `render.denoise`.
+    denoise: bool,
+}
+
+/// Loads and builds the scene and resolves its settings (flags over the JSON's render block).
+fn load(args: &SceneArgs) -> Result<Loaded> {
     let desc = load_scene(
         &args.scene,
         args.materials.as_deref(),
@@ -365,6 +382,7 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings, f64)> {
         },
         adaptive: None,
         time_limit: None,
+        clamp: SampleClamp::default(),
     };
     let threshold = args
         .noise_threshold
@@ -408,7 +426,19 @@ fn load(args: &SceneArgs) -> Result<(Scene, RenderSettings, f64)> {
     if settings.max_depth > 1024 {
         return Err(PrismError::input("--max-depth must be at most 1024"));
     }
-    Ok((scene, settings, build_seconds))
+    settings.clamp = SampleClamp::new(
+        args.clamp_direct.or(defaults.clamp_direct).unwrap_or(0.0),
+        args.clamp_indirect
+            .or(defaults.clamp_indirect)
+            .unwrap_or(0.0),
+    )
+    .map_err(|e| PrismError::input(format!("--{}", e.replace('_', "-"))))?;
+    Ok(Loaded {
+        scene,
+        settings,
+        build_seconds,
+        denoise: defaults.denoise.unwrap_or(false),
+    })
 }
 
 fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
@@ -428,15 +458,24 @@ fn json_escape(s: &str) -> String {
     serde_json::Value::String(s.to_string()).to_string()
 }
 
-fn run_render(
-    args: &SceneArgs,
-    output: Option<PathBuf>,
-    threads: Option<usize>,
-    progress: Option<ProgressMode>,
-    preview: Option<PathBuf>,
-    guides: bool,
-    compression: ExrCompression,
-) -> Result<()> {
+fn run_render(render_args: &RenderArgs) -> Result<()> {
+    let RenderArgs {
+        scene: args,
+        output,
+        threads,
+        progress,
+        preview,
+        guides,
+        exr_compression,
+        denoise: denoise_args,
+    } = render_args;
+    let (threads, progress, guides) = (*threads, *progress, *guides);
+    let output = output.clone();
+    let compression = match exr_compression {
+        ExrCompressionArg::Rle => ExrCompression::Rle,
+        ExrCompressionArg::Zip => ExrCompression::Zip,
+        ExrCompressionArg::None => ExrCompression::None,
+    };
     let mode = progress.unwrap_or(if std::io::stderr().is_terminal() {
         ProgressMode::Bar
     } else {
@@ -451,17 +490,33 @@ fn run_render(
         PathBuf::from(format!("{stem}.exr"))
     });
     let load_start = Instant::now();
-    let (scene, mut settings, build_seconds) = load(args)?;
-    settings.guides = guides;
+    let Loaded {
+        scene,
+        mut settings,
+        build_seconds,
+        denoise,
+    } = load(args)?;
     let pool = thread_pool(threads)?;
-    for w in &scene.warnings {
-        match mode {
-            ProgressMode::Json => {
-                eprintln!("{{\"event\":\"warning\",\"message\":{}}}", json_escape(w))
-            }
-            _ => eprintln!("prism: warning: {w}"),
+    let warn = |w: &str| match mode {
+        ProgressMode::Json => {
+            eprintln!("{{\"event\":\"warning\",\"message\":{}}}", json_escape(w))
         }
+        _ => eprintln!("prism: warning: {w}"),
+    };
+    for w in &scene.warnings {
+        warn(w);
     }
+    let oidn = if denoise_args.denoise || denoise {
+        load_oidn(denoise_args.oidn.as_deref())?
+            .map_err(|e| warn(&format!("{e}; the image is not denoised")))
+            .ok()
+    } else {
+        None
+    };
+    // The denoiser reads the albedo and normal guides.
+    settings.guides = guides || oidn.is_some();
+    let denoise_previews = denoise_args.denoise_previews && oidn.is_some();
+    let threads_used = pool.current_num_threads();
     let (bvh_hits, bvh_misses) = prism::geometry::bvh_cache::counters();
     if mode == ProgressMode::Json {
         eprintln!(
@@ -469,7 +524,7 @@ fn run_render(
             settings.width,
             settings.height,
             settings.spp,
-            pool.current_num_threads(),
+            threads_used,
             load_start.elapsed().as_secs_f64(),
             build_seconds,
             bvh_hits,
@@ -516,7 +571,13 @@ fn run_render(
     let mut on_pass = |film: &prism::film::Film, spp: u32| {
         if let Some(path) = &preview {
             if spp < settings.spp {
-                match write_atomically(path, |tmp| film.write_exr_with(tmp, compression)) {
+                let denoised = oidn
+                    .as_ref()
+                    .filter(|_| denoise_previews)
+                    .and_then(|o| denoise_film(o, film, threads_used).ok());
+                let write =
+                    |tmp: &Path| film.write_exr_denoised(tmp, compression, denoised.as_deref());
+                match write_atomically(path, write) {
                     Ok(()) if mode == ProgressMode::Json => {
                         eprintln!(
                             "{{\"event\":\"preview\",\"path\":{},\"spp\":{spp}}}",
@@ -529,7 +590,7 @@ fn run_render(
             }
         }
     };
-    let (film, stats) =
+    let (mut film, stats) =
         pool.install(|| render(&scene, &settings, &CANCEL, &on_progress, &mut on_pass));
     if let Some(b) = bar {
         b.finish_and_clear();
@@ -537,9 +598,65 @@ fn run_render(
     if let Some(e) = preview_error {
         return Err(e);
     }
+    film.write_guides = guides;
+    // A cancelled render is written at once, noisy: the user asked it to stop.
+    let mut denoise_seconds = None;
+    if let Some(oidn) = oidn.as_ref().filter(|_| !stats.cancelled) {
+        let start = Instant::now();
+        match denoise_film(oidn, &film, threads_used) {
+            Ok(d) => film.denoised = Some(d),
+            Err(e) => warn(&format!("{e}; the image is not denoised")),
+        }
+        denoise_seconds = Some(start.elapsed().as_secs_f64());
+    }
     write_atomically(&output, |tmp| film.write_exr_with(tmp, compression))?;
-    report_done(mode, &stats, &output);
+    report_done(
+        mode,
+        &stats,
+        &output,
+        denoise_seconds,
+        film.denoised.is_some(),
+    );
     Ok(())
+}
+
+/// Loads Open Image Denoise from `explicit` (a file or folder), else `$PRISM_OIDN`, else the
+/// system's library. A path that does not exist is bad input; a library that cannot be loaded
+/// is the inner error (for a warning: the render goes on, noisy).
+fn load_oidn(explicit: Option<&Path>) -> Result<std::result::Result<Oidn, String>> {
+    let from_env = std::env::var_os("PRISM_OIDN")
+        .filter(|v| !v.is_empty())
+        .map(PathBuf::from);
+    let (location, source) = match (explicit, from_env) {
+        (Some(p), _) => (OidnLocation::Path(p.to_path_buf()), "--oidn"),
+        (None, Some(p)) => (OidnLocation::Path(p), "PRISM_OIDN"),
+        (None, None) => (OidnLocation::System, ""),
+    };
+    if let OidnLocation::Path(p) = &location {
+        if !p.exists() {
+            return Err(PrismError::input(format!(
+                "{source} {}: no such file or folder",
+                p.display()
+            )));
+        }
+    }
+    Ok(Oidn::load(&location))
+}
+
+/// The film's colour denoised with its albedo and normal guides.
+fn denoise_film(
+    oidn: &Oidn,
+    film: &prism::film::Film,
+    threads: usize,
+) -> std::result::Result<Vec<glam::Vec3>, String> {
+    oidn.denoise(
+        film.width as usize,
+        film.height as usize,
+        &film.color(),
+        Some(&film.albedo_guide()),
+        Some(&film.normal_guide()),
+        threads,
+    )
 }
 
 /// Writes to a temporary sibling and renames, so readers never see a half-written EXR.
@@ -554,15 +671,24 @@ fn write_atomically(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Res
         .map_err(|e| PrismError::internal(format!("{}: cannot write: {e}", path.display())))
 }
 
-fn report_done(mode: ProgressMode, stats: &RenderStats, output: &Path) {
+fn report_done(
+    mode: ProgressMode,
+    stats: &RenderStats,
+    output: &Path,
+    denoise_seconds: Option<f64>,
+    denoised: bool,
+) {
     match mode {
         ProgressMode::Json => eprintln!(
-            "{{\"event\":\"done\",\"seconds\":{:.4},\"rays\":{},\"samples\":{},\"discarded\":{},\"cancelled\":{},\"output\":{}}}",
+            "{{\"event\":\"done\",\"seconds\":{:.4},\"rays\":{},\"samples\":{},\"discarded\":{},\"cancelled\":{},\"denoised\":{denoised}{},\"output\":{}}}",
             stats.seconds,
             stats.rays,
             stats.samples,
             stats.discarded,
             stats.cancelled,
+            denoise_seconds
+                .map(|s| format!(",\"denoise_s\":{s:.4}"))
+                .unwrap_or_default(),
             json_escape(&output.to_string_lossy())
         ),
         _ => eprintln!(
@@ -578,6 +704,11 @@ fn report_done(mode: ProgressMode, stats: &RenderStats, output: &Path) {
             stats.discarded,
             output.display()
         ),
+    }
+    if mode != ProgressMode::Json {
+        if let (Some(s), true) = (denoise_seconds, denoised) {
+            eprintln!("prism: denoised in {s:.2} s");
+        }
     }
 }
 
@@ -604,8 +735,12 @@ fn run_bench(bench: &BenchArgs) -> Result<()> {
         noise_threshold: None,
         min_samples: None,
         time_limit: None,
+        clamp_direct: None,
+        clamp_indirect: None,
     };
-    let (scene, settings, _) = load(&args)?;
+    let Loaded {
+        scene, settings, ..
+    } = load(&args)?;
     for &t in threads {
         let pool = thread_pool(Some(t))?;
         let mut runs: Vec<RenderStats> = (0..repeat.max(1))

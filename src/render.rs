@@ -3,7 +3,7 @@
 //! parallel with rayon. Random numbers depend only on (pixel, sample, seed), and each pixel
 //! accumulates its samples in order, so the image is bit-identical for any thread count.
 
-use crate::film::{self, Film, PixelFilter};
+use crate::film::{self, Film, PixelFilter, SampleClamp};
 use crate::geometry::Ray;
 use crate::integrator::{PathTracer, WavelengthSampling};
 use crate::lights::LightSelection;
@@ -25,7 +25,8 @@ pub struct RenderSettings {
     pub seed: u64,
     /// Wavelength strategy, density and optional fixed wavelength.
     pub wavelengths: WavelengthSampling,
-    /// Accumulate the denoising guides (albedo, normal, depth) and write them with the film.
+    /// Accumulate the denoising guides (albedo, normal, depth): for the denoiser, and for the
+    /// film to write when `Film::write_guides` is set.
     pub guides: bool,
     /// Pixel reconstruction filter (default: Blackman–Harris 1.5 px, as Cycles).
     pub filter: PixelFilter,
@@ -38,6 +39,8 @@ pub struct RenderSettings {
     /// Stop after the pass during which this much rendering time has passed (Cycles' Time
     /// Limit); the image then has fewer samples than `spp`.
     pub time_limit: Option<Duration>,
+    /// Firefly clamps (Cycles' Clamp Direct / Indirect); off by default.
+    pub clamp: SampleClamp,
 }
 
 /// Adaptive sampling settings (`film::adaptive`): `spp` becomes the maximum.
@@ -82,6 +85,7 @@ impl Default for RenderSettings {
             light_selection: LightSelection::default(),
             adaptive: None,
             time_limit: None,
+            clamp: SampleClamp::default(),
         }
     }
 }
@@ -151,11 +155,13 @@ pub fn render(
     on_pass: &mut dyn FnMut(&Film, u32),
 ) -> (Film, RenderStats) {
     let (w, h) = (settings.width as usize, settings.height as usize);
+    // Guides are accumulated when asked for; writing them is the caller's choice
+    // (`Film::write_guides`): they may be wanted only as the denoiser's input.
     let mut film = Film::new(settings.width, settings.height);
-    film.write_guides = settings.guides;
     let camera = scene.camera_for(settings.width, settings.height);
     let forward = camera.forward();
     let tracer = PathTracer::new(scene, settings.max_depth, settings.light_selection);
+    let clamp_off = settings.clamp.is_off();
     let image_sampler = ImageSampler::new(settings.sampler, settings.spp, settings.seed);
     let total = (w * h) as u64 * settings.spp as u64;
     let samples_done = AtomicU64::new(0);
@@ -239,7 +245,17 @@ pub fn render(
                             let ray: Ray = camera.generate_ray(raster, u_lens);
                             let result = tracer.radiance(ray, &wavelengths, &mut sampler);
                             band_rays += result.rays as u64;
-                            if !px.add(spectrum_to_xyz(&result.radiance, &wavelengths)) {
+                            let xyz = if clamp_off {
+                                spectrum_to_xyz(&result.radiance, &wavelengths)
+                            } else {
+                                let direct = spectrum_to_xyz(&result.direct, &wavelengths);
+                                let indirect = spectrum_to_xyz(
+                                    &(result.radiance - result.direct),
+                                    &wavelengths,
+                                );
+                                settings.clamp.apply(direct, indirect)
+                            };
+                            if !px.add(xyz) {
                                 band_discarded += 1;
                             }
                             if !settings.guides {
@@ -250,7 +266,8 @@ pub fn render(
                             let lit = g.albedo
                                 * SampledSpectrum::from_fn(|i| {
                                     d65_normalized(wavelengths.lambda[i])
-                                });
+                                })
+                                + g.background;
                             let depth = g
                                 .first_distance
                                 .is_finite()

@@ -2,10 +2,13 @@
 //! linear Rec.709 (Blender's scene-linear default) and writes OpenEXR.
 
 pub mod adaptive;
+mod clamp;
+pub mod denoise;
 mod exr_io;
 pub mod filter;
 pub mod metrics;
 
+pub use clamp::SampleClamp;
 pub use exr_io::{
     read_exr_channel, read_exr_rgba, write_exr_channels, write_exr_rgba, write_exr_rgba_with,
     ExrCompression,
@@ -152,6 +155,9 @@ pub struct Film {
     pub pixels: Vec<FilmPixel>,
     /// Write the denoising guides as extra EXR channels (`--guides`).
     pub write_guides: bool,
+    /// The denoised colour (linear Rec.709, row 0 = top), once the image has been denoised: it
+    /// becomes the EXR's RGB and the noisy colour moves to the `Noisy` layer.
+    pub denoised: Option<Vec<Vec3>>,
 }
 
 impl Film {
@@ -161,7 +167,27 @@ impl Film {
             height,
             pixels: vec![FilmPixel::default(); width as usize * height as usize],
             write_guides: false,
+            denoised: None,
         }
+    }
+
+    /// The noisy colour of every pixel (linear Rec.709, row 0 = top): the denoiser's input.
+    pub fn color(&self) -> Vec<Vec3> {
+        self.pixels.iter().map(FilmPixel::rgb).collect()
+    }
+
+    /// The albedo guide as the denoiser takes it: clamped to [0, 1] (the world's radiance
+    /// stands in for it where paths escape, and may exceed 1).
+    pub fn albedo_guide(&self) -> Vec<Vec3> {
+        self.pixels
+            .iter()
+            .map(|p| p.albedo_rgb().clamp(Vec3::ZERO, Vec3::ONE))
+            .collect()
+    }
+
+    /// The normal guide (world space, unit or zero).
+    pub fn normal_guide(&self) -> Vec<Vec3> {
+        self.pixels.iter().map(FilmPixel::normal).collect()
     }
 
     /// Linear Rec.709 RGBA, row 0 = top of the image, alpha 1.
@@ -179,37 +205,59 @@ impl Film {
         self.write_exr_with(path, ExrCompression::default())
     }
 
-    /// [`Self::write_exr`] with a choice of compression.
+    /// [`Self::write_exr`] with a choice of compression: the denoised colour if there is one
+    /// (`denoised`), else the noisy one.
     pub fn write_exr_with(
         &self,
         path: &std::path::Path,
         compression: ExrCompression,
     ) -> crate::error::Result<()> {
-        if !self.write_guides {
-            return write_exr_rgba_with(
-                path,
-                self.width,
-                self.height,
-                &self.to_rgba(),
-                compression,
-            );
-        }
+        self.write_exr_denoised(path, compression, self.denoised.as_deref())
+    }
+
+    /// Writes the image with `denoised` (one colour per pixel) as its RGB, when given, and the
+    /// noisy colour in `Noisy.RGBA` (Cycles' Noisy Image pass); guides when `write_guides`.
+    pub fn write_exr_denoised(
+        &self,
+        path: &std::path::Path,
+        compression: ExrCompression,
+        denoised: Option<&[Vec3]>,
+    ) -> crate::error::Result<()> {
         let rgba = self.to_rgba();
+        if !self.write_guides && denoised.is_none() {
+            return write_exr_rgba_with(path, self.width, self.height, &rgba, compression);
+        }
         let channel = |f: &dyn Fn(usize) -> f32| -> Vec<f32> { (0..rgba.len()).map(f).collect() };
         let px = &self.pixels;
-        let channels: Vec<(&str, Vec<f32>)> = vec![
-            ("R", channel(&|i| rgba[i][0])),
-            ("G", channel(&|i| rgba[i][1])),
-            ("B", channel(&|i| rgba[i][2])),
-            ("A", channel(&|i| rgba[i][3])),
-            ("Albedo.R", channel(&|i| px[i].albedo_rgb().x)),
-            ("Albedo.G", channel(&|i| px[i].albedo_rgb().y)),
-            ("Albedo.B", channel(&|i| px[i].albedo_rgb().z)),
-            ("Normal.X", channel(&|i| px[i].normal().x)),
-            ("Normal.Y", channel(&|i| px[i].normal().y)),
-            ("Normal.Z", channel(&|i| px[i].normal().z)),
-            ("Depth.Z", channel(&|i| px[i].depth())),
-        ];
+        let mut channels: Vec<(&str, Vec<f32>)> = Vec::new();
+        match denoised {
+            Some(d) => {
+                channels.push(("R", channel(&|i| d[i].x)));
+                channels.push(("G", channel(&|i| d[i].y)));
+                channels.push(("B", channel(&|i| d[i].z)));
+                channels.push(("Noisy.R", channel(&|i| rgba[i][0])));
+                channels.push(("Noisy.G", channel(&|i| rgba[i][1])));
+                channels.push(("Noisy.B", channel(&|i| rgba[i][2])));
+                channels.push(("Noisy.A", channel(&|i| rgba[i][3])));
+            }
+            None => {
+                channels.push(("R", channel(&|i| rgba[i][0])));
+                channels.push(("G", channel(&|i| rgba[i][1])));
+                channels.push(("B", channel(&|i| rgba[i][2])));
+            }
+        }
+        channels.push(("A", channel(&|i| rgba[i][3])));
+        if self.write_guides {
+            channels.extend([
+                ("Albedo.R", channel(&|i| px[i].albedo_rgb().x)),
+                ("Albedo.G", channel(&|i| px[i].albedo_rgb().y)),
+                ("Albedo.B", channel(&|i| px[i].albedo_rgb().z)),
+                ("Normal.X", channel(&|i| px[i].normal().x)),
+                ("Normal.Y", channel(&|i| px[i].normal().y)),
+                ("Normal.Z", channel(&|i| px[i].normal().z)),
+                ("Depth.Z", channel(&|i| px[i].depth())),
+            ]);
+        }
         write_exr_channels(path, self.width, self.height, channels, compression)
     }
 }

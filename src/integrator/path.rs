@@ -29,6 +29,10 @@ pub struct PathTracer<'a> {
 /// What one camera path returns.
 pub struct PathSample {
     pub radiance: SampledSpectrum,
+    /// The part of `radiance` that reached the camera after at most one scattering event
+    /// (emission seen directly or through one bounce, and next-event estimation at the first
+    /// vertex): Cycles' "direct" light, the part Clamp Direct limits (`film::SampleClamp`).
+    pub direct: SampledSpectrum,
     /// Rays traced (closest-hit and shadow), for throughput statistics.
     pub rays: u32,
     pub guides: DenoiseGuides,
@@ -46,6 +50,10 @@ pub struct DenoiseGuides {
     pub normal: glam::Vec3,
     /// Distance along the camera ray to the first surface (INFINITY when it escapes).
     pub first_distance: f32,
+    /// Radiance of the world (and sun discs) where the camera path escapes before the guides
+    /// found a surface, times the tint of the specular chain: it stands in for the albedo
+    /// there, as in Cycles' denoising albedo, so the denoiser keeps the background's detail.
+    pub background: SampledSpectrum,
 }
 
 impl Default for DenoiseGuides {
@@ -54,6 +62,7 @@ impl Default for DenoiseGuides {
             albedo: SampledSpectrum::ZERO,
             normal: glam::Vec3::ZERO,
             first_distance: f32::INFINITY,
+            background: SampledSpectrum::ZERO,
         }
     }
 }
@@ -153,6 +162,8 @@ impl<'a> PathTracer<'a> {
         let geometry = &scene.geometry;
         let lights = &scene.lights;
         let mut l = SampledSpectrum::ZERO;
+        // The direct share of `l` (`PathSample::direct`).
+        let mut l_direct = SampledSpectrum::ZERO;
         let mut beta = SampledSpectrum::ONE;
         let mut rays = 0u32;
         let mut mis = SpectralMis::new(w);
@@ -251,7 +262,14 @@ impl<'a> PathTracer<'a> {
                         let light_pdf = lights.infinite_pdf(&prev_ctx, index, ray.dir, selection);
                         power_heuristic(prev_bsdf_density, light_pdf * prev_denominator)
                     };
-                    l += beta * le * (weight / mis.denominator());
+                    let c = beta * le * (weight / mis.denominator());
+                    l += c;
+                    if depth <= 1 {
+                        l_direct += c;
+                    }
+                    if !guides_done {
+                        guides.background += guide_tint * le;
+                    }
                 });
                 break;
             };
@@ -304,7 +322,11 @@ impl<'a> PathTracer<'a> {
                         );
                         power_heuristic(prev_bsdf_density, light_pdf * prev_denominator)
                     };
-                    l += beta * le * (weight / mis.denominator());
+                    let c = beta * le * (weight / mis.denominator());
+                    l += c;
+                    if depth <= 1 {
+                        l_direct += c;
+                    }
                 }
             }
             if depth == self.max_depth {
@@ -433,6 +455,9 @@ impl<'a> PathTracer<'a> {
                                 }
                             }
                             l += contrib;
+                            if depth == 0 {
+                                l_direct += contrib;
+                            }
                         }
                     }
                 }
@@ -593,9 +618,13 @@ impl<'a> PathTracer<'a> {
                             } else {
                                 mis.light_weight(ls.pdf, SampledSpectrum::splat(lobe.pdf(cos)))
                             };
-                            l += beta
+                            let c = beta
                                 * ls.li
                                 * (shadow * f * cos * weight / (ls.pdf * mis.denominator()));
+                            l += c;
+                            if depth == 0 {
+                                l_direct += c;
+                            }
                         }
                     }
                 }
@@ -638,6 +667,7 @@ impl<'a> PathTracer<'a> {
         }
         PathSample {
             radiance: l,
+            direct: l_direct,
             rays,
             guides,
         }

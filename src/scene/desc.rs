@@ -316,6 +316,11 @@ pub struct RenderDefaults {
     pub noise_threshold: Option<f32>,
     pub min_samples: Option<u32>,
     pub time_limit: Option<f64>,
+    /// `render.denoise`: denoise the final image with OIDN.
+    pub denoise: Option<bool>,
+    /// `render.clamp_direct` / `render.clamp_indirect` (>= 0, 0 = off).
+    pub clamp_direct: Option<f32>,
+    pub clamp_indirect: Option<f32>,
 }
 
 #[derive(Clone, Debug, Default)]

@@ -54,7 +54,10 @@
 //!   pixel ordering | `"independent"`: independent random numbers, for comparisons),
 //!   `light_sampler` (`"tree"`, the default: a light tree | `"power"`: by emitted power),
 //!   `noise_threshold` (>= 0: adaptive sampling's noise threshold, Cycles' convention, 0 = off),
-//!   `min_samples` (integer >= 0, 0 = automatic) and `time_limit` (seconds >= 0, 0 = none).
+//!   `min_samples` (integer >= 0, 0 = automatic), `time_limit` (seconds >= 0, 0 = none),
+//!   `denoise` (true | false: OIDN denoising of the final image, `crate::film::denoise`), and
+//!   `clamp_direct` / `clamp_indirect` (>= 0, 0 = off: per-sample luminance limits of direct
+//!   and indirect light, `crate::film::SampleClamp`).
 //!
 //! Validation is strict and every error is one line:
 //! `<file>: <json path, e.g. materials.Skin.subsurface.sigma_a[1]>: <what is wrong>`
@@ -968,6 +971,9 @@ impl Validator<'_> {
                 "noise_threshold",
                 "min_samples",
                 "time_limit",
+                "denoise",
+                "clamp_direct",
+                "clamp_indirect",
             ],
             path,
         )?;
@@ -1021,6 +1027,24 @@ impl Validator<'_> {
                 .map(|x| self.number(x, &path.key("noise_threshold"), Range::NonNeg))
                 .transpose()?,
             min_samples: get("min_samples", 0)?,
+            denoise: m
+                .get("denoise")
+                .map(|x| match x {
+                    Value::Bool(b) => Ok(*b),
+                    _ => Err(self.err(
+                        &path.key("denoise"),
+                        format!("expected true or false, found {}", kind(x)),
+                    )),
+                })
+                .transpose()?,
+            clamp_direct: m
+                .get("clamp_direct")
+                .map(|x| self.number(x, &path.key("clamp_direct"), Range::NonNeg))
+                .transpose()?,
+            clamp_indirect: m
+                .get("clamp_indirect")
+                .map(|x| self.number(x, &path.key("clamp_indirect"), Range::NonNeg))
+                .transpose()?,
             time_limit: m
                 .get("time_limit")
                 .map(|x| {
