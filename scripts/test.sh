@@ -4,6 +4,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+echo "== installing what the tests need (bpy wheel with its OIDN, Debian's blender, xvfb)"
+tests/addon/run_addon_tests.sh install
+
 echo "== cargo fmt / clippy"
 cargo fmt --all -- --check
 cargo clippy --all-targets -- -D warnings

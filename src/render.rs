@@ -267,7 +267,7 @@ pub fn render(
                                 * SampledSpectrum::from_fn(|i| {
                                     d65_normalized(wavelengths.lambda[i])
                                 })
-                                + g.background;
+                                + g.emitted;
                             let depth = g
                                 .first_distance
                                 .is_finite()

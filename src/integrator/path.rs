@@ -50,10 +50,11 @@ pub struct DenoiseGuides {
     pub normal: glam::Vec3,
     /// Distance along the camera ray to the first surface (INFINITY when it escapes).
     pub first_distance: f32,
-    /// Radiance of the world (and sun discs) where the camera path escapes before the guides
-    /// found a surface, times the tint of the specular chain: it stands in for the albedo
-    /// there, as in Cycles' denoising albedo, so the denoiser keeps the background's detail.
-    pub background: SampledSpectrum,
+    /// Radiance the guide path sees before it finds a surface to record (the world and sun
+    /// discs where it escapes, emitters it hits), times the tint of the specular chain: added
+    /// to the albedo, as in Cycles' denoising albedo, so that the denoiser keeps the detail of
+    /// backgrounds and lights.
+    pub emitted: SampledSpectrum,
 }
 
 impl Default for DenoiseGuides {
@@ -62,7 +63,7 @@ impl Default for DenoiseGuides {
             albedo: SampledSpectrum::ZERO,
             normal: glam::Vec3::ZERO,
             first_distance: f32::INFINITY,
-            background: SampledSpectrum::ZERO,
+            emitted: SampledSpectrum::ZERO,
         }
     }
 }
@@ -268,7 +269,7 @@ impl<'a> PathTracer<'a> {
                         l_direct += c;
                     }
                     if !guides_done {
-                        guides.background += guide_tint * le;
+                        guides.emitted += guide_tint * le;
                     }
                 });
                 break;
@@ -326,6 +327,9 @@ impl<'a> PathTracer<'a> {
                     l += c;
                     if depth <= 1 {
                         l_direct += c;
+                    }
+                    if !guides_done {
+                        guides.emitted += guide_tint * le;
                     }
                 }
             }

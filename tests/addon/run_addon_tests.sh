@@ -4,7 +4,9 @@
 #   - Debian's blender (3.4, for `blender -b`) and python3-numpy via apt-get (as root, if missing),
 #   - the release binary (cargo build --release).
 #   - Xvfb (Debian's xvfb) for the interactive test: Blender with a window, F12 render.
-# Usage: tests/addon/run_addon_tests.sh [bpy|background|interactive|package|all]
+# Usage: tests/addon/run_addon_tests.sh [bpy|background|interactive|package|all|install]
+#   install: only install the above (scripts/test.sh runs it first: the Rust denoising tests
+#   use the bpy wheel's Open Image Denoise library).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 REPO=$(pwd)
@@ -32,12 +34,14 @@ if ! blender_ok; then
     DEBIAN_FRONTEND=noninteractive apt-get install -y -qq blender python3-numpy >/dev/null
 fi
 
-if { [ "$WHICH" = all ] || [ "$WHICH" = interactive ]; } && ! command -v xvfb-run >/dev/null; then
+if { [ "$WHICH" = all ] || [ "$WHICH" = interactive ] || [ "$WHICH" = install ]; } && ! command -v xvfb-run >/dev/null; then
     echo "== installing Debian's xvfb (apt-get) for the interactive test"
     if [ "$(id -u)" != 0 ]; then echo "need root for apt-get install xvfb xauth" >&2; exit 1; fi
     apt-get update -qq
     DEBIAN_FRONTEND=noninteractive apt-get install -y -qq xvfb xauth >/dev/null
 fi
+
+if [ "$WHICH" = install ]; then exit 0; fi
 
 cargo build --release -q
 
