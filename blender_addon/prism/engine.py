@@ -50,9 +50,10 @@ def read_exr(path, width, height):
 
 
 def guide_passes(scene, view_layer):
-    """Extra passes this render produces, as (pass name, channels, chan_id, type), in the order
-    Blender expects them: Blender's Depth/Normal passes when the view layer asks for them, and
-    Cycles-style denoising data (for the Denoise compositor node) when Prism's setting is on."""
+    """Extra passes this render produces from the binary's guides, as (pass name, channels,
+    chan_id, type), in the order Blender expects them: Blender's Depth/Normal passes when the
+    view layer asks for them, and Cycles-style denoising data (for the Denoise compositor node)
+    when Prism's setting is on."""
     out = []
     if view_layer is not None and getattr(view_layer, "use_pass_z", False):
         out.append(("Depth", 1, "Z", "VALUE"))
@@ -62,7 +63,27 @@ def guide_passes(scene, view_layer):
     if p is not None and getattr(p, "denoising_data", False):
         out.append(("Denoising Normal", 3, "XYZ", "VECTOR"))
         out.append(("Denoising Albedo", 3, "RGB", "COLOR"))
+        out.append(("Denoising Depth", 1, "Z", "VALUE"))
     return out
+
+
+def denoise_passes(scene):
+    """Cycles' Noisy Image pass: the render before denoising, when denoising is on."""
+    p = getattr(scene, "prism", None)
+    if p is not None and getattr(p, "use_denoising", False):
+        return [("Noisy Image", 4, "RGBA", "COLOR")]
+    return []
+
+
+_OIDN = {}
+
+
+def blender_oidn():
+    """The running Blender's Open Image Denoise library (cached: it does not move), or None."""
+    if "path" not in _OIDN:
+        _OIDN["dirs"] = runner.oidn_search_dirs(bpy.app.binary_path, bpy.utils.resource_path("LOCAL"))
+        _OIDN["path"] = runner.find_oidn(_OIDN["dirs"])
+    return _OIDN["path"]
 
 
 def guide_pixels(planes, name, width, height):
@@ -79,6 +100,13 @@ def guide_pixels(planes, name, width, height):
         return np.stack([n[:, 0], -n[:, 2], n[:, 1]], axis=-1)
     if name == "Denoising Albedo":
         return flat("Albedo.R", "Albedo.G", "Albedo.B")
+    if name == "Denoising Depth":
+        return flat("Depth.Z")
+    if name == "Noisy Image":
+        # Written by the binary when it denoised; otherwise the image is the noisy one.
+        if "Noisy.R" in planes:
+            return flat("Noisy.R", "Noisy.G", "Noisy.B", "Noisy.A")
+        return flat("R", "G", "B", "A")
     raise KeyError(name)
 
 
@@ -160,7 +188,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
         """Declares the passes of a render (Blender calls this when it builds render results and
         the compositor's Render Layers node)."""
         self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
-        for name, channels, chan_id, kind in guide_passes(scene, renderlayer):
+        for name, channels, chan_id, kind in denoise_passes(scene) + guide_passes(scene, renderlayer):
             self.register_pass(scene, renderlayer, name, channels, chan_id, kind)
 
     def _render(self, depsgraph, scene, result, tmp, width, height):
@@ -179,14 +207,19 @@ class PrismRenderEngine(bpy.types.RenderEngine):
 
         output = os.path.join(tmp, "render.exr")
         preview = os.path.join(tmp, "preview.exr")
+        denoise = bool(getattr(settings, "use_denoising", False))
+        oidn = blender_oidn() if denoise else None
+        LAST["oidn"] = oidn
         args = runner.render_args(
             binary, gltf, mjson, output, preview, settings.samples, width, height,
             settings.max_depth, settings.seed, settings.threads,
             bvh_cache=runner.bvh_cache_dir() if getattr(prefs, "cache_bvh", True) else None,
+            denoise=denoise, oidn=oidn, denoise_previews=getattr(settings, "denoise_previews", False),
         )
-        passes = guide_passes(scene, depsgraph.view_layer)
-        if passes:
+        guides = guide_passes(scene, depsgraph.view_layer)
+        if guides:
             args.append("--guides")
+        passes = guides + denoise_passes(scene)
         LAST["passes"] = [p[0] for p in passes]
         t_start = time.perf_counter()
         proc = runner.PrismProcess(args, cwd=tmp)
@@ -230,6 +263,12 @@ class PrismRenderEngine(bpy.types.RenderEngine):
                             _log("preview skipped: %s" % e)
                     elif kind == "warning":
                         msg = str(ev.get("message", ""))
+                        if msg.startswith("Open Image Denoise not found"):
+                            # The binary looked on the system after the add-on found nothing in
+                            # Blender: say so in Blender's terms.
+                            msg = ("Denoise is on, but this Blender has no Open Image Denoise library "
+                                   "(looked in %s); the image is not denoised"
+                                   % ", ".join(_OIDN.get("dirs", [])))
                         if msg not in seen_warnings and len(seen_warnings) < 5:
                             seen_warnings.add(msg)
                             self._warn(msg)
@@ -256,6 +295,9 @@ class PrismRenderEngine(bpy.types.RenderEngine):
         timings["load"] = time.perf_counter() - t0
         self.update_progress(1.0)
         done = LAST.get("done") or {}
+        LAST["denoised"] = bool(done.get("denoised", False))
+        if "denoise_s" in done:
+            timings["denoise"] = float(done["denoise_s"])
         self.update_stats("", "Prism: done in %.2f s" % float(done.get("seconds", timings["process"])))
 
 

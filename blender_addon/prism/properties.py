@@ -107,10 +107,37 @@ class PrismRenderSettings(bpy.types.PropertyGroup):
         subtype="PIXEL",
     )
     threads: IntProperty(name="Threads", description="Worker threads (0 = all cores)", default=0, min=0, max=1024)
+    use_denoising: BoolProperty(
+        name="Denoise",
+        description="Denoise the final render with Intel Open Image Denoise (the library that ships with "
+        "Blender), guided by albedo and normals; the noisy image is kept in the Noisy Image pass",
+        default=True,
+    )
+    denoise_previews: BoolProperty(
+        name="Denoise Previews",
+        description="Also denoise the progressive previews shown while rendering (slower updates)",
+        default=False,
+    )
+    clamp_direct: FloatProperty(
+        name="Direct Light",
+        description="Limit the luminance a sample's direct light (at most one bounce) contributes, "
+        "removing fireflies at the cost of energy (0 = off: unbiased). Cycles limits R + G + B, "
+        "about 3x the luminance for white light",
+        default=0.0,
+        min=0.0,
+    )
+    clamp_indirect: FloatProperty(
+        name="Indirect Light",
+        description="Limit the luminance a sample's indirect light (two or more bounces) contributes, "
+        "removing fireflies at the cost of energy (0 = off: unbiased). Cycles limits R + G + B, "
+        "about 3x the luminance for white light",
+        default=0.0,
+        min=0.0,
+    )
     denoising_data: BoolProperty(
         name="Denoising Data",
-        description="Write Denoising Normal and Denoising Albedo passes (first non-mirror surface) "
-        "for the compositor's Denoise node",
+        description="Write Denoising Normal, Denoising Albedo and Denoising Depth passes (first "
+        "non-mirror surface) for the compositor's Denoise node",
         default=False,
     )
     seed: IntProperty(name="Seed", description="Random seed", default=0, min=0)

@@ -33,6 +33,48 @@ def candidate_binaries():
     return out
 
 
+if sys.platform == "win32":
+    OIDN_NAMES = ("OpenImageDenoise.dll",)
+elif sys.platform == "darwin":
+    OIDN_NAMES = ("libOpenImageDenoise.2.dylib", "libOpenImageDenoise.dylib")
+else:
+    OIDN_NAMES = ("libOpenImageDenoise.so.2", "libOpenImageDenoise.so")
+
+
+def oidn_search_dirs(binary_path, local_resources):
+    """Where a running Blender keeps its Open Image Denoise library, from its executable and its
+    version folder (`bpy.utils.resource_path('LOCAL')`, e.g. .../5.0): the bpy wheel's bpy/lib
+    and official Linux builds' lib/ (both beside the version folder), Windows' blender.shared/,
+    macOS' Contents/Resources/lib/."""
+    dirs = []
+    if local_resources:
+        dirs.append(os.path.join(os.path.dirname(os.path.realpath(local_resources)), "lib"))
+    if binary_path:
+        d = os.path.dirname(os.path.realpath(binary_path))
+        dirs += [
+            os.path.join(d, "lib"),
+            os.path.join(d, "blender.shared"),
+            d,
+            os.path.normpath(os.path.join(d, "..", "Resources", "lib")),
+        ]
+    unique = []
+    for d in dirs:
+        if d not in unique:
+            unique.append(d)
+    return unique
+
+
+def find_oidn(dirs):
+    """The first Open Image Denoise library in `dirs`, or None (e.g. Debian's Blender 3.4, and
+    official 3.x builds, which link it statically: nothing the binary can load)."""
+    for d in dirs:
+        for name in OIDN_NAMES:
+            path = os.path.join(d, name)
+            if os.path.isfile(path):
+                return path
+    return None
+
+
 def find_binary(configured=""):
     """The binary to run. An explicitly configured path must exist (no silent fallback)."""
     if configured:
@@ -146,7 +188,7 @@ def bvh_cache_dir():
 
 
 def render_args(binary, gltf, materials, output, preview, spp, width, height, max_depth, seed, threads,
-                bvh_cache=None):
+                bvh_cache=None, denoise=False, oidn=None, denoise_previews=False):
     args = [
         binary, "render", gltf,
         "--materials", materials,
@@ -166,6 +208,12 @@ def render_args(binary, gltf, materials, output, preview, spp, width, height, ma
         args += ["--threads", str(threads)]
     if bvh_cache:
         args += ["--bvh-cache", bvh_cache]
+    if denoise:
+        args.append("--denoise")
+        if oidn:
+            args += ["--oidn", oidn]
+        if denoise_previews:
+            args.append("--denoise-previews")
     return args
 
 

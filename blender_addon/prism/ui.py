@@ -37,11 +37,57 @@ class RENDER_PT_prism_sampling(PrismPanel, bpy.types.Panel):
         sub.prop(p, "adaptive_min_samples", text="Min Samples")
         layout.prop(p, "time_limit")
         col = layout.column()
-        col.prop(p, "max_depth")
         col.prop(p, "wavelengths")
         col.prop(p, "wavelength_pdf")
         col.prop(p, "threads")
         col.prop(p, "seed")
+
+
+class RENDER_PT_prism_denoise(PrismPanel, bpy.types.Panel):
+    """Render > Prism > Denoise, as Cycles' Sampling > Render > Denoise: the checkbox in the header."""
+
+    bl_label = "Denoise"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_prism_sampling"
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.prism, "use_denoising", text="")
+
+    def draw(self, context):
+        from . import engine
+
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        p = context.scene.prism
+        layout.active = p.use_denoising
+        col = layout.column()
+        col.label(text="Denoiser: OpenImageDenoise")
+        col.prop(p, "denoise_previews")
+        if p.use_denoising and engine.blender_oidn() is None:
+            col.label(text="This Blender has no OpenImageDenoise library", icon="ERROR")
+
+
+class RENDER_PT_prism_light_paths(PrismPanel, bpy.types.Panel):
+    """Render > Light Paths, as Cycles': the path depth and the firefly clamps."""
+
+    bl_label = "Light Paths"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        p = context.scene.prism
+        layout.prop(p, "max_depth")
+        col = layout.column(align=True, heading="Clamping")
+        col.prop(p, "clamp_direct")
+        col.prop(p, "clamp_indirect")
 
 
 class RENDER_PT_prism_film(PrismPanel, bpy.types.Panel):
@@ -75,6 +121,8 @@ class VIEWLAYER_PT_prism_passes(PrismPanel, bpy.types.Panel):
         col.prop(context.view_layer, "use_pass_z")
         col.prop(context.view_layer, "use_pass_normal")
         layout.column(heading="Denoising").prop(context.scene.prism, "denoising_data")
+        if context.scene.prism.use_denoising:
+            layout.label(text="Noisy Image: written while Denoise is on")
 
 
 class MATERIAL_PT_prism(PrismPanel, bpy.types.Panel):
@@ -136,7 +184,7 @@ class MATERIAL_PT_prism_surface(PrismPanel, bpy.types.Panel):
         self.layout.template_node_view(mat.node_tree, out, out.inputs["Surface"])
 
 
-classes = (RENDER_PT_prism_sampling, RENDER_PT_prism_film, VIEWLAYER_PT_prism_passes, MATERIAL_PT_prism, MATERIAL_PT_prism_surface)
+classes = (RENDER_PT_prism_sampling, RENDER_PT_prism_denoise, RENDER_PT_prism_light_paths, RENDER_PT_prism_film, VIEWLAYER_PT_prism_passes, MATERIAL_PT_prism, MATERIAL_PT_prism_surface)
 
 
 def register():

@@ -78,6 +78,9 @@ def use_prism(sc, spp=16, threads=2):
     sc.prism.use_adaptive_sampling = False
     sc.prism.threads = threads
     sc.prism.max_depth = 8
+    # Unbiased noisy images, as use_cycles (denoising is tested on its own: test_denoise.py).
+    if hasattr(sc.prism, "use_denoising"):
+        sc.prism.use_denoising = False
     # The parity tests set Cycles to a 1 px box filter (use_cycles); match it.
     sc.prism.filter_type = "BOX"
     sc.prism.filter_width = 1.0

@@ -14,6 +14,8 @@ sc = C.parity_scene(120, 90) if kind == "parity" else C.simple_scene()
 if kind == "simple":
     sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 200, 150, 60
 C.use_prism(sc, spp)
+if kind == "denoise":
+    sc.prism.use_denoising = True  # the default for a new scene; use_prism turns it off
 # A modifier and a linked duplicate: the exporter must see the evaluated, instanced scene.
 ball = bpy.data.objects.get("Ball")
 if ball is not None:

@@ -72,6 +72,23 @@ def test_blender_b_render():
     check(0.15 < m < 1.5, "mean brightness %.3f in (0.15, 1.5)" % m)
 
 
+def test_denoise_without_oidn_34():
+    """Debian's Blender 3.4 ships no Open Image Denoise library: with Denoise on (the default),
+    the render finishes with the noisy image and one warning that says why, in Blender's
+    report (printed as "Prism: warning: ..." in the background log)."""
+    blend = make_blend("denoise", 4)
+    pattern = os.path.join(OUT, "dn_####")
+    p = subprocess.run(blender_render_cmd(blend, pattern), capture_output=True, text=True, timeout=120)
+    log = p.stdout + p.stderr
+    check(p.returncode == 0 and "Prism: error" not in log, "blender -b exited 0 (got %d)" % p.returncode)
+    warn = sorted({x.strip() for x in log.splitlines() if "Prism: warning" in x and "Open Image Denoise" in x})
+    check(len(warn) == 1 and "no Open Image Denoise library" in warn[0], "one denoise warning: %s" % warn)
+    import numpy as np
+
+    px = read_exr(os.path.join(OUT, "dn_0001.exr"))
+    check(np.isfinite(px).all() and px[..., :3].mean() > 0.1, "the noisy image was written")
+
+
 def test_same_blend_in_bpy_5():
     """The .blend rendered by 3.4 and by the bpy 5.0 wheel through the add-on agree (same exporter output)."""
     import numpy as np

@@ -556,7 +556,7 @@ def test_passes_depth_normal_denoising():
     from prism import engine, exr
 
     C.check(engine.LAST["error"] is None, "no error: %s" % engine.LAST["error"])
-    C.check(engine.LAST["passes"] == ["Depth", "Normal", "Denoising Normal", "Denoising Albedo"],
+    C.check(engine.LAST["passes"] == ["Depth", "Normal", "Denoising Normal", "Denoising Albedo", "Denoising Depth"],
             "passes requested: %s" % engine.LAST["passes"])
     path = os.path.join(OUT, "passes.exr")
     bpy.data.images["Render Result"].save_render(filepath=path, scene=sc)
