@@ -72,6 +72,30 @@ def test_defaults_and_panels():
     C.check(not bpy.types.RENDER_PT_prism_denoise.poll(bpy.context), "denoise panel hidden for Cycles")
 
 
+def test_library_locations_of_official_builds():
+    """Where official builds keep the library, from their executable and version folder."""
+    from prism import runner
+
+    root = tempfile.mkdtemp(prefix="oidn_layouts_", dir=OUT)
+    layouts = {
+        # Linux tarball: blender-4.2/blender, blender-4.2/4.2/, blender-4.2/lib/
+        "linux": ("blender-4.2/blender", "blender-4.2/4.2", "blender-4.2/lib"),
+        # Windows: blender.exe beside 4.2/ and blender.shared/
+        "windows": ("win/blender.exe", "win/4.2", "win/blender.shared"),
+        # macOS: Blender.app/Contents/MacOS/Blender, Contents/Resources/4.2, Contents/Resources/lib
+        "macos": ("Blender.app/Contents/MacOS/Blender", "Blender.app/Contents/Resources/4.2",
+                  "Blender.app/Contents/Resources/lib"),
+    }
+    for name, (exe, local, lib) in layouts.items():
+        dirs = runner.oidn_search_dirs(os.path.join(root, exe), os.path.join(root, local))
+        C.check(os.path.join(root, lib) in dirs, "%s: %s searched" % (name, lib))
+        os.makedirs(os.path.join(root, lib), exist_ok=True)
+        open(os.path.join(root, lib, runner.OIDN_NAMES[0]), "w").close()
+        C.check(runner.find_oidn(dirs) == os.path.join(root, lib, runner.OIDN_NAMES[0]), "%s: found" % name)
+        os.remove(os.path.join(root, lib, runner.OIDN_NAMES[0]))
+    C.check(runner.find_oidn(["/nonexistent"]) is None, "nothing found where there is nothing")
+
+
 def test_denoised_render_with_noisy_image_pass():
     sc = C.simple_scene()
     C.use_prism(sc, spp=4)
