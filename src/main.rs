@@ -3,7 +3,7 @@
 
 use clap::{Parser, Subcommand, ValueEnum};
 use prism::error::{PrismError, Result};
-use prism::film::denoise::{Oidn, OidnLocation};
+use prism::film::denoise::{DenoiseOptions, DenoisePrefilter, DenoiseQuality, Oidn, OidnLocation};
 use prism::film::{ExrCompression, FilterKind, PixelFilter, SampleClamp};
 use prism::integrator::{WavelengthPdf, WavelengthSampling, WavelengthStrategy};
 use prism::lights::LightSelection;
@@ -134,6 +134,29 @@ struct DenoiseArgs {
     /// default: $PRISM_OIDN, else the system's library
     #[arg(long)]
     oidn: Option<PathBuf>,
+    /// OIDN's quality, as Cycles' Denoise > Quality: high (default), balanced (about 2x
+    /// faster) or fast (default: the JSON's render.denoise_quality, else high)
+    #[arg(long, value_enum)]
+    denoise_quality: Option<DenoiseQualityArg>,
+    /// Guides, as Cycles' Denoise > Prefilter: accurate (denoise albedo and normal first, the
+    /// default), fast (use them as they are, possibly noisy) or none (use them as clean)
+    /// (default: the JSON's render.denoise_prefilter, else accurate)
+    #[arg(long, value_enum)]
+    denoise_prefilter: Option<DenoisePrefilterArg>,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum DenoiseQualityArg {
+    High,
+    Balanced,
+    Fast,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum DenoisePrefilterArg {
+    Accurate,
+    Fast,
+    None,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -290,6 +313,9 @@ struct Loaded {
     build_seconds: f64,
     /// The JSON's `render.denoise`.
     denoise: bool,
+    /// The JSON's `render.denoise_quality` and `render.denoise_prefilter`.
+    denoise_quality: DenoiseQuality,
+    denoise_prefilter: DenoisePrefilter,
 }
 
 /// Loads and builds the scene and resolves its settings (flags over the JSON's render block).
@@ -438,6 +464,17 @@ fn load(args: &SceneArgs) -> Result<Loaded> {
         settings,
         build_seconds,
         denoise: defaults.denoise.unwrap_or(false),
+        // The sidecar loader has already validated the names.
+        denoise_quality: defaults
+            .denoise_quality
+            .as_deref()
+            .and_then(DenoiseQuality::from_name)
+            .unwrap_or_default(),
+        denoise_prefilter: defaults
+            .denoise_prefilter
+            .as_deref()
+            .and_then(DenoisePrefilter::from_name)
+            .unwrap_or_default(),
     })
 }
 
@@ -495,6 +532,8 @@ fn run_render(render_args: &RenderArgs) -> Result<()> {
         mut settings,
         build_seconds,
         denoise,
+        denoise_quality,
+        denoise_prefilter,
     } = load(args)?;
     let pool = thread_pool(threads)?;
     let warn = |w: &str| match mode {
@@ -517,6 +556,21 @@ fn run_render(render_args: &RenderArgs) -> Result<()> {
     settings.guides = guides || oidn.is_some();
     let denoise_previews = denoise_args.denoise_previews && oidn.is_some();
     let threads_used = pool.current_num_threads();
+    let denoise_options = DenoiseOptions {
+        quality: match denoise_args.denoise_quality {
+            Some(DenoiseQualityArg::High) => DenoiseQuality::High,
+            Some(DenoiseQualityArg::Balanced) => DenoiseQuality::Balanced,
+            Some(DenoiseQualityArg::Fast) => DenoiseQuality::Fast,
+            None => denoise_quality,
+        },
+        prefilter: match denoise_args.denoise_prefilter {
+            Some(DenoisePrefilterArg::Accurate) => DenoisePrefilter::Accurate,
+            Some(DenoisePrefilterArg::Fast) => DenoisePrefilter::Fast,
+            Some(DenoisePrefilterArg::None) => DenoisePrefilter::None,
+            None => denoise_prefilter,
+        },
+        threads: threads_used,
+    };
     let (bvh_hits, bvh_misses) = prism::geometry::bvh_cache::counters();
     if mode == ProgressMode::Json {
         eprintln!(
@@ -574,7 +628,7 @@ fn run_render(render_args: &RenderArgs) -> Result<()> {
                 let denoised = oidn
                     .as_ref()
                     .filter(|_| denoise_previews)
-                    .and_then(|o| denoise_film(o, film, threads_used).ok());
+                    .and_then(|o| denoise_film(o, film, &denoise_options.for_previews()).ok());
                 let write =
                     |tmp: &Path| film.write_exr_denoised(tmp, compression, denoised.as_deref());
                 match write_atomically(path, write) {
@@ -603,7 +657,7 @@ fn run_render(render_args: &RenderArgs) -> Result<()> {
     let mut denoise_seconds = None;
     if let Some(oidn) = oidn.as_ref().filter(|_| !stats.cancelled) {
         let start = Instant::now();
-        match denoise_film(oidn, &film, threads_used) {
+        match denoise_film(oidn, &film, &denoise_options) {
             Ok(d) => film.denoised = Some(d),
             Err(e) => warn(&format!("{e}; the image is not denoised")),
         }
@@ -647,7 +701,7 @@ fn load_oidn(explicit: Option<&Path>) -> Result<std::result::Result<Oidn, String
 fn denoise_film(
     oidn: &Oidn,
     film: &prism::film::Film,
-    threads: usize,
+    options: &DenoiseOptions,
 ) -> std::result::Result<Vec<glam::Vec3>, String> {
     oidn.denoise(
         film.width as usize,
@@ -655,7 +709,7 @@ fn denoise_film(
         &film.color(),
         Some(&film.albedo_guide()),
         Some(&film.normal_guide()),
-        threads,
+        options,
     )
 }
 

@@ -266,8 +266,7 @@ pub fn render(
                             let lit = g.albedo
                                 * SampledSpectrum::from_fn(|i| {
                                     d65_normalized(wavelengths.lambda[i])
-                                })
-                                + g.emitted;
+                                });
                             let depth = g
                                 .first_distance
                                 .is_finite()

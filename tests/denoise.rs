@@ -13,7 +13,7 @@
 mod common;
 
 use glam::Vec3;
-use prism::film::denoise::{Oidn, OidnLocation};
+use prism::film::denoise::{DenoiseOptions, Oidn, OidnLocation};
 use prism::film::metrics::{channel_means, clamp_pixels, rel_mse};
 use prism::film::{read_exr_channel, read_exr_rgba, Film};
 use prism::render::{render_quiet, RenderSettings};
@@ -52,7 +52,10 @@ fn denoise(oidn: &Oidn, film: &Film, guides: bool) -> Vec<Vec3> {
         &film.color(),
         guides.then_some(albedo.as_slice()),
         guides.then_some(normal.as_slice()),
-        2,
+        &DenoiseOptions {
+            threads: 2,
+            ..Default::default()
+        },
     )
     .expect("OIDN denoises")
 }
@@ -357,5 +360,89 @@ fn previews_are_denoised_only_when_asked() {
     let o = prism(&args, None);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(has_channel(&preview, "Noisy.R"), "denoised previews");
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn quality_and_prefilter_options_reach_oidn() {
+    use prism::film::denoise::{DenoisePrefilter, DenoiseQuality};
+    let oidn = oidn();
+    let scene = cornell(None);
+    let film = render(&scene, 4, 3);
+    let (color, albedo, normal) = (film.color(), film.albedo_guide(), film.normal_guide());
+    let run = |quality, prefilter| {
+        let options = DenoiseOptions {
+            quality,
+            prefilter,
+            threads: 2,
+        };
+        let n = SIZE as usize;
+        let out = oidn
+            .denoise(n, n, &color, Some(&albedo), Some(&normal), &options)
+            .expect("OIDN denoises");
+        assert!(out.iter().all(|c| c.is_finite()));
+        out
+    };
+    let reference = run(DenoiseQuality::High, DenoisePrefilter::Accurate);
+    let differs = |a: &[Vec3], b: &[Vec3]| {
+        a.iter()
+            .zip(b)
+            .any(|(x, y)| (*x - *y).abs().max_element() > 1e-4)
+    };
+    for q in [DenoiseQuality::Balanced, DenoiseQuality::Fast] {
+        assert!(
+            differs(&run(q, DenoisePrefilter::Accurate), &reference),
+            "{q:?} had no effect"
+        );
+    }
+    for p in [DenoisePrefilter::Fast, DenoisePrefilter::None] {
+        assert!(
+            differs(&run(DenoiseQuality::High, p), &reference),
+            "{p:?} had no effect"
+        );
+    }
+    assert!(differs(&reference, &color), "denoising changed nothing");
+    // Through the binary: the flags and the JSON keys are accepted, bad names are exit 2.
+    let lib = common::oidn_library();
+    let d = out_dir("options");
+    let out = d.join("out.exr");
+    let o = prism(
+        &[
+            "-o",
+            out.to_str().unwrap(),
+            "--denoise",
+            "--denoise-quality",
+            "balanced",
+            "--denoise-prefilter",
+            "fast",
+        ],
+        Some(&lib),
+    );
+    assert!(
+        o.status.success() && stderr(&o).contains("\"denoised\":true"),
+        "{}",
+        stderr(&o)
+    );
+    let sidecar = d.join("m.json");
+    std::fs::write(
+        &sidecar,
+        r#"{"version": 1, "render": {"denoise": true, "denoise_quality": "ultra"}}"#,
+    )
+    .unwrap();
+    let o = prism(
+        &[
+            "-o",
+            out.to_str().unwrap(),
+            "--materials",
+            sidecar.to_str().unwrap(),
+        ],
+        Some(&lib),
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("render.denoise_quality"),
+        "{}",
+        stderr(&o)
+    );
     std::fs::remove_dir_all(&d).ok();
 }

@@ -215,6 +215,8 @@ class PrismRenderEngine(bpy.types.RenderEngine):
             settings.max_depth, settings.seed, settings.threads,
             bvh_cache=runner.bvh_cache_dir() if getattr(prefs, "cache_bvh", True) else None,
             denoise=denoise, oidn=oidn, denoise_previews=getattr(settings, "denoise_previews", False),
+            denoise_quality=getattr(settings, "denoising_quality", "HIGH"),
+            denoise_prefilter=getattr(settings, "denoising_prefilter", "ACCURATE"),
         )
         guides = guide_passes(scene, depsgraph.view_layer)
         if guides:
@@ -224,6 +226,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
         t_start = time.perf_counter()
         proc = runner.PrismProcess(args, cwd=tmp)
         LAST["pid"] = proc.proc.pid
+        LAST["args"] = list(args)
         _log("started %s (pid %d) in %s" % (binary, proc.proc.pid, tmp))
         seen_warnings = set()
         try:

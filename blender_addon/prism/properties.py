@@ -113,6 +113,26 @@ class PrismRenderSettings(bpy.types.PropertyGroup):
         "Blender), guided by albedo and normals; the noisy image is kept in the Noisy Image pass",
         default=True,
     )
+    denoising_prefilter: EnumProperty(
+        name="Prefilter",
+        description="How the albedo and normal guides are used, as Cycles' Denoise > Prefilter",
+        items=[
+            ("NONE", "None", "The guides are used as they are and taken as noise-free"),
+            ("FAST", "Fast", "Denoise the image and the guides together (one pass)"),
+            ("ACCURATE", "Accurate", "Denoise the guides first, then the image (the best result, three passes)"),
+        ],
+        default="ACCURATE",
+    )
+    denoising_quality: EnumProperty(
+        name="Quality",
+        description="Open Image Denoise's quality, as Cycles' Denoise > Quality",
+        items=[
+            ("HIGH", "High", "The best quality"),
+            ("BALANCED", "Balanced", "About twice as fast, slightly softer"),
+            ("FAST", "Fast", "The fastest"),
+        ],
+        default="HIGH",
+    )
     denoise_previews: BoolProperty(
         name="Denoise Previews",
         description="Also denoise the progressive previews shown while rendering (slower updates)",

@@ -188,7 +188,8 @@ def bvh_cache_dir():
 
 
 def render_args(binary, gltf, materials, output, preview, spp, width, height, max_depth, seed, threads,
-                bvh_cache=None, denoise=False, oidn=None, denoise_previews=False):
+                bvh_cache=None, denoise=False, oidn=None, denoise_previews=False, denoise_quality="HIGH",
+                denoise_prefilter="ACCURATE"):
     args = [
         binary, "render", gltf,
         "--materials", materials,
@@ -214,6 +215,7 @@ def render_args(binary, gltf, materials, output, preview, spp, width, height, ma
             args += ["--oidn", oidn]
         if denoise_previews:
             args.append("--denoise-previews")
+        args += ["--denoise-quality", denoise_quality.lower(), "--denoise-prefilter", denoise_prefilter.lower()]
     return args
 
 

@@ -65,6 +65,8 @@ class RENDER_PT_prism_denoise(PrismPanel, bpy.types.Panel):
         layout.active = p.use_denoising
         col = layout.column()
         col.label(text="Denoiser: OpenImageDenoise")
+        col.prop(p, "denoising_prefilter")
+        col.prop(p, "denoising_quality")
         col.prop(p, "denoise_previews")
         if p.use_denoising and engine.blender_oidn() is None:
             col.label(text="This Blender has no OpenImageDenoise library", icon="ERROR")

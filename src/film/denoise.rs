@@ -7,10 +7,11 @@
 //! (`oidnSetFilter1b`, ...).
 //!
 //! The filter is OIDN's `RT` (path-traced images) on HDR linear Rec.709 colour with the
-//! albedo and normal guides. The guides are first denoised by OIDN themselves ("prefiltering",
-//! the OIDN manual's recommendation for the highest quality when guides can be noisy, as ours
-//! are under depth of field, stochastic transparency and rough interfaces), then the colour is
-//! filtered with `cleanAux` set.
+//! albedo and normal guides. By default the guides are first denoised by OIDN themselves
+//! ("prefiltering", the OIDN manual's recommendation for the highest quality when guides can be
+//! noisy, as ours are under depth of field, stochastic transparency and rough interfaces), then
+//! the colour is filtered with `cleanAux` set. Quality and prefiltering are Cycles' options
+//! (`DenoiseQuality`, `DenoisePrefilter`), with Cycles' defaults for final renders.
 
 use glam::Vec3;
 use libloading::Library;
@@ -77,6 +78,93 @@ struct Api {
     commit_filter: DeviceFn,
     execute_filter: DeviceFn,
     release_filter: DeviceFn,
+}
+
+/// OIDN's filter quality (its `quality` parameter), as Cycles' Denoise > Quality.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DenoiseQuality {
+    /// The best network (Cycles' default for final renders).
+    #[default]
+    High,
+    /// About 2x faster, slightly softer (Cycles' default for the viewport).
+    Balanced,
+    /// The fastest (OIDN 2.2 and later).
+    Fast,
+}
+
+impl DenoiseQuality {
+    pub const NAMES: &'static [&'static str] = &["high", "balanced", "fast"];
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "high" => Some(DenoiseQuality::High),
+            "balanced" => Some(DenoiseQuality::Balanced),
+            "fast" => Some(DenoiseQuality::Fast),
+            _ => None,
+        }
+    }
+
+    /// OIDN's `OIDNQuality` value (oidn.h).
+    fn oidn_value(self) -> i32 {
+        match self {
+            DenoiseQuality::High => 6,
+            DenoiseQuality::Balanced => 5,
+            DenoiseQuality::Fast => 4,
+        }
+    }
+}
+
+/// How the guides are treated, as Cycles' Denoise > Prefilter.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DenoisePrefilter {
+    /// Denoise the albedo and normal first, then the colour with clean guides (Cycles'
+    /// default: the best result when the guides are noisy, three filter runs).
+    #[default]
+    Accurate,
+    /// Denoise the colour with the guides as they are, telling OIDN they may be noisy (one run).
+    Fast,
+    /// Use the guides as they are and tell OIDN they are clean (one run; for noise-free guides).
+    None,
+}
+
+impl DenoisePrefilter {
+    pub const NAMES: &'static [&'static str] = &["accurate", "fast", "none"];
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "accurate" => Some(DenoisePrefilter::Accurate),
+            "fast" => Some(DenoisePrefilter::Fast),
+            "none" => Some(DenoisePrefilter::None),
+            _ => None,
+        }
+    }
+}
+
+/// How to denoise.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DenoiseOptions {
+    pub quality: DenoiseQuality,
+    pub prefilter: DenoisePrefilter,
+    /// Worker threads; 0 = all cores.
+    pub threads: usize,
+}
+
+impl DenoiseOptions {
+    /// The options for progressive previews: at most Balanced quality and Fast prefiltering
+    /// (Cycles' viewport defaults), so previews keep coming.
+    pub fn for_previews(self) -> Self {
+        DenoiseOptions {
+            quality: match self.quality {
+                DenoiseQuality::High => DenoiseQuality::Balanced,
+                q => q,
+            },
+            prefilter: match self.prefilter {
+                DenoisePrefilter::Accurate => DenoisePrefilter::Fast,
+                p => p,
+            },
+            threads: self.threads,
+        }
+    }
 }
 
 /// A loaded OIDN library.
@@ -153,8 +241,8 @@ impl Oidn {
     }
 
     /// Denoises `color` (linear Rec.709, HDR, row 0 = top) with optional albedo (in [0, 1])
-    /// and normal guides (unit or zero vectors). `threads` 0 = all cores. The result is finite
-    /// and non-negative wherever the input is.
+    /// and normal guides (unit or zero vectors). The result is finite and non-negative
+    /// wherever the input is.
     pub fn denoise(
         &self,
         width: usize,
@@ -162,7 +250,7 @@ impl Oidn {
         color: &[Vec3],
         albedo: Option<&[Vec3]>,
         normal: Option<&[Vec3]>,
-        threads: usize,
+        options: &DenoiseOptions,
     ) -> Result<Vec<Vec3>, String> {
         let n = width * height;
         if color.len() != n || albedo.is_some_and(|a| a.len() != n) {
@@ -172,14 +260,19 @@ impl Oidn {
             // OIDN takes a normal guide only together with an albedo guide.
             return Err("a normal guide needs an albedo guide".into());
         }
-        let device = Device::new(&self.api, threads)?;
-        // Prefilter the guides (each denoised on its own), then the colour with clean guides.
-        let albedo = albedo
-            .map(|a| device.run_filter(&[("albedo", a)], n, width, height, &[]))
-            .transpose()?;
-        let normal = normal
-            .map(|a| device.run_filter(&[("normal", a)], n, width, height, &[]))
-            .transpose()?;
+        let device = Device::new(&self.api, options.threads)?;
+        let quality = options.quality;
+        let accurate = options.prefilter == DenoisePrefilter::Accurate;
+        // Accurate: prefilter the guides (each denoised on its own), then use them as clean.
+        let prefilter = |name: &str, guide: &[Vec3]| -> Result<Vec<Vec3>, String> {
+            if accurate {
+                device.run_filter(&[(name, guide)], n, width, height, quality, &[])
+            } else {
+                Ok(guide.to_vec())
+            }
+        };
+        let albedo = albedo.map(|a| prefilter("albedo", a)).transpose()?;
+        let normal = normal.map(|a| prefilter("normal", a)).transpose()?;
         let mut inputs = vec![("color", color)];
         if let Some(a) = &albedo {
             inputs.push(("albedo", a));
@@ -187,12 +280,13 @@ impl Oidn {
         if let Some(nm) = &normal {
             inputs.push(("normal", nm));
         }
-        let clean = albedo.is_some();
+        let clean = albedo.is_some() && options.prefilter != DenoisePrefilter::Fast;
         let mut out = device.run_filter(
             &inputs,
             n,
             width,
             height,
+            quality,
             &[("hdr", true), ("cleanAux", clean)],
         )?;
         // Never hand on a non-finite or negative pixel: keep the noisy value there.
@@ -268,6 +362,7 @@ impl<'a> Device<'a> {
         n: usize,
         width: usize,
         height: usize,
+        quality: DenoiseQuality,
         flags: &[(&str, bool)],
     ) -> Result<Vec<Vec3>, String> {
         let api = self.api;
@@ -314,6 +409,10 @@ impl<'a> Device<'a> {
                 (api.set_filter_bool)(filter.1, name.as_ptr(), *value);
             }
             (api.set_filter_int)(filter.1, c"maxMemoryMB".as_ptr(), MAX_MEMORY_MB);
+            if quality != DenoiseQuality::High {
+                // High is OIDN's default, and the only quality OIDN 1 knows: left unset.
+                (api.set_filter_int)(filter.1, c"quality".as_ptr(), quality.oidn_value());
+            }
             (api.commit_filter)(filter.1);
         }
         self.check("setting up the filter")?;

@@ -50,11 +50,6 @@ pub struct DenoiseGuides {
     pub normal: glam::Vec3,
     /// Distance along the camera ray to the first surface (INFINITY when it escapes).
     pub first_distance: f32,
-    /// Radiance the guide path sees before it finds a surface to record (the world and sun
-    /// discs where it escapes, emitters it hits), times the tint of the specular chain: added
-    /// to the albedo, as in Cycles' denoising albedo, so that the denoiser keeps the detail of
-    /// backgrounds and lights.
-    pub emitted: SampledSpectrum,
 }
 
 impl Default for DenoiseGuides {
@@ -63,7 +58,6 @@ impl Default for DenoiseGuides {
             albedo: SampledSpectrum::ZERO,
             normal: glam::Vec3::ZERO,
             first_distance: f32::INFINITY,
-            emitted: SampledSpectrum::ZERO,
         }
     }
 }
@@ -268,9 +262,6 @@ impl<'a> PathTracer<'a> {
                     if depth <= 1 {
                         l_direct += c;
                     }
-                    if !guides_done {
-                        guides.emitted += guide_tint * le;
-                    }
                 });
                 break;
             };
@@ -327,9 +318,6 @@ impl<'a> PathTracer<'a> {
                     l += c;
                     if depth <= 1 {
                         l_direct += c;
-                    }
-                    if !guides_done {
-                        guides.emitted += guide_tint * le;
                     }
                 }
             }

@@ -316,8 +316,12 @@ pub struct RenderDefaults {
     pub noise_threshold: Option<f32>,
     pub min_samples: Option<u32>,
     pub time_limit: Option<f64>,
-    /// `render.denoise`: denoise the final image with OIDN.
+    /// `render.denoise`: denoise the final image with OIDN; `render.denoise_quality` ("high" |
+    /// "balanced" | "fast") and `render.denoise_prefilter` ("accurate" | "fast" | "none"),
+    /// validated by the sidecar parser.
     pub denoise: Option<bool>,
+    pub denoise_quality: Option<String>,
+    pub denoise_prefilter: Option<String>,
     /// `render.clamp_direct` / `render.clamp_indirect` (>= 0, 0 = off).
     pub clamp_direct: Option<f32>,
     pub clamp_indirect: Option<f32>,

@@ -55,7 +55,9 @@
 //!   `light_sampler` (`"tree"`, the default: a light tree | `"power"`: by emitted power),
 //!   `noise_threshold` (>= 0: adaptive sampling's noise threshold, Cycles' convention, 0 = off),
 //!   `min_samples` (integer >= 0, 0 = automatic), `time_limit` (seconds >= 0, 0 = none),
-//!   `denoise` (true | false: OIDN denoising of the final image, `crate::film::denoise`), and
+//!   `denoise` (true | false: OIDN denoising of the final image, `crate::film::denoise`),
+//!   `denoise_quality` (`"high"` default | `"balanced"` | `"fast"`), `denoise_prefilter`
+//!   (`"accurate"` default | `"fast"` | `"none"`), and
 //!   `clamp_direct` / `clamp_indirect` (>= 0, 0 = off: per-sample luminance limits of direct
 //!   and indirect light, `crate::film::SampleClamp`).
 //!
@@ -72,6 +74,7 @@ use glam::Vec3;
 use serde_json::{Map, Value};
 
 use crate::error::PrismError;
+use crate::film::denoise::{DenoisePrefilter, DenoiseQuality};
 use crate::scene::desc::{
     DielectricDesc, EnvironmentTextureDesc, IorDesc, LensDesc, MaterialOverride, RenderDefaults,
     SubsurfaceCoefficients, SubsurfaceDesc, WorldDesc,
@@ -972,6 +975,8 @@ impl Validator<'_> {
                 "min_samples",
                 "time_limit",
                 "denoise",
+                "denoise_quality",
+                "denoise_prefilter",
                 "clamp_direct",
                 "clamp_indirect",
             ],
@@ -1035,6 +1040,30 @@ impl Validator<'_> {
                         &path.key("denoise"),
                         format!("expected true or false, found {}", kind(x)),
                     )),
+                })
+                .transpose()?,
+            denoise_quality: m
+                .get("denoise_quality")
+                .map(|x| {
+                    self.string(
+                        x,
+                        &path.key("denoise_quality"),
+                        DenoiseQuality::NAMES,
+                        "denoise quality",
+                    )
+                    .map(str::to_string)
+                })
+                .transpose()?,
+            denoise_prefilter: m
+                .get("denoise_prefilter")
+                .map(|x| {
+                    self.string(
+                        x,
+                        &path.key("denoise_prefilter"),
+                        DenoisePrefilter::NAMES,
+                        "denoise prefilter",
+                    )
+                    .map(str::to_string)
                 })
                 .transpose()?,
             clamp_direct: m

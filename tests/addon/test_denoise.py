@@ -59,6 +59,8 @@ def test_defaults_and_panels():
     sc.render.engine = "PRISM"
     C.check(sc.prism.use_denoising, "Denoise is on by default, as in Cycles")
     C.check(sc.prism.clamp_direct == 0.0 and sc.prism.clamp_indirect == 0.0, "clamps off by default (unbiased)")
+    C.check((sc.prism.denoising_prefilter, sc.prism.denoising_quality) == ("ACCURATE", "HIGH"),
+            "Cycles' defaults: Prefilter Accurate, Quality High")
     for name in ("RENDER_PT_prism_denoise", "RENDER_PT_prism_light_paths"):
         panel = getattr(bpy.types, name, None)
         C.check(panel is not None and panel.poll(bpy.context), "%s shown for Prism" % name)
@@ -101,6 +103,7 @@ def test_denoised_render_with_noisy_image_pass():
     C.use_prism(sc, spp=4)
     sc.prism.use_denoising = True
     sc.prism.denoising_data = True
+    sc.prism.denoising_quality = "BALANCED"
     sc.render.resolution_x, sc.render.resolution_y = 120, 80
     res = bpy.ops.render.render(write_still=False)
     C.check("FINISHED" in res, "render finished")
@@ -110,6 +113,7 @@ def test_denoised_render_with_noisy_image_pass():
     C.check(L["error"] is None, "no error: %s" % L["error"])
     C.check(L["denoised"], "the binary denoised (oidn %s, warnings %s)" % (L.get("oidn"), L["warnings"]))
     C.check(not L["warnings"], "no warnings: %s" % L["warnings"])
+    C.check("--denoise-quality balanced" in " ".join(L.get("args", [])), "quality passed to the binary")
     C.check("denoise" in L["timings"], "denoise time reported: %.3f s" % L["timings"].get("denoise", -1))
     C.check(L["passes"] == ["Denoising Normal", "Denoising Albedo", "Denoising Depth", "Noisy Image"],
             "passes: %s" % L["passes"])
@@ -126,6 +130,7 @@ def test_denoised_render_with_noisy_image_pass():
     C.check(albedo.max() > 0.5, "Denoising Albedo written")
     C.check(plane(planes, "Denoising Depth.Z").min() > 0.0, "Denoising Depth written")
     sc.prism.denoising_data = False
+    sc.prism.denoising_quality = "HIGH"
 
 
 def test_without_a_library_the_user_is_warned():
