@@ -4,17 +4,20 @@
 # (the content does not change OIDN's cost; only its size does).
 # Two settings: Cycles' final-render defaults (quality high, prefilter accurate) and the fast
 # pair (balanced, fast). Cycles' own cost on the same machine: bench/denoise_cycles.py.
-#   bench/denoise.sh [RUNS=3]            (needs .venv-bpy: tests/addon/run_addon_tests.sh install)
+#   bench/denoise.sh [RUNS=3] [SIZES="1920x1080 3840x2160"] [SETTINGS="high/accurate balanced/fast"]
+#   (needs .venv-bpy: tests/addon/run_addon_tests.sh install)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 RUNS=${1:-3}
+SIZES=${2:-1920x1080 3840x2160}
+SETTINGS=${3:-high/accurate balanced/fast}
 OIDN=${PRISM_OIDN:-$(ls -d .venv-bpy/lib/python3*/site-packages/bpy/lib | head -1)}
 cargo build --release -q
 OUT=$(mktemp -d)
 trap 'rm -rf "$OUT"' EXIT
-for size in 1920x1080 3840x2160; do
-  for opts in "high accurate" "balanced fast"; do
-    w=${size%x*}; h=${size#*x}; set -- $opts
+for size in $SIZES; do
+  for opts in $SETTINGS; do
+    w=${size%x*}; h=${size#*x}; set -- ${opts%/*} ${opts#*/}
     times=(); mems=()
     for _ in $(seq "$RUNS"); do
         /usr/bin/time -f "%M" -o "$OUT/mem" ./target/release/prism render scenes/cornell/cornell.gltf \

@@ -3,7 +3,7 @@ OIDN (the bpy wheel's) at Cycles' final-render defaults (Prefilter Accurate, Qua
 1-spp render of a simple scene at 1920x1080 and 3840x2160, 2 threads. The denoising time is
 the render time with denoising minus without (medians of N runs each).
 
-    .venv-bpy/bin/python bench/denoise_cycles.py [RUNS=3]
+    .venv-bpy/bin/python bench/denoise_cycles.py [RUNS=3] [SIZES=1920x1080,3840x2160]
 """
 import json
 import os
@@ -25,7 +25,8 @@ cy.denoising_prefilter = "ACCURATE"
 if hasattr(cy, "denoising_quality"):
     cy.denoising_quality = "HIGH"
 cy.denoising_input_passes = "RGB_ALBEDO_NORMAL"
-for w, h in ((1920, 1080), (3840, 2160)):
+sizes = sys.argv[2] if len(sys.argv) > 2 else "1920x1080,3840x2160"
+for w, h in (tuple(int(v) for v in s.split("x")) for s in sizes.split(",")):
     sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = w, h, 100
     times = {}
     for denoise in (False, True):

@@ -710,6 +710,7 @@ fn denoise_film(
         Some(&film.albedo_guide()),
         Some(&film.normal_guide()),
         options,
+        &CANCEL,
     )
 }
 

@@ -20,6 +20,7 @@ use prism::render::{render_quiet, RenderSettings};
 use prism::scene::{load_scene, Scene};
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::atomic::AtomicBool;
 
 const SIZE: u32 = 64;
 
@@ -56,6 +57,7 @@ fn denoise(oidn: &Oidn, film: &Film, guides: bool) -> Vec<Vec3> {
             threads: 2,
             ..Default::default()
         },
+        &AtomicBool::new(false),
     )
     .expect("OIDN denoises")
 }
@@ -378,7 +380,15 @@ fn quality_and_prefilter_options_reach_oidn() {
         };
         let n = SIZE as usize;
         let out = oidn
-            .denoise(n, n, &color, Some(&albedo), Some(&normal), &options)
+            .denoise(
+                n,
+                n,
+                &color,
+                Some(&albedo),
+                Some(&normal),
+                &options,
+                &AtomicBool::new(false),
+            )
             .expect("OIDN denoises");
         assert!(out.iter().all(|c| c.is_finite()));
         out
@@ -444,5 +454,74 @@ fn quality_and_prefilter_options_reach_oidn() {
         "{}",
         stderr(&o)
     );
+    std::fs::remove_dir_all(&d).ok();
+}
+
+#[test]
+fn interrupting_the_denoiser_writes_the_noisy_image_at_once() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+    let lib = common::oidn_library();
+    let d = out_dir("interrupt");
+    let out = d.join("out.exr");
+    // 960 x 540 at 1 spp: the render takes about a second, OIDN (High, Accurate) about ten on
+    // a 2-core machine.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_prism"))
+        .args([
+            "render",
+            "scenes/cornell/cornell.gltf",
+            "--width",
+            "960",
+            "--height",
+            "540",
+        ])
+        .args([
+            "--spp",
+            "1",
+            "--progress",
+            "json",
+            "--threads",
+            "2",
+            "--denoise",
+            "--oidn",
+        ])
+        .arg(&lib)
+        .arg("-o")
+        .arg(&out)
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
+    // The last pass's report comes right before denoising starts.
+    assert!(
+        lines
+            .by_ref()
+            .any(|l| l.unwrap().contains("\"pass_spp\":1")),
+        "no end of the pass"
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let t0 = Instant::now();
+    let status = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let rest: Vec<String> = lines.map_while(|l| l.ok()).collect();
+    let exit = child.wait().unwrap();
+    let took = t0.elapsed();
+    assert!(exit.success(), "exit status {exit:?}: {rest:?}");
+    assert!(took < Duration::from_millis(2000), "took {took:?} to stop");
+    assert!(
+        rest.iter().any(|l| l.contains("denoising cancelled")),
+        "{rest:?}"
+    );
+    assert!(
+        rest.iter().any(|l| l.contains("\"denoised\":false")),
+        "{rest:?}"
+    );
+    let (w, h, px) = read_exr_rgba(&out).unwrap();
+    assert_eq!((w, h), (960, 540));
+    assert!(px.iter().all(|p| p.iter().all(|v| v.is_finite())));
     std::fs::remove_dir_all(&d).ok();
 }
