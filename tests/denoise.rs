@@ -195,6 +195,19 @@ fn prism(args: &[&str], env_oidn: Option<&Path>) -> std::process::Output {
     cmd.output().expect("prism runs")
 }
 
+/// `prism(["-o", out, "--denoise", "--oidn", oidn] + extra)`.
+fn prism_denoise(out: &Path, oidn: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "-o",
+        out.to_str().unwrap(),
+        "--denoise",
+        "--oidn",
+        oidn.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    prism(&args, None)
+}
+
 fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
@@ -208,16 +221,7 @@ fn binary_writes_denoised_and_noisy_layers() {
     let lib = common::oidn_library();
     let d = out_dir("layers");
     let out = d.join("out.exr");
-    let o = prism(
-        &[
-            "-o",
-            out.to_str().unwrap(),
-            "--denoise",
-            "--oidn",
-            lib.to_str().unwrap(),
-        ],
-        None,
-    );
+    let o = prism_denoise(&out, &lib, &[]);
     let err = stderr(&o);
     assert!(o.status.success(), "{err}");
     let done = err
@@ -290,16 +294,7 @@ fn missing_library_warns_and_writes_the_noisy_image() {
     let empty = d.join("no_oidn_here");
     std::fs::create_dir_all(&empty).unwrap();
     let out = d.join("out.exr");
-    let o = prism(
-        &[
-            "-o",
-            out.to_str().unwrap(),
-            "--denoise",
-            "--oidn",
-            empty.to_str().unwrap(),
-        ],
-        None,
-    );
+    let o = prism_denoise(&out, &empty, &[]);
     let err = stderr(&o);
     assert!(o.status.success(), "{err}");
     let warnings: Vec<&str> = err.lines().filter(|l| l.contains("\"warning\"")).collect();
@@ -314,16 +309,7 @@ fn missing_library_warns_and_writes_the_noisy_image() {
 
     // A given path that does not exist is bad input: exit 2, one line naming it.
     let bad = d.join("nowhere").join("libOpenImageDenoise.so.2");
-    let o = prism(
-        &[
-            "-o",
-            out.to_str().unwrap(),
-            "--denoise",
-            "--oidn",
-            bad.to_str().unwrap(),
-        ],
-        None,
-    );
+    let o = prism_denoise(&out, &bad, &[]);
     assert_eq!(o.status.code(), Some(2));
     let err = stderr(&o);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
@@ -340,16 +326,7 @@ fn previews_are_denoised_only_when_asked() {
     let lib = common::oidn_library();
     let d = out_dir("previews");
     let (out, preview) = (d.join("out.exr"), d.join("preview.exr"));
-    let base = [
-        "-o",
-        out.to_str().unwrap(),
-        "--preview",
-        preview.to_str().unwrap(),
-        "--denoise",
-        "--oidn",
-        lib.to_str().unwrap(),
-    ];
-    let o = prism(&base, None);
+    let o = prism_denoise(&out, &lib, &["--preview", preview.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("\"preview\""));
     assert!(
@@ -357,9 +334,11 @@ fn previews_are_denoised_only_when_asked() {
         "previews stay noisy by default"
     );
     assert!(has_channel(&out, "Noisy.R"));
-    let mut args = base.to_vec();
-    args.push("--denoise-previews");
-    let o = prism(&args, None);
+    let o = prism_denoise(
+        &out,
+        &lib,
+        &["--preview", preview.to_str().unwrap(), "--denoise-previews"],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(has_channel(&preview, "Noisy.R"), "denoised previews");
     std::fs::remove_dir_all(&d).ok();

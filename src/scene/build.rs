@@ -154,11 +154,7 @@ impl Scene {
             &lights,
             world_light,
         );
-        if lights.is_empty() {
-            return Err(PrismError::input(
-                "the scene has no light: no emissive material, no KHR_lights_punctual light and a black world",
-            ));
-        }
+        // No light at all is allowed: the image is black (`load::load_scene` warns).
         Ok(Scene {
             geometry,
             materials: runtime_materials,

@@ -425,9 +425,11 @@ impl Importer<'_> {
             .instances
             .iter()
             .any(|i| !self.scene.meshes[i.mesh].indices.is_empty());
-        if !has_triangles && self.scene.lights.is_empty() {
-            return Err(
-                "no renderable geometry (no non-degenerate triangles and no punctual lights)"
+        if !has_triangles {
+            // Blender renders a scene without geometry (an HDRI look-development render, a
+            // turntable before the model is loaded): so do we, with a warning.
+            self.scene.warnings.push(
+                "no renderable geometry (no non-degenerate triangles): the image shows only the world"
                     .into(),
             );
         }

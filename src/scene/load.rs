@@ -94,9 +94,11 @@ fn load_scene_inner(
     }
 
     if !has_light(&scene) {
-        return Err(PrismError::input(format!(
-            "{file}: the scene has no light (no emissive material on any mesh, no KHR_lights_punctual light, and the world strength is 0)"
-        )));
+        // Blender renders a scene without light black; refusing it would stop a render farm
+        // on a valid (if dark) file.
+        scene.warnings.push(format!(
+            "{file}: the scene has no light (no emissive material on any mesh, no KHR_lights_punctual light, and the world strength is 0): the image is black"
+        ));
     }
     Ok(scene)
 }

@@ -595,6 +595,26 @@ def test_passes_depth_normal_denoising():
     vl.use_pass_z = vl.use_pass_normal = False
 
 
+def test_world_only_scene():
+    """A scene with a camera and a world but no objects renders the world (look development
+    before the model exists), with one warning in Blender's report, as Cycles renders it."""
+    C.reset()
+    sc = bpy.context.scene
+    C.world((0.2, 0.3, 0.4), 1.5)
+    C.camera((0.0, -5.0, 0.0), (0.0, 0.0, 0.0))
+    sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 32, 24, 100
+    C.use_prism(sc, spp=8)
+    px = C.render_pixels(sc, os.path.join(OUT, "world_only.exr"))
+    from prism import engine
+
+    C.check(engine.LAST["error"] is None, "no error: %s" % engine.LAST["error"])
+    w = [x for x in engine.LAST["warnings"] if "no renderable geometry" in x]
+    C.check(len(w) == 1, "one warning names the missing geometry: %s" % engine.LAST["warnings"])
+    mean = px[..., :3].reshape(-1, 3).mean(axis=0)
+    want = np.array([0.3, 0.45, 0.6])
+    C.check(np.all(np.abs(mean / want - 1) < 0.01), "the world's radiance %s vs %s" % (mean, want))
+
+
 if __name__ == "__main__":
     from runner_util import run_tests
 

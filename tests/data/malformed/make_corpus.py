@@ -172,20 +172,21 @@ def main():
     d.node({"name": "Light", "mesh": d.tri_mesh("Light", QUAD, QUAD_IDX, em)})
     write_gltf("no_camera.gltf", d)
 
+    # Valid edge cases (tests/data/edge/, tests/edge_scenes.rs): they render, with a warning.
     # Only degenerate triangles: collinear points and a repeated index.
     d = Doc()
     em = d.material("Emitter", emissive=5.0)
     line = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (2.0, 0.0, 0.0), (0.0, 1.0, 0.0)]
     d.node({"name": "Flat", "mesh": d.tri_mesh("Flat", line, [0, 1, 2, 3, 3, 0], em)})
     d.camera()
-    write_gltf("degenerate_only.gltf", d)
+    write_gltf("../edge/degenerate_only.gltf", d)
 
     # Geometry and a camera, but nothing emits (and no sidecar world).
     d = Doc()
     grey = d.material("Grey")
     d.node({"name": "Quad", "mesh": d.tri_mesh("Quad", QUAD, QUAD_IDX, grey)})
     d.camera()
-    write_gltf("zero_lights.gltf", d)
+    write_gltf("../edge/zero_lights.gltf", d)
 
     # Triangle index past the end of the vertex array.
     d = Doc()
