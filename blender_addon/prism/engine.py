@@ -304,25 +304,9 @@ class PrismRenderEngine(bpy.types.RenderEngine):
         self.update_stats("", "Prism: done in %.2f s" % float(done.get("seconds", timings["process"])))
 
 
-def get_panels():
-    """Cycles-agnostic built-in panels that make sense for Prism."""
-    exclude = {"VIEWLAYER_PT_filter", "VIEWLAYER_PT_layer_passes"}
-    panels = []
-    for panel in bpy.types.Panel.__subclasses__():
-        if hasattr(panel, "COMPAT_ENGINES") and "BLENDER_RENDER" in panel.COMPAT_ENGINES:
-            if panel.__name__ not in exclude:
-                panels.append(panel)
-    return panels
-
-
 def register():
     bpy.utils.register_class(PrismRenderEngine)
-    for p in get_panels():
-        p.COMPAT_ENGINES.add("PRISM")
 
 
 def unregister():
-    for p in get_panels():
-        if "PRISM" in p.COMPAT_ENGINES:
-            p.COMPAT_ENGINES.remove("PRISM")
     bpy.utils.unregister_class(PrismRenderEngine)

@@ -36,9 +36,11 @@ class RENDER_PT_prism_sampling(PrismPanel, bpy.types.Panel):
         sub.active = p.use_adaptive_sampling
         sub.prop(p, "adaptive_min_samples", text="Min Samples")
         layout.prop(p, "time_limit")
-        col = layout.column()
+        # "Wavelength Density" is cut off at the default editor width: "Density" under "Wavelengths".
+        col = layout.column(align=True)
         col.prop(p, "wavelengths")
-        col.prop(p, "wavelength_pdf")
+        col.prop(p, "wavelength_pdf", text="Density")
+        col = layout.column()
         col.prop(p, "threads")
         col.prop(p, "seed")
 
@@ -166,7 +168,9 @@ class MATERIAL_PT_prism(PrismPanel, bpy.types.Panel):
 
 
 class MATERIAL_PT_prism_surface(PrismPanel, bpy.types.Panel):
-    """The material's node tree output, so a surface can be edited without the node editor."""
+    """Material > Surface, as Cycles': the node tree behind the output Prism renders (target All
+    or Cycles, as the export reads it), or the base colour, metallic and roughness of a material
+    without nodes (Blender 3.x)."""
 
     bl_label = "Surface"
     bl_space_type = "PROPERTIES"
@@ -175,25 +179,278 @@ class MATERIAL_PT_prism_surface(PrismPanel, bpy.types.Panel):
 
     @classmethod
     def poll(cls, context):
-        return super().poll(context) and context.material is not None and context.material.node_tree is not None
+        mat = context.material
+        return super().poll(context) and mat is not None and not getattr(mat, "grease_pencil", None)
 
     def draw(self, context):
+        layout = self.layout
         mat = context.material
-        out = next((n for n in mat.node_tree.nodes if n.type == "OUTPUT_MATERIAL" and n.is_active_output), None)
-        if out is None:
-            self.layout.label(text="No material output node")
-            return
-        self.layout.template_node_view(mat.node_tree, out, out.inputs["Surface"])
+        draw_use_nodes(layout, mat)
+        layout.use_property_split = True
+        if uses_nodes(mat):
+            draw_node_view(layout, mat.node_tree, "Surface")
+        else:
+            layout.prop(mat, "diffuse_color", text="Base Color")
+            layout.prop(mat, "metallic")
+            layout.prop(mat, "roughness")
 
 
-classes = (RENDER_PT_prism_sampling, RENDER_PT_prism_denoise, RENDER_PT_prism_light_paths, RENDER_PT_prism_film, VIEWLAYER_PT_prism_passes, MATERIAL_PT_prism, MATERIAL_PT_prism_surface)
+class MATERIAL_PT_prism_settings(PrismPanel, bpy.types.Panel):
+    """Material > Settings: what of Blender's material settings the export reads."""
+
+    bl_label = "Settings"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "material"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context):
+        mat = context.material
+        return super().poll(context) and mat is not None and not getattr(mat, "grease_pencil", None)
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        # glTF doubleSided = not backface culling.
+        layout.prop(context.material, "use_backface_culling")
+
+
+class DATA_PT_prism_light(PrismPanel, bpy.types.Panel):
+    """Light properties, as Cycles' Light panel (Blender's own DATA_PT_light draws only the type
+    for external engines, DATA_PT_EEVEE_light is EEVEE's)."""
+
+    bl_label = "Light"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "data"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.light is not None
+
+    def draw(self, context):
+        layout = self.layout
+        light = context.light
+        layout.row().prop(light, "type", expand=True)
+        layout.use_property_split = True
+
+        col = layout.column()
+        if hasattr(light, "use_temperature"):  # Blender 4.5+
+            heading = col.column(align=True, heading="Temperature")
+            row = heading.row(align=True)
+            row.use_property_decorate = False
+            row.prop(light, "use_temperature", text="")
+            sub = row.row()
+            sub.active = light.use_temperature
+            sub.prop(light, "temperature", text="")
+            row.prop_decorator(light, "temperature")
+            col.prop(light, "color", text="Tint" if light.use_temperature else "Color")
+        else:
+            col.prop(light, "color")
+
+        layout.separator()
+        col = layout.column()
+        col.prop(light, "energy")  # "Power" (W), "Strength" for a sun
+        if hasattr(light, "exposure"):  # Blender 4.x+
+            col.prop(light, "exposure")
+
+        layout.separator()
+        col = layout.column()
+        if light.type in {"POINT", "SPOT"}:
+            col.prop(light, "shadow_soft_size", text="Radius")
+            if hasattr(light, "use_soft_falloff"):  # Blender 4.0+
+                col.prop(light, "use_soft_falloff")
+        elif light.type == "SUN":
+            col.prop(light, "angle")
+        elif light.type == "AREA":
+            col.prop(light, "shape")
+            sub = col.column(align=True)
+            if light.shape in {"SQUARE", "DISK"}:
+                sub.prop(light, "size")
+            else:
+                sub.prop(light, "size", text="Size X")
+                sub.prop(light, "size_y", text="Y")
+
+
+class DATA_PT_prism_light_beam_shape(PrismPanel, bpy.types.Panel):
+    """Light > Beam Shape, as Cycles': the spot cone, an area light's spread. Blender's DATA_PT_spot
+    draws the same but is a child of EEVEE's light panel, so it cannot show under Prism's."""
+
+    bl_label = "Beam Shape"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "data"
+    bl_parent_id = "DATA_PT_prism_light"
+
+    @classmethod
+    def poll(cls, context):
+        light = context.light
+        return super().poll(context) and light is not None and (
+            light.type == "SPOT" or (light.type == "AREA" and hasattr(light, "spread"))
+        )
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        light = context.light
+        col = layout.column()
+        if light.type == "SPOT":
+            col.prop(light, "spot_size", text="Size")
+            col.prop(light, "spot_blend", text="Blend", slider=True)
+            col.prop(light, "show_cone")
+        else:
+            col.prop(light, "spread")
+
+
+class DATA_PT_prism_light_nodes(PrismPanel, bpy.types.Panel):
+    """Light > Nodes, as Cycles': the light's shader nodes, when it uses them."""
+
+    bl_label = "Nodes"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "data"
+
+    @classmethod
+    def poll(cls, context):
+        light = context.light
+        return super().poll(context) and light is not None and getattr(light, "use_nodes", False) and light.node_tree is not None
+
+    def draw(self, context):
+        self.layout.use_property_split = True
+        draw_node_view(self.layout, context.light.node_tree, "Surface")
+
+
+class WORLD_PT_prism_surface(PrismPanel, bpy.types.Panel):
+    """World > Surface, as Cycles': the world output's Surface node tree (the Background Prism
+    exports), or the world colour without nodes (Blender 3.x)."""
+
+    bl_label = "Surface"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "world"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.world is not None
+
+    def draw(self, context):
+        layout = self.layout
+        world = context.world
+        draw_use_nodes(layout, world)
+        layout.use_property_split = True
+        if uses_nodes(world):
+            draw_node_view(layout, world.node_tree, "Surface")
+        else:
+            layout.prop(world, "color")
+
+
+def uses_nodes(idb):
+    """Whether a material or world renders its node tree. Blender 5.0 always does (use_nodes is
+    deprecated and warns when read)."""
+    if idb.node_tree is None:
+        return False
+    return bpy.app.version >= (5, 0, 0) or idb.use_nodes
+
+
+def draw_use_nodes(layout, idb):
+    """The Use Nodes toggle of Blender 3.x's EEVEE and Cycles surface panels (gone in 5.0)."""
+    if bpy.app.version < (5, 0, 0):
+        layout.prop(idb, "use_nodes", icon="NODETREE")
+        layout.separator()
+
+
+def draw_node_view(layout, ntree, input_name):
+    """The node tree behind an output's input, as Cycles' panel_node_draw: the active output for
+    target All or Cycles, the one the export reads."""
+    node = ntree.get_output_node("CYCLES")
+    if node is None:
+        layout.label(text="No output node")
+        return
+    socket = node.inputs.get(input_name)
+    if socket is None:
+        layout.label(text="Incompatible output node")
+        return
+    layout.template_node_view(ntree, node, socket)
+
+
+# Blender's own panels list the engines they draw for in COMPAT_ENGINES. Prism joins those
+# written for any engine: the ones that list BLENDER_RENDER (the engine-agnostic set, as every
+# external engine does), less those it replaces or that draw what Prism does not use, plus the
+# generic ones Blender flags EEVEE/Workbench only.
+BUILTIN_EXCLUDE = {
+    "DATA_PT_light",  # the type alone; DATA_PT_prism_light draws the whole light
+    "DATA_PT_area",  # 3.x: area shape and size; in DATA_PT_prism_light
+    "DATA_PT_falloff_curve",  # 3.x: Blender Internal's custom falloff curve
+    "VIEWLAYER_PT_filter",
+    "VIEWLAYER_PT_layer_passes",  # VIEWLAYER_PT_prism_passes: the passes Prism writes
+}
+BUILTIN_EXTRA = {
+    "EEVEE_MATERIAL_PT_context_material",  # material slots, browse/new: no EEVEE setting in it
+    "DATA_PT_camera_dof",  # focus object/distance (exported)
+    "DATA_PT_camera_dof_aperture",  # f-stop (exported), blades, rotation, ratio
+}
+
+# The panels register() added PRISM to, so unregister() removes it from exactly those.
+_added = []
+
+
+def _panel_classes():
+    seen, todo = [], list(bpy.types.Panel.__subclasses__())
+    while todo:
+        c = todo.pop()
+        if c in seen:
+            continue
+        seen.append(c)
+        todo.extend(c.__subclasses__())
+    return seen
+
+
+def builtin_panels():
+    """Blender's registered panels Prism shows, in the sense of the comment above."""
+    panels = [
+        p for p in _panel_classes()
+        if isinstance(getattr(p, "COMPAT_ENGINES", None), set) and getattr(p, "is_registered", False)
+    ]
+    # Copies share their original's set (the node editor's NODE_DATA_PT_light is DATA_PT_light's
+    # class dict), so a panel is left out when its set is an excluded panel's.
+    excluded = {id(p.COMPAT_ENGINES) for p in panels if p.__name__ in BUILTIN_EXCLUDE}
+    return [
+        p for p in panels
+        if id(p.COMPAT_ENGINES) not in excluded
+        and ("BLENDER_RENDER" in p.COMPAT_ENGINES or p.__name__ in BUILTIN_EXTRA)
+    ]
+
+
+classes = (
+    RENDER_PT_prism_sampling,
+    RENDER_PT_prism_denoise,
+    RENDER_PT_prism_light_paths,
+    RENDER_PT_prism_film,
+    VIEWLAYER_PT_prism_passes,
+    DATA_PT_prism_light,
+    DATA_PT_prism_light_beam_shape,
+    DATA_PT_prism_light_nodes,
+    WORLD_PT_prism_surface,
+    MATERIAL_PT_prism_surface,
+    MATERIAL_PT_prism,
+    MATERIAL_PT_prism_settings,
+)
 
 
 def register():
     for c in classes:
         bpy.utils.register_class(c)
+    for p in builtin_panels():
+        if "PRISM" not in p.COMPAT_ENGINES:  # a set shared by subclasses counts once
+            p.COMPAT_ENGINES.add("PRISM")
+            _added.append(p)
 
 
 def unregister():
+    for p in _added:
+        p.COMPAT_ENGINES.discard("PRISM")
+    _added.clear()
     for c in reversed(classes):
         bpy.utils.unregister_class(c)

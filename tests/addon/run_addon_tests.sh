@@ -58,6 +58,9 @@ if [ "$WHICH" = all ] || [ "$WHICH" = bpy ]; then
     echo "== add-on tests in the bpy wheel (Blender 5.0.1)"
     .venv-bpy/bin/python tests/addon/test_bpy.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== Properties editor panels with Prism (light, world, material, camera) in the bpy wheel"
+    .venv-bpy/bin/python tests/addon/test_panels.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
     echo "== camera and world parity with Cycles in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_camera_world.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
@@ -80,6 +83,9 @@ fi
 if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
     echo "== add-on tests through blender -b ($(blender --version 2>/dev/null | head -1))"
     .venv-bpy/bin/python tests/addon/test_background.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== Properties editor panels with Prism in blender -b ($(blender --version 2>/dev/null | head -1))"
+    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_panels.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
 fi
 if [ "$WHICH" = all ] || [ "$WHICH" = interactive ]; then
