@@ -71,7 +71,7 @@ class RENDER_PT_prism_denoise(PrismPanel, bpy.types.Panel):
         col.prop(p, "denoising_quality")
         col.prop(p, "denoise_previews")
         if p.use_denoising and engine.blender_oidn() is None:
-            col.label(text="This Blender has no OpenImageDenoise library", icon="ERROR")
+            col.label(text="No OpenImageDenoise library", icon="ERROR")
 
 
 class RENDER_PT_prism_light_paths(PrismPanel, bpy.types.Panel):

@@ -89,7 +89,7 @@ if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
     [ "${PIPESTATUS[0]}" = 0 ]
 fi
 if [ "$WHICH" = all ] || [ "$WHICH" = interactive ]; then
-    echo "== interactive Blender ($(blender --version 2>/dev/null | head -1)) under Xvfb: engine list, panels, F12"
+    echo "== interactive Blender ($(blender --version 2>/dev/null | head -1)) under Xvfb: engine list, panels, F12, the Properties editor's tabs"
     .venv-bpy/bin/python tests/addon/test_interactive.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
 fi

@@ -63,6 +63,51 @@ def test_interactive_f12_render():
     check(centre > 2.0 * corner, "the lit cube is brighter than the world (%.3f vs %.3f)" % (centre, corner))
 
 
+def test_properties_editor_panels():
+    """Blender 3.4 with a window (1920x1080, the factory layout): the Properties editor's Light,
+    World, Material and Render tabs with Prism as Blender itself draws them (panels_ui_blender.py
+    notes what each panel's real draw() puts in the layout) and a screenshot of each."""
+    out = tempfile.mkdtemp(prefix="prism_interactive_")
+    report_path = os.path.join(out, "panels.json")
+    env = dict(os.environ, PRISM_PANELS_REPORT=report_path, PRISM_PANELS_OUT=out)
+    cmd = ["xvfb-run", "-a", "-s", "-screen 0 1920x1080x24",
+           BLENDER, "--factory-startup", "-P", os.path.join(HERE, "panels_ui_blender.py")]
+    p = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=120)
+    check(os.path.exists(report_path), "the session wrote its report (log tail: %s)" % (p.stdout + p.stderr)[-400:])
+    with open(report_path) as f:
+        report = json.load(f)
+    check(not report["errors"], "no Python errors in the session: %s" % report["errors"])
+    tabs = report["tabs"]
+
+    def labels(tab, panel):
+        return [n[2] for n in tabs.get(tab, {}).get(panel, []) if n[0] == "prop"]
+
+    def templates(tab, panel):
+        return [n[0] for n in tabs.get(tab, {}).get(panel, []) if n[0].startswith("template_")]
+
+    print("  drawn:", {t: sorted(v) for t, v in tabs.items()}, flush=True)
+    light = labels("light", "DATA_PT_prism_light")
+    check({"Color", "Power", "Radius"} <= set(light), "Light tab (point light): Color, Power, Radius drawn (%s)" % light)
+    check("DATA_PT_light" not in tabs["light"] and not any(n.startswith(("CYCLES", "DATA_PT_EEVEE")) for n in tabs["light"]),
+          "Light tab: neither Blender's type-only Light panel nor EEVEE's/Cycles'")
+    check("template_ID" in templates("light", "DATA_PT_context_light"), "Light tab: the light browser")
+    check("template_ID" in templates("world", "WORLD_PT_context_world"), "World tab: the world browser")
+    check("template_node_view" in templates("world", "WORLD_PT_prism_surface"), "World tab: Surface draws the node view")
+    check("template_list" in templates("material", "EEVEE_MATERIAL_PT_context_material")
+          and "template_ID" in templates("material", "EEVEE_MATERIAL_PT_context_material"),
+          "Material tab: the slot list and browse/new")
+    check("template_node_view" in templates("material", "MATERIAL_PT_prism_surface"), "Material tab: Surface draws the node view")
+    render = labels("render", "RENDER_PT_prism_sampling")
+    check("Density" in render and "Wavelength Density" not in render, "Render tab: Density under Wavelengths (%s)" % render)
+    px = report["label_px"]
+    wide = {lab: round(w) for lab, w in px.items() if w > px["Noise Threshold"] and lab != "Wavelength Density"}
+    check(not wide, "Render tab labels no wider than 'Noise Threshold' (%.0f px, fits the %d px editor; "
+          "'Wavelength Density' is %.0f px): %s" % (px["Noise Threshold"], report["region_width"], px["Wavelength Density"], wide))
+    shots = [os.path.join(out, t + ".png") for t in ("light", "world", "material", "render")]
+    check(all(os.path.getsize(s) > 1000 for s in shots), "screenshots: %s" % ", ".join(shots))
+
+
 if __name__ == "__main__":
     test_interactive_f12_render()
+    test_properties_editor_panels()
     print("interactive test passed")
