@@ -76,6 +76,7 @@ fn plane_mean(occluder: Option<(MaterialDesc, f32)>) -> Vec3 {
             position: Vec3::ZERO,
             direction: -Vec3::Y,
             angle: 0.0,
+            ..Default::default()
         }],
         camera: Some(cam),
         ..Default::default()

@@ -68,8 +68,110 @@ fn light(kind: PunctualKind, intensity: f32, position: Vec3, direction: Vec3) ->
         intensity,
         position,
         direction,
-        angle: 0.0,
+        ..Default::default()
     }
+}
+
+/// A point light of radius `radius` at height `h` above the plane.
+fn round_point(i: f32, h: f32, radius: f32, soft_falloff: bool) -> PunctualLightDesc {
+    PunctualLightDesc {
+        radius,
+        soft_falloff,
+        ..light(PunctualKind::Point, i, Vec3::new(0.0, h, 0.0), -Vec3::Y)
+    }
+}
+
+/// Blender's point light with a radius r and Soft Falloff: a disc of radiance I / (pi r^2)
+/// facing the shading point, whose on-axis irradiance is pi L r^2 / (r^2 + h^2) = I / (r^2 +
+/// h^2). Lit by light sampling and by BSDF rays hitting the disc, combined with MIS.
+#[test]
+fn soft_point_light_is_a_facing_disc() {
+    let (i, h, r) = (8.0, 2.0, 1.0);
+    let got = mean_rgb(plane_scene(round_point(i, h, r, true)), 256);
+    let want = ALBEDO / std::f32::consts::PI * i / (r * r + h * h);
+    assert_close(got, want, 0.02, "soft point light");
+}
+
+/// Without Soft Falloff: a sphere of radiance I / (pi r^2). Outside it, the irradiance of a
+/// sphere wholly above the horizon is pi L sin^2(alpha) = I / h^2, the point light's; inside
+/// it (the plane cuts the sphere), every direction of the upper hemisphere sees L: E = I / r^2.
+#[test]
+fn sphere_point_light_outside_and_inside() {
+    let (i, r) = (8.0, 1.0);
+    let outside = mean_rgb(plane_scene(round_point(i, 2.0, r, false)), 256);
+    assert_close(
+        outside,
+        ALBEDO / std::f32::consts::PI * i / 4.0,
+        0.02,
+        "sphere, outside",
+    );
+    let inside = mean_rgb(plane_scene(round_point(i, 0.5, r, false)), 256);
+    assert_close(
+        inside,
+        ALBEDO / std::f32::consts::PI * i / (r * r),
+        0.02,
+        "sphere, inside",
+    );
+}
+
+/// A spot light with a radius has its disc's irradiance inside the cone and none outside.
+#[test]
+fn soft_spot_light_inside_and_outside_cone() {
+    let (i, h, r) = (8.0, 2.0, 0.5);
+    let spot = |direction| PunctualLightDesc {
+        radius: r,
+        soft_falloff: true,
+        ..light(
+            PunctualKind::Spot {
+                inner_cone: 0.5,
+                outer_cone: 0.6,
+            },
+            i,
+            Vec3::new(0.0, h, 0.0),
+            direction,
+        )
+    };
+    let want = ALBEDO / std::f32::consts::PI * i / (r * r + h * h);
+    assert_close(
+        mean_rgb(plane_scene(spot(-Vec3::Y)), 256),
+        want,
+        0.02,
+        "soft spot",
+    );
+    assert_eq!(mean_rgb(plane_scene(spot(Vec3::X)), 16), Vec3::ZERO);
+}
+
+/// Camera rays see a light's disc only with Camera visibility on (off by default, as in
+/// Blender); a mirror always reflects it. The light hangs between the camera (looking down from
+/// y = 3) and the plane.
+#[test]
+fn round_light_camera_visibility_and_mirror_reflection() {
+    let (i, r) = (8.0, 0.5);
+    let radiance = i / (std::f32::consts::PI * r * r);
+    let seen = |visible_camera: bool, mirror: bool| {
+        let mut desc = plane_scene(PunctualLightDesc {
+            visible_camera,
+            ..round_point(i, 1.5, r, true)
+        });
+        if mirror {
+            desc.materials[0].gltf.metallic = 1.0;
+            desc.materials[0].gltf.roughness = 0.0;
+            desc.materials[0].gltf.base_color = Vec3::ONE.extend(1.0);
+        } else {
+            desc.materials[0].gltf.base_color = Vec3::ZERO.extend(1.0);
+        }
+        mean_rgb(desc, 16)
+    };
+    // A black plane: what the camera sees is the light itself, or nothing.
+    assert_close(
+        seen(true, false),
+        radiance,
+        0.01,
+        "light seen by the camera",
+    );
+    assert_eq!(seen(false, false), Vec3::ZERO);
+    // A white mirror: the light's reflection (the camera ray passes the hidden light first).
+    assert_close(seen(false, true), radiance, 0.01, "light seen in a mirror");
 }
 
 #[test]

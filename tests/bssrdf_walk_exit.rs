@@ -54,6 +54,7 @@ fn render_under_sun(desc: &SubsurfaceDesc, spp: u32) -> Vec3 {
             position: Vec3::ZERO,
             direction: -Vec3::Z,
             angle: 0.0,
+            ..Default::default()
         }],
         ..subsurface_slab_scene(desc, HALF_WIDTH, DEPTH)
     };

@@ -94,6 +94,7 @@ fn render_mean(occluder: Occluder) -> Vec3 {
             position: Vec3::ZERO,
             direction: -Vec3::Y,
             angle: 0.0,
+            ..Default::default()
         }],
         camera: Some(cam),
         instance_visibility,

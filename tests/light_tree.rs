@@ -80,6 +80,7 @@ fn many_emitters(n: usize, extras: bool) -> SceneDesc {
             position,
             direction,
             angle,
+            ..Default::default()
         };
         desc.lights = vec![
             light(

@@ -7,7 +7,12 @@ file itself from the depsgraph with numpy foreach_get.
 
 Units (so that Prism renders what Cycles renders; Prism's README "Units"):
 - point/spot light of P W: KHR_lights_punctual intensity = P / (4 pi) * 683 cd (Prism divides
-  by 683), spot cone: outer = spot_size / 2, inner = outer - outer * spot_blend;
+  by 683), spot cone: outer = spot_size / 2, inner = outer - outer * spot_blend; its Radius,
+  Soft Falloff and Camera visibility -> extras.prism_radius / prism_soft_falloff /
+  prism_visible_camera (a disc or sphere of the same intensity, as Cycles');
+- every light's colour x Temperature (5.0: temperature_color) x its node tree's Emission colour
+  and strength (constant or Blackbody), power x 2^Exposure (5.0), Normalize off: power per
+  unit area (Cycles' light conventions);
 - sun of strength S: intensity = S * 683 lux; its angle (angular diameter) -> the light's
   extras.prism_angle (radians): a disc of directions of the same irradiance, as Cycles' sun;
 - area light of P W and world-space area A: a one-sided emissive mesh facing the light's -Z
@@ -31,6 +36,7 @@ import zlib
 
 import numpy as np
 
+from .blackbody import blackbody_rgb
 from .node_graph import GraphBuilder
 
 WATTS_TO_LUMENS = 683.0
@@ -1177,20 +1183,85 @@ class Exporter:
         if mi is not None:
             self._child({"name": ob.name, "mesh": mi, "matrix": _matrix(matrix)})
 
+    def _light_emission(self, ob):
+        """(linear RGB colour, power scale) of light `ob` as Cycles sees it: colour x
+        Temperature x the node tree's Emission colour and strength, power x 2^Exposure."""
+        L = ob.data
+        col = [float(c) for c in L.color[:3]]
+        if getattr(L, "use_temperature", False):
+            tc = getattr(L, "temperature_color", None)
+            t = list(tc) if tc is not None else blackbody_rgb(L.temperature)
+            col = [c * k for c, k in zip(col, t)]
+        scale = 2.0 ** float(getattr(L, "exposure", 0.0))
+        if getattr(L, "use_nodes", False) and L.node_tree is not None:
+            node_col, node_strength = self._light_nodes(ob)
+            col = [c * k for c, k in zip(col, node_col)]
+            scale *= node_strength
+        return col, scale
+
+    def _light_nodes(self, ob):
+        """Colour and strength of the Emission node feeding a light's output: constants or a
+        Blackbody of constant temperature; anything else is warned about and taken as white."""
+        tree = ob.data.node_tree
+        out = next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputLight" and n.is_active_output), None)
+        out = out or next((n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputLight"), None)
+        if out is None or not out.inputs["Surface"].is_linked:
+            return (1.0, 1.0, 1.0), 1.0
+        em = out.inputs["Surface"].links[0].from_node
+        if em.bl_idname != "ShaderNodeEmission":
+            self.warnings.append("light '%s': node '%s' (%s) on the light output is not translated; the light's colour and power are used"
+                                 % (ob.name, em.name, em.bl_idname))
+            return (1.0, 1.0, 1.0), 1.0
+        col = (1.0, 1.0, 1.0)
+        c_in = em.inputs["Color"]
+        if c_in.is_linked:
+            src = c_in.links[0].from_node
+            t_in = src.inputs.get("Temperature") if src.bl_idname == "ShaderNodeBlackbody" else None
+            if t_in is not None and not t_in.is_linked:
+                col = blackbody_rgb(t_in.default_value)
+            else:
+                self.warnings.append("light '%s': node '%s' (%s) on the Emission colour is not translated; white is used"
+                                     % (ob.name, src.name, src.bl_idname))
+        else:
+            col = tuple(float(v) for v in c_in.default_value[:3])
+        s_in = em.inputs["Strength"]
+        strength = float(s_in.default_value)
+        if s_in.is_linked:
+            src = s_in.links[0].from_node
+            self.warnings.append("light '%s': node '%s' (%s) on the Emission strength is not translated; strength %g is used"
+                                 % (ob.name, src.name, src.bl_idname, strength))
+        return col, strength
+
     def _add_light(self, ob, matrix):
         L = ob.data
-        col = _rgb(L.color)
+        col, scale = self._light_emission(ob)
+        power = L.energy * scale
+        normalize = bool(getattr(L, "normalize", True))
         if L.type in {"POINT", "SPOT"}:
+            radius = max(float(L.shadow_soft_size), 0.0)
+            # Cycles: radiance P / (pi x area) over a sphere of area 4 pi r^2 (a point: area 4),
+            # i.e. intensity P / (4 pi); with Normalize off the area is not divided out.
+            if normalize:
+                intensity = power / (4.0 * math.pi)
+            else:
+                intensity = power * radius * radius if radius > 0.0 else power / math.pi
             light = {
                 "type": "point" if L.type == "POINT" else "spot",
                 "color": col,
-                "intensity": L.energy / (4.0 * math.pi) * WATTS_TO_LUMENS,
+                "intensity": intensity * WATTS_TO_LUMENS,
             }
             if L.type == "SPOT":
                 outer = L.spot_size / 2.0
                 light["spot"] = {"outerConeAngle": outer, "innerConeAngle": outer - outer * L.spot_blend}
+            if radius > 0.0:
+                light["extras"] = {
+                    "prism_radius": radius,
+                    # 3.x has no Soft Falloff: its point lights are the facing disc.
+                    "prism_soft_falloff": bool(getattr(L, "use_soft_falloff", True)),
+                    "prism_visible_camera": bool(getattr(ob, "visible_camera", False)),
+                }
         elif L.type == "SUN":
-            light = {"type": "directional", "color": col, "intensity": L.energy * WATTS_TO_LUMENS}
+            light = {"type": "directional", "color": col, "intensity": power * WATTS_TO_LUMENS}
             # The sun's angular diameter (a soft sun: its disc is seen in glossy reflections and
             # BSDF samples can hit it, as in Cycles); glTF has no field for it.
             angle = float(getattr(L, "angle", 0.0))
@@ -1233,8 +1304,9 @@ class Exporter:
         area = area_local * ax * ay
         if area <= 0.0:
             return
-        radiance = L.energy / (math.pi * area)
-        col = _rgb(L.color)
+        col, scale = self._light_emission(ob)
+        # Cycles: radiance P / (pi A); with Normalize off (5.0) the power is per unit area.
+        radiance = L.energy * scale / (math.pi * (area if getattr(L, "normalize", True) else 1.0))
         peak = max(col) if max(col) > 0 else 1.0
         nrm = np.tile(np.array([0.0, 0.0, -1.0], np.float32), (len(pos), 1))
         # Cycles' area lights emit from the front only and are otherwise invisible: paths go

@@ -223,6 +223,7 @@ impl<'a> PathTracer<'a> {
             // (stochastic transparency: pass with probability 1 - alpha, as Cycles' transparent
             // bounces; these do not count as bounces).
             let mut next_hit = next_hit;
+            let segment_origin = ray.origin;
             // Distance from the current ray's origin to where the path left its last vertex.
             let mut camera_offset = 0.0f32;
             let mut skipped = 0;
@@ -247,6 +248,32 @@ impl<'a> PathTracer<'a> {
                 camera_offset += (origin - ray.origin).dot(ray.dir);
                 ray = Ray::new(origin, ray.dir);
                 next_hit = geometry.intersect(&ray, f32::INFINITY);
+            }
+            if lights.has_round() && walk_medium.is_none() {
+                // Point and spot lights with a radius that the segment crosses: they do not
+                // block it, so the path goes on to what it hit (or escapes) as before.
+                let t_max = next_hit.map_or(f32::INFINITY, |h| camera_offset + h.t);
+                let dir = ray.dir;
+                lights.for_each_round_hit(
+                    segment_origin,
+                    dir,
+                    t_max,
+                    depth == 0,
+                    &alive,
+                    |index, le| {
+                        let weight = if specular_bounce {
+                            1.0
+                        } else {
+                            let light_pdf = lights.round_pdf(&prev_ctx, index, dir, selection);
+                            power_heuristic(prev_bsdf_density, light_pdf * prev_denominator)
+                        };
+                        let c = beta * le * (weight / mis.denominator());
+                        l += c;
+                        if depth <= 1 {
+                            l_direct += c;
+                        }
+                    },
+                );
             }
             let Some(hit) = next_hit else {
                 // The world and any sun disc along the ray, each with its own MIS weight.

@@ -20,6 +20,7 @@
 //! for a constant world (measured: the same image with world sampling "None" and "Auto").
 
 pub mod envmap;
+pub mod round;
 pub mod tree;
 
 use crate::geometry::Geometry;
@@ -29,6 +30,7 @@ use crate::scene::material::Material;
 use crate::spectrum::{RgbIlluminantSpectrum, SampledSpectrum, SampledWavelengths};
 use envmap::EnvironmentMap;
 use glam::{Vec2, Vec3, Vec4Swizzles};
+pub use round::RoundEmitter;
 pub use tree::{LightBounds, LightTree, ShadingContext};
 
 /// How next-event estimation chooses a light.
@@ -64,12 +66,16 @@ impl LightSelection {
 pub enum Light {
     /// One emissive triangle of a placed mesh.
     Triangle { instance: u32, prim: u32 },
+    /// A point of radiant intensity `intensity`, or with `round` a disc or sphere of that
+    /// intensity (Blender's Radius).
     Point {
         position: Vec3,
         intensity: RgbIlluminantSpectrum,
+        round: Option<RoundEmitter>,
     },
     Spot {
         position: Vec3,
+        round: Option<RoundEmitter>,
         frame: Frame,
         cos_outer: f32,
         /// Width in cosine of the smooth edge (Blender's spot blend).
@@ -125,19 +131,15 @@ impl SunDisc {
     }
 
     fn pdf(&self) -> f32 {
-        1.0 / (2.0 * PI * self.one_minus_cos)
+        sampling::uniform_cone_pdf_one_minus_cos(self.one_minus_cos)
     }
 
     fn sample(&self, u: Vec2) -> Vec3 {
-        let one_minus = u.x * self.one_minus_cos;
-        let cos_theta = 1.0 - one_minus;
-        let sin_theta = (one_minus * (2.0 - one_minus)).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        self.frame.to_world(Vec3::new(
-            sin_theta * phi.cos(),
-            sin_theta * phi.sin(),
-            cos_theta,
-        ))
+        self.frame
+            .to_world(sampling::sample_uniform_cone_one_minus_cos(
+                u,
+                self.one_minus_cos,
+            ))
     }
 }
 
@@ -194,6 +196,9 @@ pub struct Lights {
     instance_base: Vec<u32>,
     /// Index of the world in `lights` and its emission.
     environment: Option<(usize, WorldLight)>,
+    /// Point and spot lights with a radius (rays can hit them): light index and whether
+    /// camera rays see it.
+    round: Vec<(u32, bool)>,
     scene_radius: f32,
 }
 
@@ -281,19 +286,32 @@ impl Lights {
                 });
             }
         }
+        let mut round_lights = Vec::new();
         for p in punctual {
             let rgb = p.color * p.intensity;
             let spectrum = RgbIlluminantSpectrum::new(rgb);
+            let round =
+                (p.radius > 0.0 && p.radius.is_finite() && p.kind != PunctualKind::Directional)
+                    .then_some(RoundEmitter {
+                        center: p.position,
+                        radius: p.radius,
+                        soft_falloff: p.soft_falloff,
+                    });
+            if round.is_some() {
+                round_lights.push((lights.len() as u32, p.visible_camera));
+            }
+            let (lo, hi) = round.map_or((p.position, p.position), |r| r.bounds());
             match p.kind {
                 PunctualKind::Point => {
                     lights.push(Light::Point {
                         position: p.position,
                         intensity: spectrum,
+                        round,
                     });
                     power.push(4.0 * PI * luminance(rgb));
                     bounds.push(LightBounds {
-                        lo: p.position,
-                        hi: p.position,
+                        lo,
+                        hi,
                         phi: luminance(rgb),
                         ..none
                     });
@@ -309,6 +327,7 @@ impl Lights {
                     let axis = p.direction.normalize();
                     lights.push(Light::Spot {
                         position: p.position,
+                        round,
                         frame: Frame::from_normal(axis),
                         cos_outer,
                         cos_smooth,
@@ -318,8 +337,8 @@ impl Lights {
                     // Full intensity inside theta_o, falling to 0 at the outer cone.
                     let theta_o = (cos_outer + cos_smooth).min(1.0).acos();
                     bounds.push(LightBounds {
-                        lo: p.position,
-                        hi: p.position,
+                        lo,
+                        hi,
                         phi: luminance(rgb),
                         axis,
                         cos_theta_o: theta_o.cos(),
@@ -394,6 +413,7 @@ impl Lights {
             distant_slot,
             instance_base,
             environment,
+            round: round_lights,
             scene_radius,
         }
     }
@@ -583,6 +603,84 @@ impl Lights {
         }
     }
 
+    /// Whether some light has a radius (rays can hit it: `for_each_round_hit`).
+    pub fn has_round(&self) -> bool {
+        !self.round.is_empty()
+    }
+
+    /// The point and spot lights with a radius that the ray (`origin`, unit `dir`) crosses
+    /// before `t_max`: calls `f(light index, radiance)` for each that sends light back along
+    /// the ray. Camera rays (`camera`) skip lights hidden from the camera. Lights do not block
+    /// the ray (Blender's lights cast no shadow).
+    pub fn for_each_round_hit(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_max: f32,
+        camera: bool,
+        w: &SampledWavelengths,
+        mut f: impl FnMut(usize, SampledSpectrum),
+    ) {
+        for &(index, visible_camera) in &self.round {
+            if camera && !visible_camera {
+                continue;
+            }
+            let (round, intensity, spot) = match &self.lights[index as usize] {
+                Light::Point {
+                    round: Some(r),
+                    intensity,
+                    ..
+                } => (r, intensity, None),
+                Light::Spot {
+                    round: Some(r),
+                    intensity,
+                    frame,
+                    cos_outer,
+                    cos_smooth,
+                    ..
+                } => (r, intensity, Some((frame.n, *cos_outer, *cos_smooth))),
+                _ => continue,
+            };
+            if round.intersect(origin, dir, t_max).is_none() {
+                continue;
+            }
+            let mut scale = round.radiance_per_intensity();
+            if let Some((axis, cos_outer, cos_smooth)) = spot {
+                // One-sided as Cycles' spot: only rays heading towards the light's centre.
+                if dir.dot(origin - round.center) >= 0.0 {
+                    continue;
+                }
+                if (round.center - origin).length_squared() > round.radius * round.radius {
+                    scale *= spot_falloff(axis.dot(-dir), cos_outer, cos_smooth);
+                }
+            }
+            if scale > 0.0 {
+                f(index as usize, intensity.sample(w) * scale);
+            }
+        }
+    }
+
+    /// Density with which `sample` at `ctx` produces the direction `dir` towards the point or
+    /// spot light `index` that has a radius (0 for other lights).
+    pub fn round_pdf(
+        &self,
+        ctx: &ShadingContext,
+        index: usize,
+        dir: Vec3,
+        selection: LightSelection,
+    ) -> f32 {
+        let round = match &self.lights[index] {
+            Light::Point { round: Some(r), .. } | Light::Spot { round: Some(r), .. } => r,
+            _ => return 0.0,
+        };
+        let pdf = round.pdf(ctx.p, dir);
+        if pdf > 0.0 {
+            self.pmf(ctx, index, selection) * pdf
+        } else {
+            0.0
+        }
+    }
+
     /// Density with which `sample` at `ctx` produces the direction towards triangle `prim` of
     /// `instance`, hit at distance `dist` with cosine `cos_light` at the light.
     #[allow(clippy::too_many_arguments)]
@@ -657,8 +755,46 @@ impl Lights {
                 })
             }
             Light::Point {
+                round: Some(round),
+                intensity,
+                ..
+            } => {
+                let s = round.sample(p, u)?;
+                Some(LightSample {
+                    wi: s.wi,
+                    distance: s.distance,
+                    li: intensity.sample(w) * round.radiance_per_intensity(),
+                    pdf: p_select * s.pdf,
+                    delta: false,
+                })
+            }
+            Light::Spot {
+                round: Some(round),
+                frame,
+                cos_outer,
+                cos_smooth,
+                intensity,
+                ..
+            } => {
+                let s = round.sample(p, u)?;
+                // Cycles attenuates along the emitted direction, outside the light only.
+                let falloff = if (round.center - p).length_squared() > round.radius * round.radius {
+                    spot_falloff(frame.n.dot(-s.wi), *cos_outer, *cos_smooth)
+                } else {
+                    1.0
+                };
+                (falloff > 0.0).then(|| LightSample {
+                    wi: s.wi,
+                    distance: s.distance,
+                    li: intensity.sample(w) * (falloff * round.radiance_per_intensity()),
+                    pdf: p_select * s.pdf,
+                    delta: false,
+                })
+            }
+            Light::Point {
                 position,
                 intensity,
+                round: None,
             } => {
                 let d = *position - p;
                 let dist2 = d.length_squared();
@@ -675,6 +811,7 @@ impl Lights {
             }
             Light::Spot {
                 position,
+                round: None,
                 frame,
                 cos_outer,
                 cos_smooth,

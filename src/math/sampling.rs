@@ -67,6 +67,23 @@ pub fn uniform_cone_pdf(cos_theta_max: f32) -> f32 {
     1.0 / (2.0 * PI * (1.0 - cos_theta_max))
 }
 
+/// Uniform direction inside a cone around +z given 1 - cos of its half-angle: exact for the
+/// thin cones of a distant sphere or the sun's disc, where 1 - cos_theta_max rounds to 0 in f32
+/// (compute it as 2 sin^2(theta / 2), or sin^2 / (1 + cos)).
+pub fn sample_uniform_cone_one_minus_cos(u: Vec2, one_minus_cos_max: f32) -> Vec3 {
+    let one_minus = u.x * one_minus_cos_max;
+    let cos_theta = 1.0 - one_minus;
+    let sin_theta = (one_minus * (2.0 - one_minus)).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta)
+}
+
+/// Density of [`sample_uniform_cone_one_minus_cos`] (per steradian).
+#[inline]
+pub fn uniform_cone_pdf_one_minus_cos(one_minus_cos_max: f32) -> f32 {
+    INV_2PI / one_minus_cos_max
+}
+
 /// Uniform point on a triangle as barycentrics (b0, b1); b2 = 1 - b0 - b1.
 /// Uses the low-distortion square-to-triangle map of Heitz 2019.
 pub fn sample_uniform_triangle(u: Vec2) -> (f32, f32) {

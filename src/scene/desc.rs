@@ -211,9 +211,10 @@ pub struct MaterialDesc {
     pub graph: Option<std::sync::Arc<crate::shading::ShadingGraph>>,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub enum PunctualKind {
     /// Radiant intensity `intensity` (W/sr, Blender units) in all directions.
+    #[default]
     Point,
     /// Cone with full intensity inside `inner` and a smooth fall-off to zero at `outer` (radians).
     Spot { inner_cone: f32, outer_cone: f32 },
@@ -223,7 +224,7 @@ pub enum PunctualKind {
 
 /// A KHR_lights_punctual light in world space, intensities already converted to the renderer's
 /// radiometric units (see the loader for the photometric -> radiometric convention).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct PunctualLightDesc {
     pub name: String,
     pub kind: PunctualKind,
@@ -235,6 +236,15 @@ pub struct PunctualLightDesc {
     /// Angular diameter of a directional light (radians; Blender's sun angle): 0 for a
     /// parallel light, else a disc of directions (`lights::SunDisc`).
     pub angle: f32,
+    /// Radius of a point or spot light (Blender's Radius): 0 for a true point, else a soft
+    /// source of the same intensity (`lights::round`).
+    pub radius: f32,
+    /// Blender's Soft Falloff (its default): a radius-r disc facing the shading point instead
+    /// of a sphere.
+    pub soft_falloff: bool,
+    /// Camera rays see the light's disc or sphere (Blender's Ray Visibility > Camera, off by
+    /// default for lights).
+    pub visible_camera: bool,
 }
 
 #[derive(Clone, Debug)]

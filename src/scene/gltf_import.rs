@@ -643,28 +643,41 @@ impl Importer<'_> {
                 "{label}: node '{node_name}' has a degenerate transform (no direction)"
             ));
         };
-        // A directional light's angular diameter (Blender's sun angle), written by the add-on
-        // as the light's `extras.prism_angle` (radians); 0 = a parallel light.
-        let angle = match light.extras().as_ref().map(|raw| {
-            serde_json::from_str::<serde_json::Value>(raw.get())
-                .ok()
-                .and_then(|v| v.get("prism_angle").cloned())
-        }) {
-            Some(Some(v)) => match v.as_f64() {
-                Some(a) if a.is_finite() && (0.0..=std::f64::consts::PI).contains(&a) => a as f32,
-                _ => {
-                    return Err(format!(
-                    "{label}: extras.prism_angle must be a number of radians from 0 to pi, got {v}"
-                ))
-                }
-            },
-            _ => 0.0,
+        // What glTF has no field for, written by the add-on in the light's extras:
+        // `prism_angle` (a directional light's angular diameter, Blender's sun angle, radians),
+        // `prism_radius` (a point or spot light's radius, metres), `prism_soft_falloff`
+        // (Blender's Soft Falloff, default true) and `prism_visible_camera` (default false).
+        let extras = light
+            .extras()
+            .as_ref()
+            .and_then(|raw| serde_json::from_str::<serde_json::Value>(raw.get()).ok());
+        let extra = |key: &str| extras.as_ref().and_then(|v| v.get(key));
+        let number = |key: &str, max: f64, what: &str| -> Result<f32, String> {
+            match extra(key) {
+                None => Ok(0.0),
+                Some(v) => match v.as_f64() {
+                    Some(a) if a.is_finite() && (0.0..=max).contains(&a) => Ok(a as f32),
+                    _ => Err(format!("{label}: extras.{key} must be {what}, got {v}")),
+                },
+            }
         };
-        let angle = if kind == PunctualKind::Directional {
-            angle
-        } else {
-            0.0
+        let flag = |key: &str, default: bool| -> Result<bool, String> {
+            match extra(key) {
+                None => Ok(default),
+                Some(v) => v
+                    .as_bool()
+                    .ok_or_else(|| format!("{label}: extras.{key} must be true or false, got {v}")),
+            }
         };
+        let angle = number(
+            "prism_angle",
+            std::f64::consts::PI,
+            "a number of radians from 0 to pi",
+        )?;
+        let radius = number("prism_radius", f64::from(f32::MAX), "a distance >= 0")?;
+        let soft_falloff = flag("prism_soft_falloff", true)?;
+        let visible_camera = flag("prism_visible_camera", false)?;
+        let directional = kind == PunctualKind::Directional;
         self.scene.lights.push(PunctualLightDesc {
             name,
             kind,
@@ -672,7 +685,10 @@ impl Importer<'_> {
             intensity: gltf_light_intensity_to_prism(intensity),
             position,
             direction,
-            angle,
+            angle: if directional { angle } else { 0.0 },
+            radius: if directional { 0.0 } else { radius },
+            soft_falloff,
+            visible_camera,
         });
         Ok(())
     }
