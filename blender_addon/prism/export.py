@@ -131,6 +131,12 @@ def _val(node, *names, default=0.0):
         return float(v)
 
 
+def bpy_version():
+    import bpy
+
+    return tuple(bpy.app.version)
+
+
 def _rgb(v):
     return [float(v[0]), float(v[1]), float(v[2])]
 
@@ -1181,7 +1187,16 @@ class Exporter:
             finally:
                 ob.to_mesh_clear()
         if mi is not None:
-            self._child({"name": ob.name, "mesh": mi, "matrix": _matrix(matrix)})
+            node = {"name": ob.name, "mesh": mi, "matrix": _matrix(matrix)}
+            # Ray visibility the renderer honours: Camera and Shadow (3.0+ object properties).
+            extras = {}
+            if not getattr(ob, "visible_camera", True):
+                extras["prism_visible_camera"] = False
+            if not getattr(ob, "visible_shadow", True):
+                extras["prism_casts_shadows"] = False
+            if extras:
+                node["extras"] = extras
+            self._child(node)
 
     def _light_emission(self, ob):
         """(linear RGB colour, power scale) of light `ob` as Cycles sees it: colour x
@@ -1250,16 +1265,22 @@ class Exporter:
                 "color": col,
                 "intensity": intensity * WATTS_TO_LUMENS,
             }
+            extras = {}
             if L.type == "SPOT":
                 outer = L.spot_size / 2.0
                 light["spot"] = {"outerConeAngle": outer, "innerConeAngle": outer - outer * L.spot_blend}
+                if bpy_version() < (4, 0, 0):
+                    # Cycles 3.x's spot intensity also falls off with the cosine to the axis.
+                    extras["prism_spot_cosine"] = True
             if radius > 0.0:
-                light["extras"] = {
+                extras.update({
                     "prism_radius": radius,
                     # 3.x has no Soft Falloff: its point lights are the facing disc.
                     "prism_soft_falloff": bool(getattr(L, "use_soft_falloff", True)),
                     "prism_visible_camera": bool(getattr(ob, "visible_camera", False)),
-                }
+                })
+            if extras:
+                light["extras"] = extras
         elif L.type == "SUN":
             light = {"type": "directional", "color": col, "intensity": power * WATTS_TO_LUMENS}
             # The sun's angular diameter (a soft sun: its disc is seen in glossy reflections and

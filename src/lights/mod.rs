@@ -77,9 +77,7 @@ pub enum Light {
         position: Vec3,
         round: Option<RoundEmitter>,
         frame: Frame,
-        cos_outer: f32,
-        /// Width in cosine of the smooth edge (Blender's spot blend).
-        cos_smooth: f32,
+        cone: SpotCone,
         intensity: RgbIlluminantSpectrum,
     },
     /// Parallel light travelling along -`to_light`, or (with an angular diameter, Blender's
@@ -211,17 +209,36 @@ fn mean_texture_rgb(tex: &TextureDesc) -> Vec3 {
     tex.texels.iter().map(|t| t.xyz()).sum::<Vec3>() / tex.texels.len() as f32
 }
 
-/// Cycles' spot-light edge: smoothstep over a cosine band of width (1 - cos_outer) * blend,
-/// with blend = 1 - inner/outer (the glTF importer's mapping of the inner cone).
-fn spot_falloff(cos_theta: f32, cos_outer: f32, cos_smooth: f32) -> f32 {
-    if cos_theta <= cos_outer {
-        return 0.0;
+/// A spot light's cone.
+#[derive(Clone, Copy, Debug)]
+pub struct SpotCone {
+    cos_outer: f32,
+    /// Width in cosine of the smooth edge (Blender's spot blend).
+    cos_smooth: f32,
+    /// Blender 3.x's spots also fall off with the cosine to their axis (Cycles before 4.0).
+    cosine: bool,
+}
+
+impl SpotCone {
+    /// Cycles' spot-light edge: smoothstep over a cosine band of width (1 - cos_outer) * blend,
+    /// with blend = 1 - inner/outer (the glTF importer's mapping of the inner cone); times
+    /// cos_theta for a Blender 3.x spot.
+    fn falloff(&self, cos_theta: f32) -> f32 {
+        if cos_theta <= self.cos_outer {
+            return 0.0;
+        }
+        let edge = if self.cos_smooth <= 0.0 {
+            1.0
+        } else {
+            let t = ((cos_theta - self.cos_outer) / self.cos_smooth).clamp(0.0, 1.0);
+            t * t * (3.0 - 2.0 * t)
+        };
+        if self.cosine {
+            edge * cos_theta
+        } else {
+            edge
+        }
     }
-    if cos_smooth <= 0.0 {
-        return 1.0;
-    }
-    let t = ((cos_theta - cos_outer) / cos_smooth).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
 }
 
 impl Lights {
@@ -329,8 +346,11 @@ impl Lights {
                         position: p.position,
                         round,
                         frame: Frame::from_normal(axis),
-                        cos_outer,
-                        cos_smooth,
+                        cone: SpotCone {
+                            cos_outer,
+                            cos_smooth,
+                            cosine: p.spot_cosine,
+                        },
                         intensity: spectrum,
                     });
                     power.push(2.0 * PI * (1.0 - cos_outer) * luminance(rgb));
@@ -635,23 +655,22 @@ impl Lights {
                     round: Some(r),
                     intensity,
                     frame,
-                    cos_outer,
-                    cos_smooth,
+                    cone,
                     ..
-                } => (r, intensity, Some((frame.n, *cos_outer, *cos_smooth))),
+                } => (r, intensity, Some((frame.n, cone))),
                 _ => continue,
             };
             if round.intersect(origin, dir, t_max).is_none() {
                 continue;
             }
             let mut scale = round.radiance_per_intensity();
-            if let Some((axis, cos_outer, cos_smooth)) = spot {
+            if let Some((axis, cone)) = spot {
                 // One-sided as Cycles' spot: only rays heading towards the light's centre.
                 if dir.dot(origin - round.center) >= 0.0 {
                     continue;
                 }
                 if (round.center - origin).length_squared() > round.radius * round.radius {
-                    scale *= spot_falloff(axis.dot(-dir), cos_outer, cos_smooth);
+                    scale *= cone.falloff(axis.dot(-dir));
                 }
             }
             if scale > 0.0 {
@@ -771,15 +790,14 @@ impl Lights {
             Light::Spot {
                 round: Some(round),
                 frame,
-                cos_outer,
-                cos_smooth,
+                cone,
                 intensity,
                 ..
             } => {
                 let s = round.sample(p, u)?;
                 // Cycles attenuates along the emitted direction, outside the light only.
                 let falloff = if (round.center - p).length_squared() > round.radius * round.radius {
-                    spot_falloff(frame.n.dot(-s.wi), *cos_outer, *cos_smooth)
+                    cone.falloff(frame.n.dot(-s.wi))
                 } else {
                     1.0
                 };
@@ -813,8 +831,7 @@ impl Lights {
                 position,
                 round: None,
                 frame,
-                cos_outer,
-                cos_smooth,
+                cone,
                 intensity,
             } => {
                 let d = *position - p;
@@ -824,7 +841,7 @@ impl Lights {
                 }
                 let dist = dist2.sqrt();
                 let wi = d / dist;
-                let falloff = spot_falloff(frame.n.dot(-wi), *cos_outer, *cos_smooth);
+                let falloff = cone.falloff(frame.n.dot(-wi));
                 (falloff > 0.0).then(|| LightSample {
                     wi,
                     distance: dist,
@@ -894,11 +911,24 @@ mod tests {
 
     #[test]
     fn spot_edge_is_smooth_and_bounded() {
-        let (co, cs) = (0.8f32, 0.05f32);
-        assert_eq!(spot_falloff(0.79, co, cs), 0.0);
-        assert_eq!(spot_falloff(0.9, co, cs), 1.0);
-        let mid = spot_falloff(0.825, co, cs);
+        let cone = SpotCone {
+            cos_outer: 0.8,
+            cos_smooth: 0.05,
+            cosine: false,
+        };
+        assert_eq!(cone.falloff(0.79), 0.0);
+        assert_eq!(cone.falloff(0.9), 1.0);
+        let mid = cone.falloff(0.825);
         assert!((mid - 0.5).abs() < 1e-5);
-        assert_eq!(spot_falloff(0.81, co, 0.0), 1.0);
+        let hard = SpotCone {
+            cos_smooth: 0.0,
+            ..cone
+        };
+        assert_eq!(hard.falloff(0.81), 1.0);
+        let blender3 = SpotCone {
+            cosine: true,
+            ..cone
+        };
+        assert!((blender3.falloff(0.9) - 0.9).abs() < 1e-6);
     }
 }

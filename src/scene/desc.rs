@@ -245,6 +245,9 @@ pub struct PunctualLightDesc {
     /// Camera rays see the light's disc or sphere (Blender's Ray Visibility > Camera, off by
     /// default for lights).
     pub visible_camera: bool,
+    /// A spot that also falls off with the cosine to its axis, as Blender 3.x's (Cycles
+    /// before 4.0).
+    pub spot_cosine: bool,
 }
 
 #[derive(Clone, Debug)]

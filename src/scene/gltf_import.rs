@@ -540,13 +540,13 @@ impl Importer<'_> {
                 .as_ref()
                 .and_then(|raw| serde_json::from_str::<serde_json::Value>(raw.get()).ok());
             let flag = |key: &str| extras.as_ref().and_then(|v| v.get(key)?.as_bool());
-            let visibility = if flag("prism_area_light") == Some(true) {
-                InstanceVisibility {
-                    casts_shadows: false,
-                    camera_visible: flag("prism_visible_camera").unwrap_or(false),
-                }
-            } else {
-                InstanceVisibility::default()
+            // Blender's ray visibility (Object > Visibility > Ray Visibility: Camera, Shadow),
+            // written by the add-on when off. An area light's mesh casts no shadow and is
+            // hidden from the camera unless told otherwise.
+            let area_light = flag("prism_area_light") == Some(true);
+            let visibility = InstanceVisibility {
+                casts_shadows: !area_light && flag("prism_casts_shadows").unwrap_or(true),
+                camera_visible: flag("prism_visible_camera").unwrap_or(!area_light),
             };
             for prim in mesh.primitives() {
                 if let Some(m) = self.mesh_for(&mesh, &prim)? {
@@ -646,7 +646,9 @@ impl Importer<'_> {
         // What glTF has no field for, written by the add-on in the light's extras:
         // `prism_angle` (a directional light's angular diameter, Blender's sun angle, radians),
         // `prism_radius` (a point or spot light's radius, metres), `prism_soft_falloff`
-        // (Blender's Soft Falloff, default true) and `prism_visible_camera` (default false).
+        // (Blender's Soft Falloff, default true), `prism_visible_camera` (default false) and
+        // `prism_spot_cosine` (a Blender 3.x spot, whose intensity also falls off with the
+        // cosine to its axis).
         let extras = light
             .extras()
             .as_ref()
@@ -677,6 +679,7 @@ impl Importer<'_> {
         let radius = number("prism_radius", f64::from(f32::MAX), "a distance >= 0")?;
         let soft_falloff = flag("prism_soft_falloff", true)?;
         let visible_camera = flag("prism_visible_camera", false)?;
+        let spot_cosine = flag("prism_spot_cosine", false)?;
         let directional = kind == PunctualKind::Directional;
         self.scene.lights.push(PunctualLightDesc {
             name,
@@ -689,6 +692,7 @@ impl Importer<'_> {
             radius: if directional { 0.0 } else { radius },
             soft_falloff,
             visible_camera,
+            spot_cosine,
         });
         Ok(())
     }
