@@ -159,7 +159,6 @@ pub fn render(
     // (`Film::write_guides`): they may be wanted only as the denoiser's input.
     let mut film = Film::new(settings.width, settings.height);
     let camera = scene.camera_for(settings.width, settings.height);
-    let forward = camera.forward();
     let tracer = PathTracer::new(scene, settings.max_depth, settings.light_selection);
     let clamp_off = settings.clamp.is_off();
     let image_sampler = ImageSampler::new(settings.sampler, settings.spp, settings.seed);
@@ -242,7 +241,14 @@ pub fn render(
                             let (u_filter, u_lens) = sampler.camera();
                             let wavelengths = settings.wavelengths.sample(&mut sampler);
                             let raster = Vec2::new(x, y) + settings.filter.sample_2d(u_filter);
-                            let ray: Ray = camera.generate_ray(raster, u_lens);
+                            let Some(ray): Option<Ray> = camera.generate_ray(raster, u_lens) else {
+                                // Outside a fisheye's image circle: black, as in Cycles.
+                                px.add(glam::Vec3::ZERO);
+                                if settings.guides {
+                                    px.add_guides(glam::Vec3::ZERO, glam::Vec3::ZERO, None);
+                                }
+                                continue;
+                            };
                             let result = tracer.radiance(ray, &wavelengths, &mut sampler);
                             band_rays += result.rays as u64;
                             let xyz = if clamp_off {
@@ -270,7 +276,7 @@ pub fn render(
                             let depth = g
                                 .first_distance
                                 .is_finite()
-                                .then(|| g.first_distance * ray.dir.dot(forward));
+                                .then(|| camera.depth(g.first_distance, ray.dir));
                             px.add_guides(spectrum_to_xyz(&lit, &wavelengths), g.normal, depth);
                         }
                         samples_done.fetch_add((s1 - s0) as u64, Ordering::Relaxed);

@@ -279,7 +279,9 @@ fn constant_texture_renders_like_the_uniform_world() {
         let mut n = 0;
         for y in 0..32 {
             for x in 0..32 {
-                let r = cam.generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), Vec2::ZERO);
+                let r = cam
+                    .generate_ray(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), Vec2::ZERO)
+                    .unwrap();
                 if scene.geometry.intersect(&r, f32::INFINITY).is_some() {
                     n += 1;
                 }
@@ -430,8 +432,12 @@ fn orthographic_camera_and_lens_render_from_files() {
     let cam = scene.camera_for(40, 20);
     assert!(cam.is_orthographic());
     // ymag 0.25 with a 2:1 image: the view is 1 x 0.5 units; the emissive quad fills it.
-    let r0 = cam.generate_ray(Vec2::new(0.0, 0.0), Vec2::splat(0.5));
-    let r1 = cam.generate_ray(Vec2::new(40.0, 20.0), Vec2::splat(0.5));
+    let r0 = cam
+        .generate_ray(Vec2::new(0.0, 0.0), Vec2::splat(0.5))
+        .unwrap();
+    let r1 = cam
+        .generate_ray(Vec2::new(40.0, 20.0), Vec2::splat(0.5))
+        .unwrap();
     let extent = r1.origin - r0.origin;
     assert!(
         (extent.x - 1.0).abs() < 1e-5 && (extent.y + 0.5).abs() < 1e-5,

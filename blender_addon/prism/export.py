@@ -1367,8 +1367,7 @@ class Exporter:
             raise ExportError("the scene has no active camera")
         cam_ob = cam_ob.evaluated_get(self.dg)
         c = cam_ob.data
-        if c.type not in {"PERSP", "ORTHO"}:
-            self.warnings.append("camera '%s': %s cameras are not supported; rendering as perspective" % (cam_ob.name, c.type.lower()))
+        panorama = self._panorama(cam_ob) if c.type == "PANO" else None
         r = self.scene.render
         # Cycles' view plane: the sensor (or ortho_scale) spans the fitted dimension.
         w = self.width * r.pixel_aspect_x
@@ -1390,7 +1389,46 @@ class Exporter:
             proj = {"type": "perspective", "perspective": {"yfov": 2.0 * math.atan(tan_y), "znear": max(c.clip_start, 1e-4)}}
         self.cameras.append(dict(name=cam_ob.name, **proj))
         self._child({"name": cam_ob.name, "camera": 0, "matrix": _matrix(_unscaled(cam_ob.matrix_world))})
-        self.camera_lens = self._depth_of_field(cam_ob)
+        block = {}
+        if panorama is not None:
+            if c.dof.use_dof:
+                self.warnings.append("camera '%s': depth of field is not rendered with panoramic cameras" % cam_ob.name)
+            if c.shift_x or c.shift_y:
+                self.warnings.append("camera '%s': shift is ignored by panoramic cameras" % cam_ob.name)
+            if panorama.get("projection") == "fisheye_equisolid":
+                # Cycles: the fitted sensor size spans the fitted dimension.
+                sw, sh = (sensor, sensor * h / w) if fit == "HORIZONTAL" else (sensor * w / h, sensor)
+                panorama["sensor"] = [sw, sh]
+            block.update(panorama)
+        else:
+            block.update(self._depth_of_field(cam_ob) or {})
+            if c.shift_x or c.shift_y:
+                # Blender's shift is a fraction of the fitted dimension; the renderer's of the
+                # view's height.
+                per_height = w / h if fit == "HORIZONTAL" else 1.0
+                block["shift"] = [c.shift_x * per_height, c.shift_y * per_height]
+        self.camera_lens = block or None
+
+    def _panorama(self, cam_ob):
+        """The material JSON camera projection of a panoramic camera (5.0: the camera's own
+        settings; 3.x: Cycles' camera settings), or None (a warning) for a type Prism lacks."""
+        c = cam_ob.data
+        src = c if hasattr(c, "panorama_type") else getattr(c, "cycles", None)
+        kind = getattr(src, "panorama_type", None)
+        if kind == "EQUIRECTANGULAR":
+            return {
+                "projection": "equirectangular",
+                "longitude": [float(src.longitude_min), float(src.longitude_max)],
+                "latitude": [float(src.latitude_min), float(src.latitude_max)],
+            }
+        if kind == "FISHEYE_EQUIDISTANT":
+            return {"projection": "fisheye_equidistant", "fisheye_fov": float(src.fisheye_fov)}
+        if kind == "FISHEYE_EQUISOLID":
+            return {"projection": "fisheye_equisolid", "fisheye_fov": float(src.fisheye_fov),
+                    "fisheye_lens": float(src.fisheye_lens)}
+        self.warnings.append("camera '%s': %s panoramas are not supported; rendering as perspective"
+                             % (cam_ob.name, str(kind).lower().replace("_", " ")))
+        return None
 
     def _depth_of_field(self, cam_ob):
         """Cycles' thin lens: radius = focal length [mm] * 1e-3 / (2 f-stop) (1 / (2 f-stop) for

@@ -169,10 +169,14 @@ impl Scene {
     /// The camera for an image of the given size.
     pub fn camera_for(&self, width: u32, height: u32) -> Camera {
         let to_world = Affine3A::from_mat4(self.camera.camera_to_world);
+        if let Some(p) = self.camera.panorama {
+            return Camera::panoramic(to_world, p, width, height);
+        }
         let camera = match self.camera.orthographic {
             Some(mag) => Camera::orthographic(to_world, mag.y, width, height),
             None => Camera::new(to_world, self.camera.yfov, width, height),
-        };
+        }
+        .with_shift(self.camera.shift);
         match self.camera.lens {
             Some(l) => camera.with_thin_lens(l.aperture_radius, l.focus_distance),
             None => camera,

@@ -250,7 +250,7 @@ pub struct PunctualLightDesc {
     pub spot_cosine: bool,
 }
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct CameraDesc {
     pub name: String,
     /// Camera looks down its local -Z with +Y up (glTF).
@@ -264,6 +264,29 @@ pub struct CameraDesc {
     pub orthographic: Option<Vec2>,
     /// Thin lens from the material JSON's `camera` block; `None` = pinhole.
     pub lens: Option<LensDesc>,
+    /// Blender's lens shift: the view window moved by (x, y) x the view's height (perspective
+    /// and orthographic cameras), from the material JSON's `camera.shift`.
+    pub shift: Vec2,
+    /// A panoramic projection (material JSON `camera.projection`) instead of the file's
+    /// perspective or orthographic one.
+    pub panorama: Option<PanoramaDesc>,
+}
+
+/// Cycles' panoramic cameras. The view axis is the camera's -Z, up its +Y.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PanoramaDesc {
+    /// Longitude (positive to the right) and latitude (positive up) ranges in radians across
+    /// the image's width and height.
+    Equirectangular {
+        longitude: (f32, f32),
+        latitude: (f32, f32),
+    },
+    /// Angle from the axis proportional to the distance from the image centre: `fov` (radians)
+    /// across the ellipse inscribed in the image.
+    FisheyeEquidistant { fov: f32 },
+    /// A real equisolid fisheye lens: focal length `lens` and sensor `sensor` (mm, the sensor
+    /// spanning the image), image circle of `fov` (radians).
+    FisheyeEquisolid { fov: f32, lens: f32, sensor: Vec2 },
 }
 
 /// Thin-lens depth of field (scene units).

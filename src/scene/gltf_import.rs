@@ -786,7 +786,7 @@ impl Importer<'_> {
             yfov,
             aspect,
             orthographic,
-            lens: None,
+            ..Default::default()
         })
     }
 

@@ -87,8 +87,10 @@ fn load_scene_inner(
         if let Some(w) = mf.world {
             scene.world = w;
         }
-        if let (Some(lens), Some(cam)) = (mf.camera, scene.camera.as_mut()) {
-            cam.lens = Some(lens);
+        if let (Some(c), Some(cam)) = (mf.camera, scene.camera.as_mut()) {
+            cam.lens = c.lens;
+            cam.shift = c.shift;
+            cam.panorama = c.panorama;
         }
         scene.render = mf.render;
     }

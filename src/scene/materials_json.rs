@@ -45,9 +45,18 @@
 //!   defaulting to white. `rotation_z` (radians, any finite number, needs `texture`): the Z
 //!   rotation of a Blender Mapping node on the texture's vector. Example:
 //!   `"world": {"texture": "sky.exr", "strength": 1.5, "rotation_z": 0.5}`.
-//! * `camera`: thin-lens depth of field for the rendered camera (perspective or orthographic):
-//!   `aperture_radius` (scene units, >= 0, 0 = pinhole) and `focus_distance` (scene units along
-//!   the view axis, > 0), both required. Without the block the camera is a pinhole.
+//! * `camera`: settings of the rendered camera that glTF has no field for, all optional:
+//!   - thin-lens depth of field (perspective or orthographic): `aperture_radius` (scene units,
+//!     at least 0; 0 = pinhole) and `focus_distance` (scene units along the view axis,
+//!     positive), both or neither. Without them the camera is a pinhole.
+//!   - `shift`: [x, y], the view window moved by x and y times the view's height (Blender's
+//!     lens shift, which the add-on converts from its fraction of the fitted dimension).
+//!   - `projection`: `"equirectangular"` (`longitude` [min, max], positive to the right,
+//!     default [-pi, pi]; `latitude` [min, max], positive up, default [-pi/2, pi/2]; radians),
+//!     `"fisheye_equidistant"` (`fisheye_fov`: the angle across the ellipse inscribed in the
+//!     image, radians, default pi) or `"fisheye_equisolid"` (`fisheye_lens` focal length and
+//!     `sensor` [width, height] spanning the image, mm; `fisheye_fov` the image circle): Cycles'
+//!     panoramic cameras, around the camera's view axis.
 //! * `render`: `spp`, `width`, `height` (positive integers), `max_depth` (integer >= 0),
 //!   `wavelengths` (`"hero"` | `"single"` | `"stratified"`), `wavelength_pdf` (`"visible"` |
 //!   `"uniform"`), `sampler` (`"sobol"`, the default: Owen-scrambled Sobol with blue-noise
@@ -70,14 +79,14 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use serde_json::{Map, Value};
 
 use crate::error::PrismError;
 use crate::film::denoise::{DenoisePrefilter, DenoiseQuality};
 use crate::scene::desc::{
-    DielectricDesc, EnvironmentTextureDesc, IorDesc, LensDesc, MaterialOverride, RenderDefaults,
-    SubsurfaceCoefficients, SubsurfaceDesc, WorldDesc,
+    DielectricDesc, EnvironmentTextureDesc, IorDesc, LensDesc, MaterialOverride, PanoramaDesc,
+    RenderDefaults, SubsurfaceCoefficients, SubsurfaceDesc, WorldDesc,
 };
 use crate::shading::image::Image;
 use crate::shading::parse::{parse_graph, ImageLoader, NoImages};
@@ -138,8 +147,16 @@ pub struct MaterialsFile {
     /// `world.texture` and `world.rotation_z` as written in the file.
     pub world_texture: Option<WorldTextureRef>,
     /// The `camera` block.
-    pub camera: Option<LensDesc>,
+    pub camera: Option<CameraOverride>,
     pub render: RenderDefaults,
+}
+
+/// The material JSON's `camera` block.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CameraOverride {
+    pub lens: Option<LensDesc>,
+    pub shift: Vec2,
+    pub panorama: Option<PanoramaDesc>,
 }
 
 /// The sidecar's reference to an environment image.
@@ -942,18 +959,130 @@ impl Validator<'_> {
         ))
     }
 
-    fn camera(&self, v: &Value, path: &JPath) -> R<LensDesc> {
+    fn camera(&self, v: &Value, path: &JPath) -> R<CameraOverride> {
         let m = self.object(v, path)?;
-        self.check_keys(m, &["aperture_radius", "focus_distance"], path)?;
+        self.check_keys(
+            m,
+            &[
+                "aperture_radius",
+                "focus_distance",
+                "shift",
+                "projection",
+                "longitude",
+                "latitude",
+                "fisheye_fov",
+                "fisheye_lens",
+                "sensor",
+            ],
+            path,
+        )?;
         let get = |k: &str, range: Range| -> R<f32> {
             match m.get(k) {
                 Some(x) => self.number(x, &path.key(k), range),
                 None => Err(self.err(path, format!("missing '{k}'"))),
             }
         };
-        Ok(LensDesc {
-            aperture_radius: get("aperture_radius", Range::NonNeg)?,
-            focus_distance: get("focus_distance", Range::Positive)?,
+        let pair = |k: &str, range: Range, default: Vec2| -> R<Vec2> {
+            let Some(x) = m.get(k) else {
+                return Ok(default);
+            };
+            let p = path.key(k);
+            match x.as_array() {
+                Some(a) if a.len() == 2 => Ok(Vec2::new(
+                    self.number(&a[0], &p.idx(0), range)?,
+                    self.number(&a[1], &p.idx(1), range)?,
+                )),
+                _ => Err(self.err(&p, "expected an array of 2 numbers")),
+            }
+        };
+        let lens = match (
+            m.contains_key("aperture_radius"),
+            m.contains_key("focus_distance"),
+        ) {
+            (false, false) => None,
+            _ => Some(LensDesc {
+                aperture_radius: get("aperture_radius", Range::NonNeg)?,
+                focus_distance: get("focus_distance", Range::Positive)?,
+            }),
+        };
+        let shift = pair("shift", Range::Finite, Vec2::ZERO)?;
+        let fov = || -> R<f32> {
+            match m.get("fisheye_fov") {
+                None => Ok(std::f32::consts::PI),
+                Some(_) => {
+                    let f = get("fisheye_fov", Range::Positive)?;
+                    if f > std::f32::consts::TAU {
+                        return Err(self.err(
+                            &path.key("fisheye_fov"),
+                            format!("must be at most 2 pi (360 degrees), got {f}"),
+                        ));
+                    }
+                    Ok(f)
+                }
+            }
+        };
+        let only = |allowed: &[&str], kind: &str| -> R<()> {
+            for k in [
+                "longitude",
+                "latitude",
+                "fisheye_fov",
+                "fisheye_lens",
+                "sensor",
+            ] {
+                if m.contains_key(k) && !allowed.contains(&k) {
+                    return Err(
+                        self.err(&path.key(k), format!("not used by the projection '{kind}'"))
+                    );
+                }
+            }
+            Ok(())
+        };
+        let panorama = match m.get("projection") {
+            None => {
+                only(&[], "perspective/orthographic (from the glTF camera)")?;
+                None
+            }
+            Some(Value::String(kind)) => match kind.as_str() {
+                "equirectangular" => {
+                    only(&["longitude", "latitude"], kind)?;
+                    let pi = std::f32::consts::PI;
+                    let lon = pair("longitude", Range::Finite, Vec2::new(-pi, pi))?;
+                    let lat = pair("latitude", Range::Finite, Vec2::new(-pi / 2.0, pi / 2.0))?;
+                    Some(PanoramaDesc::Equirectangular {
+                        longitude: (lon.x, lon.y),
+                        latitude: (lat.x, lat.y),
+                    })
+                }
+                "fisheye_equidistant" => {
+                    only(&["fisheye_fov"], kind)?;
+                    Some(PanoramaDesc::FisheyeEquidistant { fov: fov()? })
+                }
+                "fisheye_equisolid" => {
+                    only(&["fisheye_fov", "fisheye_lens", "sensor"], kind)?;
+                    Some(PanoramaDesc::FisheyeEquisolid {
+                        fov: fov()?,
+                        lens: get("fisheye_lens", Range::Positive)?,
+                        sensor: pair("sensor", Range::Positive, Vec2::new(36.0, 24.0))?,
+                    })
+                }
+                other => {
+                    return Err(self.err(
+                        &path.key("projection"),
+                        format!("unknown projection '{other}' (expected one of: equirectangular, fisheye_equidistant, fisheye_equisolid)"),
+                    ))
+                }
+            },
+            Some(other) => {
+                return Err(self.err(
+                    &path.key("projection"),
+                    format!("expected a string, found {}", kind(other)),
+                ))
+            }
+        };
+        Ok(CameraOverride {
+            lens,
+            shift,
+            panorama,
         })
     }
 
@@ -1355,7 +1484,23 @@ mod tests {
             ),
             (
                 r#"{"version":1,"camera":{"aperture_radius":0.1,"focus_distance":2,"fstop":2}}"#,
-                "m.json: camera.fstop: unknown key 'fstop' (expected one of: aperture_radius, focus_distance)",
+                "m.json: camera.fstop: unknown key 'fstop' (expected one of: aperture_radius, focus_distance, shift, projection, longitude, latitude, fisheye_fov, fisheye_lens, sensor)",
+            ),
+            (
+                r#"{"version":1,"camera":{"projection":"cylinder"}}"#,
+                "m.json: camera.projection: unknown projection 'cylinder' (expected one of: equirectangular, fisheye_equidistant, fisheye_equisolid)",
+            ),
+            (
+                r#"{"version":1,"camera":{"projection":"fisheye_equidistant","longitude":[0,1]}}"#,
+                "m.json: camera.longitude: not used by the projection 'fisheye_equidistant'",
+            ),
+            (
+                r#"{"version":1,"camera":{"projection":"fisheye_equisolid","fisheye_fov":3}}"#,
+                "m.json: camera: missing 'fisheye_lens'",
+            ),
+            (
+                r#"{"version":1,"camera":{"shift":[0.1]}}"#,
+                "m.json: camera.shift: expected an array of 2 numbers",
             ),
             (
                 r#"{"version":1,"camera":[0.1,2]}"#,
@@ -1406,8 +1551,25 @@ mod tests {
         assert!(w.texture.is_none(), "parse_materials_json decodes no image");
         let t = f.world_texture.as_ref().unwrap();
         assert_eq!((t.path.as_str(), t.rotation_z), ("sky/a.EXR", -1.5));
-        let c = f.camera.unwrap();
+        let c = f.camera.unwrap().lens.unwrap();
         assert_eq!((c.aperture_radius, c.focus_distance), (0.05, 3.0));
+        let c = parse(
+            r#"{"version":1,"camera":{"shift":[0.25,-0.1],"projection":"equirectangular",
+                "longitude":[-1,2]}}"#,
+        )
+        .unwrap()
+        .camera
+        .unwrap();
+        assert_eq!(c.lens, None);
+        assert_eq!(c.shift, Vec2::new(0.25, -0.1));
+        let pi = std::f32::consts::PI;
+        assert_eq!(
+            c.panorama,
+            Some(PanoramaDesc::Equirectangular {
+                longitude: (-1.0, 2.0),
+                latitude: (-pi / 2.0, pi / 2.0)
+            })
+        );
         let f = parse(r#"{"version":1}"#).unwrap();
         assert!(f.world.is_none());
         assert!(f.world_texture.is_none() && f.camera.is_none());

@@ -93,6 +93,10 @@ if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
     echo "== soft lights vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
     blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_lights.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== camera shift and panoramic cameras vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
+    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_camera_world.py -- \
+        test_camera_shift_parity test_panoramic_camera_parity 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
 fi
 if [ "$WHICH" = all ] || [ "$WHICH" = interactive ]; then
     echo "== interactive Blender ($(blender --version 2>/dev/null | head -1)) under Xvfb: engine list, panels, F12, the Properties editor's tabs"

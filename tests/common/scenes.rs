@@ -67,7 +67,7 @@ pub fn camera(distance: f32, yfov: f32) -> CameraDesc {
         yfov,
         aspect: None,
         orthographic: None,
-        lens: None,
+        ..Default::default()
     }
 }
 
