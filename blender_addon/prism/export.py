@@ -38,6 +38,7 @@ import numpy as np
 
 from .blackbody import blackbody_rgb
 from .node_graph import GraphBuilder
+from . import world_bake
 
 WATTS_TO_LUMENS = 683.0
 GREY = (0.8, 0.8, 0.8)
@@ -1027,7 +1028,11 @@ class Exporter:
         m, sss, ok = convert_material(mat)
         mixed = None
         surface = _surface_node(mat) if mat is not None else None
-        if surface is not None and surface.type in {"MIX_SHADER", "ADD_SHADER", "BSDF_TRANSPARENT", "BSDF_TRANSLUCENT"}:
+        # A Holdout shader on the output: a transparent hole (material JSON "holdout").
+        holdout = surface is not None and surface.type == "HOLDOUT"
+        if holdout:
+            ok = True
+        elif surface is not None and surface.type in {"MIX_SHADER", "ADD_SHADER", "BSDF_TRANSPARENT", "BSDF_TRANSLUCENT"}:
             mixed = self._mixed_graph(name, surface, m)
             ok = mixed is not None
         if not ok:
@@ -1038,7 +1043,9 @@ class Exporter:
                     "material '%s': surface shader '%s' (%s) is not supported; rendered grey diffuse"
                     % (name, node.name, node.bl_idname)
                 )
-        graph = mixed or (self._graph(mat, name, m) if ok and mat is not None else None)
+        graph = None if holdout else mixed or (self._graph(mat, name, m) if ok and mat is not None else None)
+        if holdout:
+            self.material_json.setdefault(name, {})["holdout"] = True
         g = {
             "name": name,
             "pbrMetallicRoughness": {
@@ -1194,6 +1201,8 @@ class Exporter:
                 extras["prism_visible_camera"] = False
             if not getattr(ob, "visible_shadow", True):
                 extras["prism_casts_shadows"] = False
+            if self._is_holdout(ob):
+                extras["prism_holdout"] = True
             if extras:
                 node["extras"] = extras
             self._child(node)
@@ -1246,6 +1255,16 @@ class Exporter:
             self.warnings.append("light '%s': node '%s' (%s) on the Emission strength is not translated; strength %g is used"
                                  % (ob.name, src.name, src.bl_idname, strength))
         return col, strength
+
+    def _is_holdout(self, ob):
+        """Object > Visibility > Holdout, or a holdout collection of the rendered view layer."""
+        if getattr(ob, "is_holdout", False):
+            return True
+        orig = getattr(ob, "original", None) or ob
+        try:
+            return bool(orig.holdout_get(view_layer=self.dg.view_layer))
+        except (AttributeError, TypeError, RuntimeError):
+            return False
 
     def _add_light(self, ob, matrix):
         L = ob.data
@@ -1460,7 +1479,10 @@ class Exporter:
     def world(self):
         """The material JSON "world": Background colour x strength, or an equirectangular
         Environment Texture (optionally through a Mapping node rotating about Z) written next to
-        the glTF as a float EXR."""
+        the glTF as a float EXR. Any other graph (a Sky Texture, textures or shaders mixed into
+        the Background, a linked Strength, a non-equirectangular Environment Texture) is baked
+        by Cycles into an equirectangular EXR (world_bake.py), a sky's sun disc into a
+        directional light added to the written glTF."""
         w = self.scene.world
         black = {"color": [0.0, 0.0, 0.0], "strength": 0.0}
         if w is None:
@@ -1474,17 +1496,38 @@ class Exporter:
         if s is None or not s.is_linked:
             return black
         bg = s.links[0].from_node
-        if bg.type != "BACKGROUND":
-            self.warnings.append("world: unsupported node '%s'; world is black" % bg.name)
-            return black
+        cs = bg.inputs["Color"] if bg.type == "BACKGROUND" else None
+        tex = cs.links[0].from_node if cs is not None and cs.is_linked else None
+        if (bg.type != "BACKGROUND" or bg.inputs["Strength"].is_linked
+                or (tex is not None and (tex.type != "TEX_ENVIRONMENT" or tex.projection != "EQUIRECTANGULAR"))):
+            why = tex if tex is not None and bg.type == "BACKGROUND" and not bg.inputs["Strength"].is_linked else bg
+            try:
+                fname, info = world_bake.bake_world(w.original, self.out_dir, self.name)
+            except Exception as e:  # no Cycles, a failed render, ...: today's translation
+                self.warnings.append("world '%s': node '%s' needs the world baked by Cycles, which failed (%s); %s"
+                                     % (w.name, why.name, e, "using the Background colour" if bg.type == "BACKGROUND" else "world is black"))
+                if bg.type != "BACKGROUND":
+                    return black
+            else:
+                sun = info.get("sun")
+                if sun is not None:
+                    gltf_path = os.path.join(self.out_dir, self.name + ".gltf")
+                    if os.path.exists(gltf_path):  # run() writes the glTF before the world
+                        world_bake.add_sun_light(gltf_path, "%s sun" % w.name, sun)
+                    else:
+                        self.warnings.append("world '%s': the sun disc is not exported (no glTF yet)" % w.name)
+                    if sun.get("clipped"):
+                        self.warnings.append("world '%s': the sun disc was not centred in its measuring view; its irradiance may be low" % w.name)
+                if info.get("disc_in_image"):
+                    self.warnings.append("world '%s': the sky's Vector input is linked: its sun disc is baked into the %dx%d image, not a sun light"
+                                         % (w.name, world_bake.BAKE_WIDTH, world_bake.BAKE_HEIGHT))
+                return {"color": [1.0, 1.0, 1.0], "strength": 1.0, "texture": fname}
         strength_sock = bg.inputs["Strength"]
         if strength_sock.is_linked:
             self.warnings.append("world: a linked Strength is not supported; using its value %g" % strength_sock.default_value)
         result = {"color": _rgb(bg.inputs["Color"].default_value), "strength": float(strength_sock.default_value)}
-        cs = bg.inputs["Color"]
         if not cs.is_linked:
             return result
-        tex = cs.links[0].from_node
         if tex.type != "TEX_ENVIRONMENT" or tex.image is None:
             self.warnings.append("world: only a colour or an Environment Texture is supported on the Background; '%s' is ignored" % tex.name)
             return result
@@ -1639,6 +1682,8 @@ def render_settings(scene):
         for key in ("clamp_direct", "clamp_indirect"):
             if getattr(p, key, 0.0) > 0.0:
                 out[key] = float(getattr(p, key))
+    if scene.render.film_transparent:
+        out["film_transparent"] = True
     return out
 
 

@@ -67,6 +67,9 @@ if [ "$WHICH" = all ] || [ "$WHICH" = bpy ]; then
     echo "== camera and world parity with Cycles in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_camera_world.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== worlds baked by Cycles (every Sky Texture model, a procedural world) vs Cycles in the bpy wheel"
+    .venv-bpy/bin/python tests/addon/test_world_bake.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
     echo "== shader node graphs: export and parity with Cycles in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_node_graphs.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
@@ -96,6 +99,9 @@ if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
     echo "== camera shift and panoramic cameras vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
     blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_camera_world.py -- \
         test_camera_shift_parity test_panoramic_camera_parity 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== worlds baked by Cycles vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
+    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_world_bake.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
 fi
 if [ "$WHICH" = all ] || [ "$WHICH" = interactive ]; then
