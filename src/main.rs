@@ -118,6 +118,26 @@ struct SceneArgs {
     /// Clamp Indirect; 0 = off (default: the JSON's render.clamp_indirect, else 0)
     #[arg(long)]
     clamp_indirect: Option<f32>,
+    /// Transparent background, as Blender's Film > Transparent: camera rays see no world and
+    /// the alpha channel is coverage (default: the JSON's render.film_transparent, else off)
+    #[arg(long)]
+    film_transparent: bool,
+    /// Render only the window X,Y,W,H of the image (pixels, X and Y from the top-left corner;
+    /// Blender's render border): the output image is that window, each pixel as in the full
+    /// render (default: the JSON's render.crop, else the whole image)
+    #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
+    crop: Option<[u32; 4]>,
+}
+
+fn parse_crop(s: &str) -> std::result::Result<[u32; 4], String> {
+    let v: Vec<&str> = s.split(',').collect();
+    let n: std::result::Result<Vec<u32>, _> = v.iter().map(|x| x.trim().parse::<u32>()).collect();
+    match n {
+        Ok(n) if n.len() == 4 => Ok([n[0], n[1], n[2], n[3]]),
+        _ => Err(format!(
+            "expected four non-negative integers X,Y,W,H, got '{s}'"
+        )),
+    }
 }
 
 #[derive(clap::Args, Clone)]
@@ -409,6 +429,8 @@ fn load(args: &SceneArgs) -> Result<Loaded> {
         adaptive: None,
         time_limit: None,
         clamp: SampleClamp::default(),
+        film_transparent: args.film_transparent || defaults.film_transparent.unwrap_or(false),
+        crop: None,
     };
     let threshold = args
         .noise_threshold
@@ -451,6 +473,24 @@ fn load(args: &SceneArgs) -> Result<Loaded> {
     }
     if settings.max_depth > 1024 {
         return Err(PrismError::input("--max-depth must be at most 1024"));
+    }
+    if let Some([x, y, cw, ch]) = args.crop.or(defaults.crop) {
+        let fits = cw > 0
+            && ch > 0
+            && x.checked_add(cw).is_some_and(|r| r <= settings.width)
+            && y.checked_add(ch).is_some_and(|b| b <= settings.height);
+        if !fits {
+            return Err(PrismError::input(format!(
+                "--crop {x},{y},{cw},{ch} is not a non-empty window inside the {}x{} image",
+                settings.width, settings.height
+            )));
+        }
+        settings.crop = Some(prism::render::Crop {
+            x,
+            y,
+            width: cw,
+            height: ch,
+        });
     }
     settings.clamp = SampleClamp::new(
         args.clamp_direct.or(defaults.clamp_direct).unwrap_or(0.0),
@@ -575,8 +615,8 @@ fn run_render(render_args: &RenderArgs) -> Result<()> {
     if mode == ProgressMode::Json {
         eprintln!(
             "{{\"event\":\"start\",\"width\":{},\"height\":{},\"spp\":{},\"threads\":{},\"load_s\":{:.4},\"build_s\":{:.4},\"bvh_cache_hits\":{},\"bvh_cache_misses\":{}}}",
-            settings.width,
-            settings.height,
+            settings.window().width,
+            settings.window().height,
             settings.spp,
             threads_used,
             load_start.elapsed().as_secs_f64(),
@@ -588,7 +628,8 @@ fn run_render(render_args: &RenderArgs) -> Result<()> {
     ctrlc::set_handler(|| CANCEL.store(true, Ordering::SeqCst))
         .map_err(|e| PrismError::internal(format!("cannot install the signal handler: {e}")))?;
 
-    let total = settings.width as u64 * settings.height as u64 * settings.spp as u64;
+    let window = settings.window();
+    let total = window.width as u64 * window.height as u64 * settings.spp as u64;
     let bar = (mode == ProgressMode::Bar).then(|| {
         let b = indicatif::ProgressBar::new(total);
         b.set_style(
@@ -792,6 +833,8 @@ fn run_bench(bench: &BenchArgs) -> Result<()> {
         time_limit: None,
         clamp_direct: None,
         clamp_indirect: None,
+        film_transparent: false,
+        crop: None,
     };
     let Loaded {
         scene, settings, ..

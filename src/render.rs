@@ -41,6 +41,34 @@ pub struct RenderSettings {
     pub time_limit: Option<Duration>,
     /// Firefly clamps (Cycles' Clamp Direct / Indirect); off by default.
     pub clamp: SampleClamp,
+    /// Blender's Film > Transparent: the world is not seen by camera rays and the alpha
+    /// channel is coverage.
+    pub film_transparent: bool,
+    /// Render only this window of the `width` x `height` image (Blender's render border): the
+    /// film is the window's size, and each of its pixels gets exactly the samples (and value)
+    /// it gets in the full render.
+    pub crop: Option<Crop>,
+}
+
+/// A window of the image: top-left pixel and size.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Crop {
+    pub x: u32,
+    pub y: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl RenderSettings {
+    /// The window rendered: the crop, or the whole image.
+    pub fn window(&self) -> Crop {
+        self.crop.unwrap_or(Crop {
+            x: 0,
+            y: 0,
+            width: self.width,
+            height: self.height,
+        })
+    }
 }
 
 /// Adaptive sampling settings (`film::adaptive`): `spp` becomes the maximum.
@@ -86,6 +114,8 @@ impl Default for RenderSettings {
             adaptive: None,
             time_limit: None,
             clamp: SampleClamp::default(),
+            film_transparent: false,
+            crop: None,
         }
     }
 }
@@ -154,12 +184,17 @@ pub fn render(
     on_progress: &(dyn Fn(&Progress) + Sync),
     on_pass: &mut dyn FnMut(&Film, u32),
 ) -> (Film, RenderStats) {
-    let (w, h) = (settings.width as usize, settings.height as usize);
+    let window = settings.window();
+    let (w, h) = (window.width as usize, window.height as usize);
     // Guides are accumulated when asked for; writing them is the caller's choice
     // (`Film::write_guides`): they may be wanted only as the denoiser's input.
-    let mut film = Film::new(settings.width, settings.height);
+    let mut film = Film::new(window.width, window.height);
     let camera = scene.camera_for(settings.width, settings.height);
-    let tracer = PathTracer::new(scene, settings.max_depth, settings.light_selection);
+    let tracer = PathTracer::new(scene, settings.max_depth, settings.light_selection)
+        .with_transparent_background(settings.film_transparent);
+    // Alpha is coverage only with a transparent background or holdouts; else 1 everywhere.
+    film.track_alpha = settings.film_transparent || scene.geometry.has_holdout();
+    let track_alpha = film.track_alpha;
     let clamp_off = settings.clamp.is_off();
     let image_sampler = ImageSampler::new(settings.sampler, settings.spp, settings.seed);
     let total = (w * h) as u64 * settings.spp as u64;
@@ -233,8 +268,10 @@ pub fn render(
                             continue;
                         }
                         let index = band * w * BAND_ROWS + i;
-                        let (px_x, px_y) = ((index % w) as u32, (index / w) as u32);
-                        let pixel_sampler = image_sampler.pixel(px_x, px_y, w as u32);
+                        // Pixel coordinates in the full image (the same samples with a crop).
+                        let (px_x, px_y) =
+                            ((index % w) as u32 + window.x, (index / w) as u32 + window.y);
+                        let pixel_sampler = image_sampler.pixel(px_x, px_y, settings.width);
                         let (x, y) = (px_x as f32, px_y as f32);
                         for sample in s0..s1 {
                             let mut sampler = pixel_sampler.sample(sample);
@@ -244,6 +281,9 @@ pub fn render(
                             let Some(ray): Option<Ray> = camera.generate_ray(raster, u_lens) else {
                                 // Outside a fisheye's image circle: black, as in Cycles.
                                 px.add(glam::Vec3::ZERO);
+                                if track_alpha {
+                                    px.add_alpha(0.0);
+                                }
                                 if settings.guides {
                                     px.add_guides(glam::Vec3::ZERO, glam::Vec3::ZERO, None);
                                 }
@@ -263,6 +303,9 @@ pub fn render(
                             };
                             if !px.add(xyz) {
                                 band_discarded += 1;
+                            }
+                            if track_alpha {
+                                px.add_alpha(result.alpha);
                             }
                             if !settings.guides {
                                 continue;

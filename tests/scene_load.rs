@@ -78,6 +78,10 @@ fn area_light_node_extras_set_ray_visibility() {
     b.root(json!({ "name": "Shown", "mesh": 0,
                    "extras": { "prism_area_light": true, "prism_visible_camera": true } }));
     b.root(json!({ "name": "Other", "mesh": 0, "extras": { "something": 1 } }));
+    // Blender's object ray visibility and holdout, on any mesh.
+    b.root(json!({ "name": "Holdout", "mesh": 0, "extras": { "prism_holdout": true } }));
+    b.root(json!({ "name": "NoShadow", "mesh": 0,
+                   "extras": { "prism_casts_shadows": false, "prism_visible_camera": false } }));
     let s = load(&b.write_gltf(&dir.join("extras.gltf")));
     let vis = |n: &str| {
         let i = s.instances.iter().position(|i| i.name == n).unwrap();
@@ -90,14 +94,31 @@ fn area_light_node_extras_set_ray_visibility() {
         vis("Hidden"),
         InstanceVisibility {
             casts_shadows: false,
-            camera_visible: false
+            camera_visible: false,
+            holdout: false,
         }
     );
     assert_eq!(
         vis("Shown"),
         InstanceVisibility {
             casts_shadows: false,
-            camera_visible: true
+            camera_visible: true,
+            holdout: false,
+        }
+    );
+    assert_eq!(
+        vis("Holdout"),
+        InstanceVisibility {
+            holdout: true,
+            ..default
+        }
+    );
+    assert_eq!(
+        vis("NoShadow"),
+        InstanceVisibility {
+            casts_shadows: false,
+            camera_visible: false,
+            holdout: false,
         }
     );
 }

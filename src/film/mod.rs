@@ -32,6 +32,8 @@ pub struct FilmPixel {
     normal: [f32; 3],
     depth_sum: f32,
     depth_hits: u32,
+    /// Sum of the samples' coverage (`Film::track_alpha`).
+    alpha_sum: f32,
 }
 
 /// Depth written where no sample hit a surface (Blender's background Z).
@@ -103,6 +105,22 @@ impl FilmPixel {
         }
     }
 
+    /// Adds one sample's coverage (0 transparent, 1 opaque).
+    #[inline]
+    pub fn add_alpha(&mut self, alpha: f32) {
+        if alpha.is_finite() {
+            self.alpha_sum += alpha.clamp(0.0, 1.0);
+        }
+    }
+
+    /// Mean coverage over the pixel's samples.
+    pub fn alpha(&self) -> f32 {
+        if self.samples == 0 {
+            return 0.0;
+        }
+        (self.alpha_sum / self.samples as f32).clamp(0.0, 1.0)
+    }
+
     /// Mean albedo as linear Rec.709.
     pub fn albedo_rgb(&self) -> Vec3 {
         if self.samples == 0 {
@@ -158,6 +176,8 @@ pub struct Film {
     /// The denoised colour (linear Rec.709, row 0 = top), once the image has been denoised: it
     /// becomes the EXR's RGB and the noisy colour moves to the `Noisy` layer.
     pub denoised: Option<Vec<Vec3>>,
+    /// Alpha is the pixels' coverage (Film Transparent or holdouts); else 1.
+    pub track_alpha: bool,
 }
 
 impl Film {
@@ -168,6 +188,7 @@ impl Film {
             pixels: vec![FilmPixel::default(); width as usize * height as usize],
             write_guides: false,
             denoised: None,
+            track_alpha: false,
         }
     }
 
@@ -190,13 +211,15 @@ impl Film {
         self.pixels.iter().map(FilmPixel::normal).collect()
     }
 
-    /// Linear Rec.709 RGBA, row 0 = top of the image, alpha 1.
+    /// Linear Rec.709 RGBA (premultiplied, as Blender's), row 0 = top of the image; alpha is
+    /// coverage with `track_alpha`, else 1.
     pub fn to_rgba(&self) -> Vec<[f32; 4]> {
         self.pixels
             .iter()
             .map(|p| {
                 let c = p.rgb();
-                [c.x, c.y, c.z, 1.0]
+                let a = if self.track_alpha { p.alpha() } else { 1.0 };
+                [c.x, c.y, c.z, a]
             })
             .collect()
     }

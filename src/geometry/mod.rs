@@ -277,6 +277,9 @@ pub struct Instance {
     pub casts_shadows: bool,
     /// False hides the instance from camera rays (the integrator looks through it).
     pub camera_visible: bool,
+    /// A hole in the image (Blender's holdout): camera rays that reach it leave the pixel
+    /// transparent, and paths end there.
+    pub holdout: bool,
 }
 
 impl Instance {
@@ -290,12 +293,18 @@ impl Instance {
             flips_handedness: m3.determinant() < 0.0,
             casts_shadows: true,
             camera_visible: true,
+            holdout: false,
         }
     }
 
     pub fn with_visibility(mut self, casts_shadows: bool, camera_visible: bool) -> Self {
         self.casts_shadows = casts_shadows;
         self.camera_visible = camera_visible;
+        self
+    }
+
+    pub fn with_holdout(mut self, holdout: bool) -> Self {
+        self.holdout = holdout;
         self
     }
 }
@@ -377,6 +386,16 @@ impl Geometry {
 
     pub fn is_empty(&self) -> bool {
         self.instances.is_empty()
+    }
+
+    /// The instance is a holdout (see `Instance::holdout`).
+    pub fn is_holdout(&self, instance: u32) -> bool {
+        self.instances[instance as usize].holdout
+    }
+
+    /// Some instance is a holdout.
+    pub fn has_holdout(&self) -> bool {
+        self.instances.iter().any(|i| i.holdout)
     }
 
     /// Camera rays see this instance (see `Instance::camera_visible`).

@@ -24,6 +24,9 @@ pub struct PathTracer<'a> {
     selection: LightSelection,
     /// Some material is partly transparent (alpha): rays and shadow rays may pass surfaces.
     alpha: bool,
+    /// Blender's Film > Transparent: camera rays that escape (directly or through transparent
+    /// surfaces) see no world, and leave the pixel transparent.
+    transparent_background: bool,
 }
 
 /// What one camera path returns.
@@ -36,6 +39,9 @@ pub struct PathSample {
     /// Rays traced (closest-hit and shadow), for throughput statistics.
     pub rays: u32,
     pub guides: DenoiseGuides,
+    /// Coverage: 0 where the camera ray escaped (only counted as transparent with
+    /// `transparent_background`) or reached a holdout, else 1 (Blender's alpha).
+    pub alpha: f32,
 }
 
 /// Feature buffers for denoisers (and Blender's Depth/Normal passes), recorded like Cycles'
@@ -72,7 +78,14 @@ impl<'a> PathTracer<'a> {
             max_depth,
             selection,
             alpha: scene.materials.iter().any(|m| m.has_alpha()),
+            transparent_background: false,
         }
+    }
+
+    /// Film > Transparent (see `PathTracer::transparent_background`).
+    pub fn with_transparent_background(mut self, on: bool) -> Self {
+        self.transparent_background = on;
+        self
     }
 
     /// The fraction of light that reaches `distance` along `ray` (0 = blocked): the product of
@@ -192,6 +205,7 @@ impl<'a> PathTracer<'a> {
         let mut guides_done = false;
         // Tint of the specular chain from the camera, for the albedo guide.
         let mut guide_tint = SampledSpectrum::ONE;
+        let mut alpha = 1.0f32;
 
         for depth in 0..=self.max_depth {
             sampler.start_bounce(depth);
@@ -276,6 +290,11 @@ impl<'a> PathTracer<'a> {
                 );
             }
             let Some(hit) = next_hit else {
+                if depth == 0 && self.transparent_background {
+                    // The background is transparent: no world where the camera sees it.
+                    alpha = 0.0;
+                    break;
+                }
                 // The world and any sun disc along the ray, each with its own MIS weight.
                 lights.for_each_at_infinity(ray.dir, &alive, |index, le| {
                     let weight = if specular_bounce {
@@ -292,6 +311,14 @@ impl<'a> PathTracer<'a> {
                 });
                 break;
             };
+            if geometry.is_holdout(hit.instance) {
+                // A holdout: a hole in the image for camera rays; every path ends here
+                // (Cycles terminates paths at full holdouts).
+                if depth == 0 {
+                    alpha = 0.0;
+                }
+                break;
+            }
             if depth == 0 {
                 guides.first_distance = camera_offset + hit.t;
             }
@@ -689,6 +716,7 @@ impl<'a> PathTracer<'a> {
             direct: l_direct,
             rays,
             guides,
+            alpha,
         }
     }
 }

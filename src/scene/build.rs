@@ -115,6 +115,7 @@ impl Scene {
                 (det.is_finite() && det.abs() > 1e-30).then(|| {
                     Instance::new(mesh, affine)
                         .with_visibility(vis.casts_shadows, vis.camera_visible)
+                        .with_holdout(vis.holdout)
                 })
             })
             .collect();

@@ -361,6 +361,10 @@ pub struct RenderDefaults {
     /// `render.clamp_direct` / `render.clamp_indirect` (>= 0, 0 = off).
     pub clamp_direct: Option<f32>,
     pub clamp_indirect: Option<f32>,
+    /// `render.film_transparent`: Blender's Film > Transparent.
+    pub film_transparent: Option<bool>,
+    /// `render.crop`: [x, y, width, height] window of the image to render (render border).
+    pub crop: Option<[u32; 4]>,
 }
 
 #[derive(Clone, Debug, Default)]
@@ -386,6 +390,8 @@ pub struct SceneDesc {
 pub struct InstanceVisibility {
     pub casts_shadows: bool,
     pub camera_visible: bool,
+    /// Blender's holdout (the object's, or a Holdout material's): a transparent hole.
+    pub holdout: bool,
 }
 
 impl Default for InstanceVisibility {
@@ -393,6 +399,7 @@ impl Default for InstanceVisibility {
         InstanceVisibility {
             casts_shadows: true,
             camera_visible: true,
+            holdout: false,
         }
     }
 }

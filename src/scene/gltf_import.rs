@@ -541,12 +541,13 @@ impl Importer<'_> {
                 .and_then(|raw| serde_json::from_str::<serde_json::Value>(raw.get()).ok());
             let flag = |key: &str| extras.as_ref().and_then(|v| v.get(key)?.as_bool());
             // Blender's ray visibility (Object > Visibility > Ray Visibility: Camera, Shadow),
-            // written by the add-on when off. An area light's mesh casts no shadow and is
+            // written by the add-on when off, and its holdout (`prism_holdout`). An area light's mesh casts no shadow and is
             // hidden from the camera unless told otherwise.
             let area_light = flag("prism_area_light") == Some(true);
             let visibility = InstanceVisibility {
                 casts_shadows: !area_light && flag("prism_casts_shadows").unwrap_or(true),
                 camera_visible: flag("prism_visible_camera").unwrap_or(!area_light),
+                holdout: flag("prism_holdout").unwrap_or(false),
             };
             for prim in mesh.primitives() {
                 if let Some(m) = self.mesh_for(&mesh, &prim)? {

@@ -76,6 +76,19 @@ fn load_scene_inner(
                 }
             }
         }
+        // A Holdout material makes every instance drawn with it a holdout.
+        for name in &mf.holdouts {
+            for (i, inst) in scene.instances.iter().enumerate() {
+                let material = scene.meshes[inst.mesh].material;
+                let named =
+                    material.and_then(|m| imported.material_names.get(m).cloned().flatten());
+                if named.as_deref() == Some(name.as_str()) {
+                    let vis = &mut scene.instance_visibility;
+                    vis.resize(vis.len().max(i + 1), Default::default());
+                    vis[i].holdout = true;
+                }
+            }
+        }
         for (name, graph) in &mf.graphs {
             for (i, n) in imported.material_names.iter().enumerate() {
                 if n.as_deref() == Some(name.as_str()) {

@@ -21,7 +21,9 @@
 //! ```
 //!
 //! * `materials.<glTF material name>`: at most one of `subsurface` | `dielectric`, and/or a
-//!   `graph` (a shading graph driving the material's inputs: `crate::shading::parse`).
+//!   `graph` (a shading graph driving the material's inputs: `crate::shading::parse`), and/or
+//!   `holdout` (true: Blender's Holdout shader; the surface is a transparent hole in the image
+//!   and ends paths).
 //! * `subsurface`: exactly one of `preset` | `sigma_a` + `sigma_s` | `reflectance` + `mfp`;
 //!   optional `scale` (> 0, default 1), `eta` (> 0, default 1.33) or `ior` (a number >= 1 or an
 //!   object with exactly one of the dielectric IOR forms below; the BSSRDF then uses its n_d as
@@ -68,7 +70,10 @@
 //!   `denoise_quality` (`"high"` default | `"balanced"` | `"fast"`), `denoise_prefilter`
 //!   (`"accurate"` default | `"fast"` | `"none"`), and
 //!   `clamp_direct` / `clamp_indirect` (>= 0, 0 = off: per-sample luminance limits of direct
-//!   and indirect light, `crate::film::SampleClamp`).
+//!   and indirect light, `crate::film::SampleClamp`), `film_transparent` (true | false:
+//!   Blender's Film > Transparent, camera rays see no world and alpha is coverage), `crop`
+//!   ([x, y, width, height] in pixels from the top-left corner: render only that window, as
+//!   Blender's render border; checked against the image size by the renderer).
 //!
 //! Validation is strict and every error is one line:
 //! `<file>: <json path, e.g. materials.Skin.subsurface.sigma_a[1]>: <what is wrong>`
@@ -139,6 +144,8 @@ pub struct MaterialsFile {
     pub materials: Vec<(String, MaterialOverride)>,
     /// Shading graphs by glTF material name (`materials.<name>.graph`, see `crate::shading::parse`).
     pub graphs: Vec<(String, Arc<ShadingGraph>)>,
+    /// Materials that are holdouts (`materials.<name>.holdout`: Blender's Holdout shader).
+    pub holdouts: Vec<String>,
     /// Problems the user should see that do not stop the render (an unreadable texture).
     pub warnings: Vec<String>,
     /// `None` when the file has no `world` block. Its `texture` is decoded by
@@ -548,6 +555,18 @@ impl Validator<'_> {
             for (name, def) in mats {
                 let p = mpath.key(name);
                 let (ov, graph) = self.material(def, &p)?;
+                if let Some(h) = def.get("holdout") {
+                    match h.as_bool() {
+                        Some(true) => out.holdouts.push(name.clone()),
+                        Some(false) => {}
+                        None => {
+                            return Err(self.err(
+                                &p.key("holdout"),
+                                format!("expected true or false, found {}", kind(h)),
+                            ))
+                        }
+                    }
+                }
                 if let Some(names) = names {
                     if !names.iter().any(|n| n == name) {
                         let list = if names.is_empty() {
@@ -590,7 +609,7 @@ impl Validator<'_> {
         path: &JPath,
     ) -> R<(Option<MaterialOverride>, Option<ShadingGraph>)> {
         let m = self.object(v, path)?;
-        self.check_keys(m, &["subsurface", "dielectric", "graph"], path)?;
+        self.check_keys(m, &["subsurface", "dielectric", "graph", "holdout"], path)?;
         let graph = match m.get("graph") {
             Some(g) => {
                 let gpath = path.key("graph");
@@ -615,10 +634,10 @@ impl Validator<'_> {
                     "give exactly one of 'subsurface' or 'dielectric', not both",
                 ))
             }
-            (None, None) if graph.is_none() => {
+            (None, None) if graph.is_none() && !m.contains_key("holdout") => {
                 return Err(self.err(
                     path,
-                    "empty material: give 'subsurface', 'dielectric' or 'graph'",
+                    "empty material: give 'subsurface', 'dielectric', 'graph' or 'holdout'",
                 ))
             }
             (None, None) => None,
@@ -1108,6 +1127,8 @@ impl Validator<'_> {
                 "denoise_prefilter",
                 "clamp_direct",
                 "clamp_indirect",
+                "film_transparent",
+                "crop",
             ],
             path,
         )?;
@@ -1202,6 +1223,35 @@ impl Validator<'_> {
             clamp_indirect: m
                 .get("clamp_indirect")
                 .map(|x| self.number(x, &path.key("clamp_indirect"), Range::NonNeg))
+                .transpose()?,
+            crop: m
+                .get("crop")
+                .map(|x| -> R<[u32; 4]> {
+                    let p = path.key("crop");
+                    match x.as_array() {
+                        Some(a) if a.len() == 4 => {
+                            let mut out = [0u32; 4];
+                            for (i, e) in a.iter().enumerate() {
+                                out[i] = self.uint(e, &p.idx(i), 0)?;
+                            }
+                            Ok(out)
+                        }
+                        _ => {
+                            Err(self
+                                .err(&p, "expected an array of 4 integers [x, y, width, height]"))
+                        }
+                    }
+                })
+                .transpose()?,
+            film_transparent: m
+                .get("film_transparent")
+                .map(|x| match x {
+                    Value::Bool(b) => Ok(*b),
+                    _ => Err(self.err(
+                        &path.key("film_transparent"),
+                        format!("expected true or false, found {}", kind(x)),
+                    )),
+                })
                 .transpose()?,
             time_limit: m
                 .get("time_limit")
