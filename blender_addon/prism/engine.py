@@ -121,6 +121,21 @@ def set_pass_pixels(render_pass, px):
         render_pass.rect = px
 
 
+def border_window(scene, width, height):
+    """Render > Format > Render Region (Blender's border): the window (x, y from the top-left
+    corner, w, h) of the width x height image, with Blender's own rounding (the render
+    result's size), or None without a border."""
+    r = scene.render
+    if not r.use_border:
+        return None
+    x0, x1 = int(r.border_min_x * width), int(r.border_max_x * width)
+    y0, y1 = int(r.border_min_y * height), int(r.border_max_y * height)
+    w, h = min(x1, width) - x0, min(y1, height) - y0
+    if w <= 0 or h <= 0 or (w, h) == (width, height):
+        return None
+    return x0, height - y0 - h, w, h
+
+
 def _log(msg):
     print("Prism: " + msg, file=sys.stderr, flush=True)
 
@@ -146,7 +161,16 @@ class PrismRenderEngine(bpy.types.RenderEngine):
         tmp = tempfile.mkdtemp(prefix="prism_")
         LAST["tmpdir"] = tmp
         try:
-            self._render(depsgraph, scene, result, tmp, width, height)
+            # With a render border Blender's result is the region only (it lays it into the
+            # frame, or crops to it): render that window of the full view.
+            crop = border_window(scene, width, height)
+            LAST["crop"] = crop
+            if crop is not None:
+                n = len(result.layers[0].passes["Combined"].rect)
+                if n != crop[2] * crop[3]:
+                    raise runner.RunnerError("render border: Blender's result has %d pixels, the region %dx%d"
+                                             % (n, crop[2], crop[3]))
+            self._render(depsgraph, scene, result, tmp, width, height, crop)
         except (runner.RunnerError, export.ExportError) as e:
             self._error(str(e))
         except Exception as e:  # never let an exception escape into Blender's render job
@@ -191,7 +215,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
         for name, channels, chan_id, kind in denoise_passes(scene) + guide_passes(scene, renderlayer):
             self.register_pass(scene, renderlayer, name, channels, chan_id, kind)
 
-    def _render(self, depsgraph, scene, result, tmp, width, height):
+    def _render(self, depsgraph, scene, result, tmp, width, height, crop=None):
         prefs = addon_preferences()
         binary = runner.find_binary(prefs.binary_path if prefs is not None else "")
         timings = LAST["timings"]
@@ -217,7 +241,11 @@ class PrismRenderEngine(bpy.types.RenderEngine):
             denoise=denoise, oidn=oidn, denoise_previews=getattr(settings, "denoise_previews", False),
             denoise_quality=getattr(settings, "denoising_quality", "HIGH"),
             denoise_prefilter=getattr(settings, "denoising_prefilter", "ACCURATE"),
+            crop=crop,
         )
+        if crop is not None:
+            # The images the binary writes are the window.
+            width, height = crop[2], crop[3]
         guides = guide_passes(scene, depsgraph.view_layer)
         if guides:
             args.append("--guides")

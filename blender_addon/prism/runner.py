@@ -189,7 +189,7 @@ def bvh_cache_dir():
 
 def render_args(binary, gltf, materials, output, preview, spp, width, height, max_depth, seed, threads,
                 bvh_cache=None, denoise=False, oidn=None, denoise_previews=False, denoise_quality="HIGH",
-                denoise_prefilter="ACCURATE"):
+                denoise_prefilter="ACCURATE", crop=None):
     args = [
         binary, "render", gltf,
         "--materials", materials,
@@ -216,6 +216,8 @@ def render_args(binary, gltf, materials, output, preview, spp, width, height, ma
         if denoise_previews:
             args.append("--denoise-previews")
         args += ["--denoise-quality", denoise_quality.lower(), "--denoise-prefilter", denoise_prefilter.lower()]
+    if crop is not None:
+        args += ["--crop", "%d,%d,%d,%d" % tuple(crop)]
     return args
 
 

@@ -163,19 +163,23 @@ def use_cycles(sc, spp, bounces=8, threads=2):
     cy.filter_width = 1.0
     sc.render.threads_mode = "FIXED"
     sc.render.threads = threads
-    sc.render.film_transparent = False
 
 
 def render_engine(sc, engine, spp, out_dir, name, bounces):
     """Renders `sc` with "cycles" (`bounces` of every kind) or "prism" (max depth `bounces`)
     into out_dir/<name>_<engine>.exr, prints the time; returns the (H, W, 3) pixels."""
+    return render_engine_rgba(sc, engine, spp, out_dir, name, bounces)[..., :3]
+
+
+def render_engine_rgba(sc, engine, spp, out_dir, name, bounces):
+    """`render_engine` with the alpha channel: (H, W, 4) pixels."""
     if engine == "cycles":
         use_cycles(sc, spp, bounces=bounces)
     else:
         use_prism(sc, spp)
         sc.prism.max_depth = bounces
     t0 = time.perf_counter()
-    px = render_pixels(sc, os.path.join(out_dir, "%s_%s.exr" % (name, engine)))[..., :3]
+    px = render_pixels(sc, os.path.join(out_dir, "%s_%s.exr" % (name, engine)))
     print("  %s %s: %.1f s" % (name, engine, time.perf_counter() - t0), flush=True)
     return px
 

@@ -64,6 +64,9 @@ if [ "$WHICH" = all ] || [ "$WHICH" = bpy ]; then
     echo "== soft lights (radius, sun angle), Temperature, Blackbody, Exposure vs Cycles in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_lights.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== render border, Film Transparent, holdouts vs Cycles in the bpy wheel"
+    .venv-bpy/bin/python tests/addon/test_pipeline.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
     echo "== camera and world parity with Cycles in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_camera_world.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
@@ -95,6 +98,9 @@ if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
     [ "${PIPESTATUS[0]}" = 0 ]
     echo "== soft lights vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
     blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_lights.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== render border, Film Transparent, holdouts vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
+    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_pipeline.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
     echo "== camera shift and panoramic cameras vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
     blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_camera_world.py -- \
