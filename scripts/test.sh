@@ -11,8 +11,14 @@ echo "== cargo fmt / clippy"
 cargo fmt --all -- --check
 cargo clippy --all-targets -- -D warnings
 
+# One optimised build serves every test: the Rust tests run on the release profile with debug
+# assertions and overflow checks on, and the add-on tests use that same binary
+# (target/release/prism; run_addon_tests.sh's `cargo build --release` then has nothing to do).
+# A full compile is about 7 minutes on a 2-core machine: building twice would not fit CI's budget.
+export CARGO_PROFILE_RELEASE_DEBUG_ASSERTIONS=true CARGO_PROFILE_RELEASE_OVERFLOW_CHECKS=true
+
 echo "== Rust unit, statistical, image and CLI tests"
-cargo test --all-targets
+cargo test --release --all-targets
 
 echo "== Blender add-on tests (bpy wheel 5.0.1 and Debian's blender -b; installs them if missing)"
 tests/addon/run_addon_tests.sh

@@ -560,8 +560,10 @@ fn material_fields() {
     );
 }
 
+/// A missing picture is an optional asset: Blender's magenta and a warning naming the image and
+/// its path, not a failed render (as Cycles).
 #[test]
-fn missing_image_file_is_named() {
+fn missing_image_file_is_magenta_with_a_warning() {
     let dir = test_dir("missing_image");
     let mut b = GltfBuilder::basic();
     let img = b.image_uri("textures/albedo%20map.png");
@@ -572,10 +574,36 @@ fn missing_image_file_is_named() {
     let q = b.quad_mesh("T", Some(m));
     b.root(json!({ "name": "T", "mesh": q }));
     let path = b.write_gltf(&dir.join("t.gltf"));
-    let e = input_error(load_scene(&path, None, None));
+    let s = load(&path);
+    assert_eq!(s.textures.len(), 1);
+    assert_eq!(
+        s.textures[0].texels,
+        vec![glam::Vec4::new(1.0, 0.0, 1.0, 1.0)]
+    );
     assert!(
-        e.contains("t.gltf: image 0: cannot read 'textures/albedo%20map.png'"),
-        "{e}"
+        s.warnings.iter().any(
+            |w| w.contains("image 0: cannot read 'textures/albedo%20map.png'")
+                && w.contains("albedo%20map.png")
+                && w.ends_with("rendered magenta")
+        ),
+        "{:?}",
+        s.warnings
+    );
+    // An undecodable picture too.
+    std::fs::create_dir_all(dir.join("textures")).unwrap();
+    std::fs::write(dir.join("textures/albedo map.png"), b"not a png").unwrap();
+    let s = load(&path);
+    assert_eq!(
+        s.textures[0].texels,
+        vec![glam::Vec4::new(1.0, 0.0, 1.0, 1.0)]
+    );
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("image 0 ('textures/albedo%20map.png')")
+                && w.ends_with("rendered magenta")),
+        "{:?}",
+        s.warnings
     );
     // With the file present (percent-decoded name) it loads.
     std::fs::create_dir_all(dir.join("textures")).unwrap();

@@ -1551,37 +1551,72 @@ impl Importer<'_> {
 
     fn image(&mut self, index: usize) -> Result<&crate::scene::texture::DecodedImage, String> {
         if !self.image_cache.contains_key(&index) {
-            let img = &self.doc.as_json().images[index];
-            let mime = img.mime_type.as_ref().map(|m| m.0.clone());
-            let decoded = if let Some(view_idx) = img.buffer_view.as_ref() {
-                let view = self
-                    .doc
-                    .views()
-                    .nth(view_idx.value())
-                    .ok_or_else(|| format!("image {index}: buffer view does not exist"))?;
-                let bytes = self.view_bytes(&view)?;
-                decode_image(bytes, mime.as_deref()).map_err(|e| format!("image {index}: {e}"))?
-            } else if let Some(uri) = img.uri.as_deref() {
-                if let Some(d) = parse_data_uri(uri) {
-                    let d = d.map_err(|e| format!("image {index}: {e}"))?;
-                    decode_image(&d.bytes, d.mime.as_deref().or(mime.as_deref()))
-                        .map_err(|e| format!("image {index}: {e}"))?
-                } else if is_remote(uri) {
-                    return Err(format!("image {index}: unsupported remote URI '{uri}'"));
-                } else {
-                    let p = resolve_uri(&self.dir, uri);
-                    let bytes = std::fs::read(&p).map_err(|e| {
-                        format!("image {index}: cannot read '{uri}': {}", io_msg(&e))
-                    })?;
-                    decode_image(&bytes, mime.as_deref())
-                        .map_err(|e| format!("image {index} ('{uri}'): {e}"))?
+            let decoded = match self.decode_image_at(index)? {
+                Ok(d) => d,
+                Err(e) => {
+                    // A missing or unreadable picture is an optional asset: Blender's magenta
+                    // and a warning, not a failed render (Cycles does the same).
+                    self.scene.warnings.push(format!("{e}; rendered magenta"));
+                    crate::scene::texture::DecodedImage {
+                        width: 1,
+                        height: 1,
+                        rgba: vec![[1.0, 0.0, 1.0, 1.0]],
+                        eight_bit: false,
+                    }
                 }
-            } else {
-                return Err(format!("image {index}: has neither 'uri' nor 'bufferView'"));
             };
             self.image_cache.insert(index, decoded);
         }
         Ok(&self.image_cache[&index])
+    }
+
+    /// Decodes image `index`: the outer error is a broken file (an image whose buffer view
+    /// does not exist), the inner one a picture that cannot be read or decoded.
+    #[allow(clippy::type_complexity)]
+    fn decode_image_at(
+        &self,
+        index: usize,
+    ) -> Result<Result<crate::scene::texture::DecodedImage, String>, String> {
+        let img = &self.doc.as_json().images[index];
+        let mime = img.mime_type.as_ref().map(|m| m.0.clone());
+        if let Some(view_idx) = img.buffer_view.as_ref() {
+            let view = self
+                .doc
+                .views()
+                .nth(view_idx.value())
+                .ok_or_else(|| format!("image {index}: buffer view does not exist"))?;
+            let bytes = self.view_bytes(&view)?;
+            return Ok(
+                decode_image(bytes, mime.as_deref()).map_err(|e| format!("image {index}: {e}"))
+            );
+        }
+        let Some(uri) = img.uri.as_deref() else {
+            return Err(format!("image {index}: has neither 'uri' nor 'bufferView'"));
+        };
+        if let Some(d) = parse_data_uri(uri) {
+            return Ok(d.map_err(|e| format!("image {index}: {e}")).and_then(|d| {
+                decode_image(&d.bytes, d.mime.as_deref().or(mime.as_deref()))
+                    .map_err(|e| format!("image {index}: {e}"))
+            }));
+        }
+        if is_remote(uri) {
+            return Ok(Err(format!(
+                "image {index}: unsupported remote URI '{uri}'"
+            )));
+        }
+        let p = resolve_uri(&self.dir, uri);
+        Ok(std::fs::read(&p)
+            .map_err(|e| {
+                format!(
+                    "image {index}: cannot read '{uri}' ({}): {}",
+                    p.display(),
+                    io_msg(&e)
+                )
+            })
+            .and_then(|bytes| {
+                decode_image(&bytes, mime.as_deref())
+                    .map_err(|e| format!("image {index} ('{uri}'): {e}"))
+            }))
     }
 }
 
