@@ -157,7 +157,10 @@ class PrismRenderEngine(bpy.types.RenderEngine):
             error=None, warnings=[], cancelled=False, width=width, height=height, timings={}, previews=0, progress=[],
             active=None,
         )
-        result = self.begin_result(0, 0, width, height)
+        # Blender calls render() once per enabled view layer, with that layer's depsgraph
+        # (its own visibility and holdouts): the result goes to that layer.
+        layer = depsgraph.view_layer.name if depsgraph.view_layer is not None else ""
+        result = self.begin_result(0, 0, width, height, layer=layer)
         tmp = tempfile.mkdtemp(prefix="prism_")
         LAST["tmpdir"] = tmp
         try:

@@ -1,6 +1,6 @@
 """Blender's render pipeline with Prism, against Cycles where it applies: the render border
 (with and without Crop to Render Region), Film > Transparent, object holdout (and a holdout
-collection) and the Holdout shader. Runs in the bpy wheel (5.0.1) and in `blender -b` (3.4):
+collection), the Holdout shader and view layers. Runs in the bpy wheel (5.0.1) and in `blender -b` (3.4):
 
     .venv-bpy/bin/python tests/addon/test_pipeline.py [TEST_NAME ...]
     blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_pipeline.py -- [TEST_NAME ...]
@@ -133,6 +133,62 @@ def test_holdout_shader():
     hold = nt.nodes.new("ShaderNodeHoldout")
     nt.links.new(hold.outputs[0], out.inputs["Surface"])
     holdout_check(sc, "Holdout shader")
+
+
+def test_view_layers():
+    """Two view layers, the second excluding the ball's collection and holding out the floor:
+    each layer of the multilayer EXR Blender writes equals that layer rendered alone (before,
+    the second layer's render overwrote the first)."""
+    from prism import exr
+
+    sc = scene()
+    ball = bpy.data.objects["Ball"]
+    coll = bpy.data.collections.new("BallColl")
+    sc.collection.children.link(coll)
+    sc.collection.objects.unlink(ball)
+    coll.objects.link(ball)
+    first = sc.view_layers[0]
+    second = sc.view_layers.new("Second")
+    second.layer_collection.children["BallColl"].exclude = True
+    C.use_prism(sc, 8)
+    im = sc.render.image_settings
+    if hasattr(im, "media_type"):  # 5.0: multilayer is a media type of OpenEXR
+        im.media_type = "MULTI_LAYER_IMAGE"
+        im.file_format = "OPEN_EXR_MULTILAYER"
+    else:
+        im.file_format = "OPEN_EXR_MULTILAYER"
+    im.color_depth = "32"
+    if hasattr(im, "exr_codec"):
+        im.exr_codec = "NONE"
+    sc.render.filepath = os.path.join(OUT, "layers_")
+    sc.render.use_file_extension = True
+
+    def planes_of(path, layer):
+        planes = exr.read_planes(path)
+        names = [k for k in planes if k.startswith(layer + ".") and k.split(".")[-1] in "RGBA"]
+        return np.stack([planes["%s.Combined.%s" % (layer, c)] for c in "RGBA"], axis=-1), names
+
+    def render_to(name):
+        sc.render.filepath = os.path.join(OUT, name)
+        res = bpy.ops.render.render(write_still=True)
+        C.check("FINISHED" in res, "render %s" % name)
+        import glob
+
+        found = sorted(glob.glob(os.path.join(OUT, name + "*.exr")))
+        C.check(len(found) == 1, "one file written: %s" % found)
+        return found[0]
+
+    both = render_to("both_")
+    a, _ = planes_of(both, first.name)
+    b, _ = planes_of(both, "Second")
+    C.check(float(np.abs(a - b).max()) > 0.1, "the layers differ (ball in the first only)")
+    second.use = False
+    solo_a, _ = planes_of(render_to("first_"), first.name)
+    second.use, first.use = True, False
+    solo_b, _ = planes_of(render_to("second_"), "Second")
+    first.use = True
+    C.check(float(np.abs(a - solo_a).max()) < 1e-6, "layer '%s' equals its solo render" % first.name)
+    C.check(float(np.abs(b - solo_b).max()) < 1e-6, "layer 'Second' equals its solo render")
 
 
 if __name__ == "__main__":
