@@ -20,7 +20,7 @@ import os
 import bpy
 from bpy.props import BoolProperty, StringProperty
 
-from . import engine, properties, runner, ui
+from . import engine, presets, properties, runner, ui
 
 
 class PrismPreferences(bpy.types.AddonPreferences):
@@ -60,11 +60,13 @@ def register():
     bpy.utils.register_class(PrismPreferences)
     properties.register()
     engine.register()
+    presets.register()
     ui.register()
 
 
 def unregister():
     ui.unregister()
+    presets.unregister()
     engine.unregister()
     properties.unregister()
     bpy.utils.unregister_class(PrismPreferences)

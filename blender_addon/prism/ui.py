@@ -18,6 +18,12 @@ class RENDER_PT_prism_sampling(PrismPanel, bpy.types.Panel):
     bl_region_type = "WINDOW"
     bl_context = "render"
 
+    def draw_header_preset(self, context):
+        from . import presets
+
+        presets.draw_header_preset(self.layout, presets.PRISM_MT_sampling_presets,
+                                   presets.PRISM_OT_sampling_preset_add.bl_idname)
+
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
@@ -82,6 +88,12 @@ class RENDER_PT_prism_light_paths(PrismPanel, bpy.types.Panel):
     bl_region_type = "WINDOW"
     bl_context = "render"
     bl_options = {"DEFAULT_CLOSED"}
+
+    def draw_header_preset(self, context):
+        from . import presets
+
+        presets.draw_header_preset(self.layout, presets.PRISM_MT_light_paths_presets,
+                                   presets.PRISM_OT_light_paths_preset_add.bl_idname)
 
     def draw(self, context):
         layout = self.layout

@@ -61,6 +61,9 @@ if [ "$WHICH" = all ] || [ "$WHICH" = bpy ]; then
     echo "== Properties editor panels with Prism (light, world, material, camera) in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_panels.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== Sampling and Light Paths presets in the bpy wheel"
+    .venv-bpy/bin/python tests/addon/test_presets.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
     echo "== soft lights (radius, sun angle), Temperature, Blackbody, Exposure vs Cycles in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_lights.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
@@ -95,6 +98,9 @@ if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
     [ "${PIPESTATUS[0]}" = 0 ]
     echo "== Properties editor panels with Prism in blender -b ($(blender --version 2>/dev/null | head -1))"
     blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_panels.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== Sampling and Light Paths presets in blender -b"
+    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_presets.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
     echo "== soft lights vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
     blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_lights.py 2>&1 | filter
