@@ -18,7 +18,9 @@ cargo clippy --all-targets -- -D warnings
 export CARGO_PROFILE_RELEASE_DEBUG_ASSERTIONS=true CARGO_PROFILE_RELEASE_OVERFLOW_CHECKS=true
 
 echo "== Rust unit, statistical, image and CLI tests"
-cargo test --release --all-targets
+# The benches are type-checked by clippy above; building them in release would add their
+# harness (criterion) to the compile for nothing.
+cargo test --release --lib --bins --tests
 
 echo "== Blender add-on tests (bpy wheel 5.0.1 and Debian's blender -b; installs them if missing)"
 tests/addon/run_addon_tests.sh

@@ -113,7 +113,7 @@ if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
         test_camera_shift_parity test_panoramic_camera_parity 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
     echo "== worlds baked by Cycles vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
-    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_world_bake.py 2>&1 | filter
+    PRISM_SKY_MODELS=NISHITA blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_world_bake.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
 fi
 if [ "$WHICH" = all ] || [ "$WHICH" = interactive ]; then

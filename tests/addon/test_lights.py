@@ -20,7 +20,7 @@ import numpy as np  # noqa: E402
 
 import common as C  # noqa: E402
 
-OUT = tempfile.mkdtemp(prefix="prism_addon_lights_")
+OUT = tempfile.mkdtemp(prefix="prism_addon_test_lights_")
 PLATE_Z = 1.5
 WIDTH, HEIGHT, SCALE = 128, 16, 4.0  # pixels; the view spans SCALE metres along x
 

@@ -16,7 +16,7 @@ import numpy as np  # noqa: E402
 
 import common as C  # noqa: E402
 
-OUT = tempfile.mkdtemp(prefix="prism_addon_pipeline_")
+OUT = tempfile.mkdtemp(prefix="prism_addon_test_pipeline_")
 W, H = 80, 60
 
 
