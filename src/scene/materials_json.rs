@@ -460,6 +460,11 @@ impl Validator<'_> {
         Ok(f)
     }
 
+    fn boolean(&self, v: &Value, path: &JPath) -> R<bool> {
+        v.as_bool()
+            .ok_or_else(|| self.err(path, format!("expected true or false, found {}", kind(v))))
+    }
+
     fn rgb(&self, v: &Value, path: &JPath, range: Range) -> R<Vec3> {
         let a = v.as_array().ok_or_else(|| {
             self.err(
@@ -556,15 +561,8 @@ impl Validator<'_> {
                 let p = mpath.key(name);
                 let (ov, graph) = self.material(def, &p)?;
                 if let Some(h) = def.get("holdout") {
-                    match h.as_bool() {
-                        Some(true) => out.holdouts.push(name.clone()),
-                        Some(false) => {}
-                        None => {
-                            return Err(self.err(
-                                &p.key("holdout"),
-                                format!("expected true or false, found {}", kind(h)),
-                            ))
-                        }
+                    if self.boolean(h, &p.key("holdout"))? {
+                        out.holdouts.push(name.clone());
                     }
                 }
                 if let Some(names) = names {
@@ -1184,13 +1182,7 @@ impl Validator<'_> {
             min_samples: get("min_samples", 0)?,
             denoise: m
                 .get("denoise")
-                .map(|x| match x {
-                    Value::Bool(b) => Ok(*b),
-                    _ => Err(self.err(
-                        &path.key("denoise"),
-                        format!("expected true or false, found {}", kind(x)),
-                    )),
-                })
+                .map(|x| self.boolean(x, &path.key("denoise")))
                 .transpose()?,
             denoise_quality: m
                 .get("denoise_quality")
@@ -1245,13 +1237,7 @@ impl Validator<'_> {
                 .transpose()?,
             film_transparent: m
                 .get("film_transparent")
-                .map(|x| match x {
-                    Value::Bool(b) => Ok(*b),
-                    _ => Err(self.err(
-                        &path.key("film_transparent"),
-                        format!("expected true or false, found {}", kind(x)),
-                    )),
-                })
+                .map(|x| self.boolean(x, &path.key("film_transparent")))
                 .transpose()?,
             time_limit: m
                 .get("time_limit")
