@@ -1256,6 +1256,21 @@ class Exporter:
                                  % (ob.name, src.name, src.bl_idname, strength))
         return col, strength
 
+    def _warn_hair(self, ob):
+        """Particle hair is drawn by Blender outside the mesh: say it is missing."""
+        for ps in getattr(ob, "particle_systems", ()):
+            st = ps.settings
+            if st.type == "HAIR" and st.render_type == "PATH":
+                self.warnings.append("object '%s': particle hair '%s' is not rendered yet" % (ob.name, ps.name))
+
+    def _warn_light_visibility(self, ob):
+        """Ray visibility the renderer cannot honour for lights (only Camera is)."""
+        off = [k.split("_", 1)[1] for k in ("visible_diffuse", "visible_glossy", "visible_transmission",
+                                             "visible_volume_scatter") if not getattr(ob, k, True)]
+        if off:
+            self.warnings.append("light '%s': ray visibility %s off is not supported; the light lights every surface"
+                                 % (ob.name, "/".join(off)))
+
     def _is_holdout(self, ob):
         """Object > Visibility > Holdout, or a holdout collection of the rendered view layer."""
         if getattr(ob, "is_holdout", False):
@@ -1268,6 +1283,7 @@ class Exporter:
 
     def _add_light(self, ob, matrix):
         L = ob.data
+        self._warn_light_visibility(ob)
         col, scale = self._light_emission(ob)
         power = L.energy * scale
         normalize = bool(getattr(L, "normalize", True))
@@ -1345,6 +1361,10 @@ class Exporter:
         if area <= 0.0:
             return
         col, scale = self._light_emission(ob)
+        spread = float(getattr(L, "spread", math.pi))
+        if spread < math.pi - 1e-4:
+            self.warnings.append("light '%s': area light spread %.0f degrees is not supported; it emits over 180 degrees"
+                                 % (ob.name, math.degrees(spread)))
         # Cycles: radiance P / (pi A); with Normalize off (5.0) the power is per unit area.
         radiance = L.energy * scale / (math.pi * (area if getattr(L, "normalize", True) else 1.0))
         peak = max(col) if max(col) > 0 else 1.0
@@ -1607,8 +1627,13 @@ class Exporter:
             matrix = inst.matrix_world.copy()
             if ob.type in {"MESH", "CURVE", "SURFACE", "FONT", "META"}:
                 self._add_mesh_object(ob, matrix, inst.is_instance)
+                self._warn_hair(ob)
             elif ob.type == "LIGHT":
                 self._add_light(ob, matrix)
+            elif ob.type in {"CURVES", "POINTCLOUD", "VOLUME"} and not inst.is_instance:
+                self.warnings.append("object '%s': %s objects are not rendered yet" % (ob.name, ob.type.lower()))
+        if getattr(self.scene.render, "use_motion_blur", False):
+            self.warnings.append("motion blur is not rendered yet: the scene is rendered at the current frame")
         self._add_camera()
         if self.unsupported_normals:
             self.warnings.insert(

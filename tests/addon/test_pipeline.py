@@ -191,6 +191,30 @@ def test_view_layers():
     C.check(float(np.abs(b - solo_b).max()) < 1e-6, "layer 'Second' equals its solo render")
 
 
+def test_untranslated_features_warn():
+    """What Prism cannot render yet is named in a warning (they reach RenderEngine.report):
+    motion blur, particle hair, light ray visibility other than Camera, area light spread."""
+    from prism import export
+
+    sc = scene()
+    sc.render.use_motion_blur = True
+    ball = bpy.data.objects["Ball"]
+    bpy.context.view_layer.objects.active = ball
+    ball.modifiers.new("Hair", "PARTICLE_SYSTEM")
+    ball.particle_systems[0].settings.type = "HAIR"
+    sun = bpy.data.objects["Sun"]
+    sun.visible_diffuse = False
+    area = C.light("Area", "AREA", 50.0, (0, 0, 3))
+    area.data.spread = 1.0
+    sc.render.engine = "PRISM"
+    _, _, warnings, _ = export.export_scene(bpy.context.evaluated_depsgraph_get(), tempfile.mkdtemp(dir=OUT))
+    text = "\n".join(warnings)
+    for what, needle in (("motion blur", "motion blur"), ("hair", "particle hair"),
+                         ("light visibility", "light 'Sun': ray visibility diffuse"),
+                         ("spread", "light 'Area': area light spread 57")):
+        C.check(needle in text, "%s is warned about: %r" % (what, needle))
+
+
 if __name__ == "__main__":
     from runner_util import run_tests
 
