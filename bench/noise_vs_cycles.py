@@ -66,9 +66,13 @@ def read(path):
 
 def prism(args, gltf, out, seed, spp, extra):
     cmd = [PRISM, "render", gltf, "-o", out, "--spp", str(spp), "--width", str(args.size), "--height",
-           str(args.size), "--threads", "2", "--seed", str(seed), "--progress", "none"] + extra
+           str(args.size), "--threads", "2", "--seed", str(seed), "--progress", "none",
+           # Cycles' 15 bounces; the scene JSON's own depth and noise threshold must not leak in.
+           "--max-depth", "16"] + extra
     if args.adaptive:
         cmd += ["--noise-threshold", "0.01", "--time-limit", str(args.time_limit)]
+    else:
+        cmd += ["--noise-threshold", "0"]
     t = time.time()
     subprocess.run(cmd, check=True, capture_output=True)
     return time.time() - t
