@@ -327,6 +327,28 @@ impl<'a> PathTracer<'a> {
             }
             let mut sp = geometry.surface_point(&hit);
             let material = &scene.materials[sp.material as usize];
+            if let Some(ss) = material
+                .subsurface()
+                .filter(|_| depth > 0 && walk_medium.is_none() && ray.dir.dot(sp.ng) > 0.0)
+            {
+                // The ray crossed the inside of a subsurface object without scattering, which
+                // light in a scattering medium does not do. Only exits through shells inside
+                // the object produce such rays (a probe hit or a walk ending on Suzanne's eyes,
+                // inside her head): flying through the medium and refracting out where they met
+                // the outer surface, they made most of the SSS Cornell box's fireflies (a rough
+                // refraction out, then the light seen through it) and 13% too much light on
+                // Suzanne (without them Cycles' mean there is matched within 2%).
+                if ss.method == SubsurfaceMethod::RandomWalk {
+                    // The segment lies in the medium: walk it instead (the light scatters on
+                    // from the inner shell as if that were no boundary).
+                    walk_medium = Some(sp.material);
+                    continue;
+                }
+                // The table method has no medium to continue in; the light that leaves
+                // through inner shells is lost (the union of two overlapping spheres in a
+                // white furnace keeps the single sphere's mean within 0.1%).
+                break;
+            }
             let wo_world = -ray.dir;
             material.apply_normal_map(geometry, &scene.textures, &mut sp, Some(wo_world));
             // What a shading graph reads here (only gathered for materials that have one).
