@@ -58,3 +58,111 @@ fn meshes_without_uvs_have_zero_texture_coordinates() {
         assert_eq!(sp.uv, glam::Vec2::ZERO, "{origin}");
     }
 }
+
+/// Instances whose mesh no other instance uses are traced in one flattened world-space BVH,
+/// the shared ones through the two-level BVH (`Geometry::new`). Both must report what a
+/// brute-force test of every triangle of every instance in world space finds: the same
+/// instance and mesh triangle, the same distance and barycentrics, and shadow rays that ignore
+/// instances which cast no shadows, whichever level they are in. The scene mixes single-use
+/// meshes (one mirrored and non-uniformly scaled, one not casting shadows) with a mesh placed
+/// twice.
+#[test]
+fn flattened_and_instanced_levels_agree_with_brute_force() {
+    use glam::Quat;
+    use prism::geometry::{intersect_triangle, shapes::uv_sphere};
+    let sphere = |segments, rings| {
+        let (p, n, t) = uv_sphere(segments, rings);
+        Mesh::new(p, Some(n), None, t, 0)
+    };
+    let meshes = vec![sphere(12, 6), sphere(16, 8), sphere(9, 5)];
+    let at = |s: Vec3, r: f32, t: Vec3| {
+        Affine3A::from_scale_rotation_translation(s, Quat::from_rotation_y(r), t)
+    };
+    let instances = vec![
+        Instance::new(0, at(Vec3::splat(1.0), 0.3, Vec3::new(-2.0, 0.0, 0.0))),
+        Instance::new(1, at(Vec3::splat(0.8), 0.0, Vec3::new(0.5, 0.2, 0.0))),
+        Instance::new(1, at(Vec3::splat(0.6), 1.0, Vec3::new(1.6, -0.3, 0.5))),
+        Instance::new(
+            2,
+            at(Vec3::new(-1.2, 0.7, 1.0), 0.7, Vec3::new(0.0, 1.5, -0.4)),
+        ),
+        Instance::new(0, at(Vec3::splat(0.5), 0.0, Vec3::new(0.0, -1.5, 0.3)))
+            .with_visibility(false, true),
+    ];
+    // Mesh 0 is used twice above; make the last instance single-use with its own mesh copy so
+    // that a non-shadow-casting instance sits in the flattened level as well.
+    let mut meshes = meshes;
+    meshes.push(sphere(12, 6));
+    let mut instances = instances;
+    instances[4].mesh = 3;
+    instances.push(Instance::new(
+        1,
+        at(Vec3::splat(0.3), 0.0, Vec3::new(-1.0, 1.0, 1.0)),
+    ));
+    let geometry = Geometry::new(meshes, instances);
+    let brute = |origin: Vec3, dir: Vec3, t_max: f32, shadow: bool| {
+        let mut best: Option<(f32, u32, u32, f32, f32)> = None;
+        for (i, inst) in geometry.instances.iter().enumerate() {
+            if shadow && !inst.casts_shadows {
+                continue;
+            }
+            let mesh = &geometry.meshes[inst.mesh as usize];
+            for p in 0..mesh.triangle_count() {
+                let [a, b, c] = mesh
+                    .vertices(p)
+                    .map(|v| inst.object_to_world.transform_point3(v));
+                let limit = best.map_or(t_max, |h| h.0);
+                if let Some((t, b1, b2)) = intersect_triangle(origin, dir, a, b - a, c - a, limit) {
+                    best = Some((t, i as u32, p as u32, b1, b2));
+                }
+            }
+        }
+        best
+    };
+    let mut seed = 7u32;
+    let mut rnd = || {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (seed >> 8) as f32 / (1u32 << 24) as f32
+    };
+    let (mut hits, mut near_ties, mut passed_through) = (0, 0, 0);
+    for _ in 0..4000 {
+        let origin = Vec3::new(rnd() * 8.0 - 4.0, rnd() * 8.0 - 4.0, 5.0);
+        let target = Vec3::new(rnd() * 5.0 - 2.5, rnd() * 5.0 - 2.5, rnd() - 0.5);
+        let dir = target - origin;
+        let ray = Ray::new(origin, dir);
+        let got = geometry.intersect(&ray, f32::INFINITY);
+        let want = brute(origin, dir, f32::INFINITY, false);
+        match (got, want) {
+            (None, None) => {}
+            (Some(h), Some((t, inst, prim, b1, b2))) => {
+                hits += 1;
+                assert!((h.t - t).abs() <= 1e-4 * t, "t {} vs {t}", h.t);
+                if (h.instance, h.prim) != (inst, prim) {
+                    // Two triangles at the same distance (a shared edge): either is right.
+                    near_ties += 1;
+                    continue;
+                }
+                assert!((h.b1 - b1).abs() < 1e-3 && (h.b2 - b2).abs() < 1e-3);
+            }
+            (g, w) => panic!("origin {origin} dir {dir}: {g:?} vs brute force {w:?}"),
+        }
+        let t_max = 0.6 + 0.6 * rnd();
+        let blocked = brute(origin, dir, t_max, true).is_some();
+        assert_eq!(
+            geometry.occluded(&ray, t_max),
+            blocked,
+            "shadow ray from {origin} along {dir} to t {t_max}"
+        );
+        if !blocked && brute(origin, dir, t_max, false).is_some() {
+            passed_through += 1;
+        }
+    }
+    assert!(
+        hits > 1000 && near_ties * 100 < hits,
+        "{hits} hits, {near_ties} ties"
+    );
+    assert!(
+        passed_through > 20,
+        "{passed_through} shadow rays met the non-casting instance"
+    );
+}

@@ -45,7 +45,10 @@ pub struct Mesh {
     /// Runtime material id (index into the scene's material list).
     pub material: u32,
     tris: Vec<TriangleEdges>,
-    bvh: CwBvh,
+    /// The mesh's own BVH, for meshes that several instances share (`Geometry` traces the
+    /// others in its flattened level): None until `Geometry::new` needs it.
+    bvh: Option<CwBvh>,
+    bounds: Aabb,
 }
 
 /// Vertex + two edges: what the Möller–Trumbore test needs, packed together for locality.
@@ -90,21 +93,13 @@ fn build_params(triangles: usize) -> BvhBuildParams {
     }
 }
 
-/// The mesh BVH from the on-disk cache when it is enabled and holds the BVH of these exact
-/// positions and indices (`bvh_cache`), else built (and stored when the cache is enabled).
-/// The key hashes the mesh's own arrays in place (no copy): the triangles are a function of
+/// A BVH over `tris` from the on-disk cache when it is enabled and holds the BVH of these
+/// exact key bytes (`bvh_cache`), else built (and stored when the cache is enabled). Meshes
+/// key their own positions and indices in place (no copy): the triangles are a function of
 /// them, and for meshes that share vertices they are half the bytes.
-fn cached_or_built_bvh(tris: &[TriangleEdges], positions: &[Vec3], indices: &[[u32; 3]]) -> CwBvh {
+fn cached_or_built_bvh(tris: &[TriangleEdges], key_parts: &[&[u8]]) -> CwBvh {
     let large = tris.len() >= LARGE_MESH_TRIANGLES;
-    let key = bvh_cache::enabled().then(|| {
-        bvh_cache::key(
-            &[
-                bytemuck::cast_slice(positions),
-                bytemuck::cast_slice(indices),
-            ],
-            large as u8,
-        )
-    });
+    let key = bvh_cache::enabled().then(|| bvh_cache::key(key_parts, large as u8));
     if let Some(bvh) = key.and_then(|k| bvh_cache::load(k, tris.len())) {
         return bvh;
     }
@@ -125,8 +120,22 @@ impl Mesh {
         indices: Vec<[u32; 3]>,
         material: u32,
     ) -> Self {
+        let mut mesh = Self::without_bvh(positions, normals, uvs, indices, material);
+        mesh.ensure_bvh();
+        mesh
+    }
+
+    /// The mesh without its own BVH, for a mesh that only one instance uses: `Geometry` puts
+    /// its triangles in the flattened level (and builds the BVH only if an instance needs it).
+    pub fn without_bvh(
+        positions: Vec<Vec3>,
+        normals: Option<Vec<Vec3>>,
+        uvs: Option<Vec<Vec2>>,
+        indices: Vec<[u32; 3]>,
+        material: u32,
+    ) -> Self {
         // These per-triangle passes are a few ms each for 100k triangles: parallel like the
-        // BVH build between them.
+        // BVH build after them.
         let tris: Vec<TriangleEdges> = indices
             .par_iter()
             .map(|&[a, b, c]| {
@@ -138,22 +147,10 @@ impl Mesh {
                 }
             })
             .collect();
-        let bvh = cached_or_built_bvh(&tris, &positions, &indices);
-        // Reorder triangles into leaf order so traversal needs no indirection.
-        let (tris, indices) = rayon::join(
-            || {
-                bvh.primitive_indices
-                    .par_iter()
-                    .map(|&i| tris[i as usize])
-                    .collect()
-            },
-            || {
-                bvh.primitive_indices
-                    .par_iter()
-                    .map(|&i| indices[i as usize])
-                    .collect()
-            },
-        );
+        let bounds = tris
+            .par_iter()
+            .map(obvhs::Boundable::aabb)
+            .reduce(Aabb::empty, |a, b| a.union(&b));
         Mesh {
             positions,
             normals,
@@ -164,8 +161,41 @@ impl Mesh {
             indices,
             material,
             tris,
-            bvh,
+            bvh: None,
+            bounds,
         }
+    }
+
+    /// Builds the mesh's own BVH if it has none, and puts the triangles in its leaf order so
+    /// that traversal needs no indirection (triangle ids change: only before any hit exists).
+    fn ensure_bvh(&mut self) {
+        if self.bvh.is_some() {
+            return;
+        }
+        let bvh = cached_or_built_bvh(
+            &self.tris,
+            &[
+                bytemuck::cast_slice(&self.positions),
+                bytemuck::cast_slice(&self.indices),
+            ],
+        );
+        let (tris, indices) = rayon::join(
+            || {
+                bvh.primitive_indices
+                    .par_iter()
+                    .map(|&i| self.tris[i as usize])
+                    .collect()
+            },
+            || {
+                bvh.primitive_indices
+                    .par_iter()
+                    .map(|&i| self.indices[i as usize])
+                    .collect()
+            },
+        );
+        self.tris = tris;
+        self.indices = indices;
+        self.bvh = Some(bvh);
     }
 
     /// Attaches per-vertex tangents (glTF `TANGENT`); ignored unless there is one per vertex
@@ -205,7 +235,13 @@ impl Mesh {
     }
 
     pub fn aabb(&self) -> Aabb {
-        self.bvh.total_aabb
+        self.bounds
+    }
+
+    fn bvh(&self) -> &CwBvh {
+        self.bvh
+            .as_ref()
+            .expect("Geometry::new builds the BVH of every mesh it traces through the TLAS")
     }
 
     /// Closest hit along an object-space ray: (t, primitive, b1, b2).
@@ -218,7 +254,7 @@ impl Mesh {
             t: ray.tmax,
             ..*best
         };
-        self.bvh.ray_traverse(*ray, &mut hit, |r, id| {
+        self.bvh().ray_traverse(*ray, &mut hit, |r, id| {
             let tri = &self.tris[id];
             match intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax) {
                 Some((t, b1, b2)) => {
@@ -246,7 +282,7 @@ impl Mesh {
     fn occluded(&self, ray: &BvhRay) -> bool {
         let origin = Vec3::from(ray.origin);
         let dir = Vec3::from(ray.direction);
-        !self.bvh.ray_traverse_miss(*ray, |r, id| {
+        !self.bvh().ray_traverse_miss(*ray, |r, id| {
             let tri = &self.tris[id];
             intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax)
                 .map_or(f32::INFINITY, |h| h.0)
@@ -344,18 +380,130 @@ pub struct SurfacePoint {
     pub area: f32,
 }
 
-/// All geometry of a scene with its two-level BVH.
+/// All geometry of a scene: the instances whose mesh no other instance uses flattened into
+/// one world-space BVH (`FlatLevel`), the others under a two-level BVH.
 pub struct Geometry {
     pub meshes: Vec<Mesh>,
     pub instances: Vec<Instance>,
+    flat: Option<FlatLevel>,
+    /// Over the instances that share their mesh (empty when none do).
     tlas: CwBvh,
-    /// Instances in TLAS leaf order (ids the traversal reports).
+    /// Those instances in TLAS leaf order (ids the traversal reports).
     tlas_order: Vec<u32>,
     bounds: Aabb,
 }
 
+/// The triangles of every instance whose mesh no other instance uses, in world space under one
+/// BVH, as Cycles builds one BVH for all objects that are not instanced. Under a two-level BVH
+/// the boxes of a scene's objects overlap (a floor, walls and the objects on them), and a ray
+/// descends into several meshes' BVHs, transforming itself for each; flattened, one traversal
+/// culls triangles of all of them together. Hits report the instance and the mesh's own
+/// triangle id, so shading reads the mesh as before.
+struct FlatLevel {
+    bvh: CwBvh,
+    /// World-space triangles in BVH leaf order.
+    tris: Vec<TriangleEdges>,
+    /// (instance, triangle of its mesh) per entry of `tris`.
+    owners: Vec<(u32, u32)>,
+}
+
+impl FlatLevel {
+    /// None when no instance qualifies. `flat[i]` says whether instance i is flattened.
+    fn build(meshes: &[Mesh], instances: &[Instance], flat: &[bool]) -> Option<FlatLevel> {
+        let owners: Vec<(u32, u32)> = instances
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| flat[*i])
+            .flat_map(|(i, inst)| {
+                (0..meshes[inst.mesh as usize].tris.len() as u32).map(move |p| (i as u32, p))
+            })
+            .collect();
+        if owners.is_empty() {
+            return None;
+        }
+        let tris: Vec<TriangleEdges> = owners
+            .par_iter()
+            .map(|&(i, p)| {
+                let inst = &instances[i as usize];
+                let t = &meshes[inst.mesh as usize].tris[p as usize];
+                let m = &inst.object_to_world;
+                let v0 = m.transform_point3(t.v0);
+                TriangleEdges {
+                    v0,
+                    e1: m.transform_point3(t.v0 + t.e1) - v0,
+                    e2: m.transform_point3(t.v0 + t.e2) - v0,
+                }
+            })
+            .collect();
+        // Cached like the meshes' BVHs (a re-render with nothing moved skips the build), keyed
+        // by the world-space triangles themselves.
+        let corners: Vec<Vec3> = tris.iter().flat_map(|t| [t.v0, t.e1, t.e2]).collect();
+        let bvh = cached_or_built_bvh(&tris, &[bytemuck::cast_slice(&corners)]);
+        let (tris, owners) = rayon::join(
+            || {
+                bvh.primitive_indices
+                    .par_iter()
+                    .map(|&i| tris[i as usize])
+                    .collect()
+            },
+            || {
+                bvh.primitive_indices
+                    .par_iter()
+                    .map(|&i| owners[i as usize])
+                    .collect()
+            },
+        );
+        Some(FlatLevel { bvh, tris, owners })
+    }
+
+    /// Closest hit below `best.t`, written into `best`.
+    #[inline]
+    fn intersect(&self, ray: &Ray, best: &mut BlasHit) {
+        let mut hit = obvhs::ray::RayHit::none();
+        let (origin, dir) = (ray.origin, ray.dir);
+        let mut found = None;
+        self.bvh
+            .ray_traverse(bvh_ray(origin, dir, best.t), &mut hit, |r, id| {
+                let tri = &self.tris[id];
+                match intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax) {
+                    Some((t, b1, b2)) => {
+                        found = Some((id, t, b1, b2));
+                        t
+                    }
+                    None => f32::INFINITY,
+                }
+            });
+        if let Some((id, t, b1, b2)) = found {
+            let (instance, prim) = self.owners[id];
+            *best = BlasHit {
+                t,
+                prim,
+                b1,
+                b2,
+                instance,
+            };
+        }
+    }
+
+    /// Whether a triangle of a shadow-casting instance lies on the segment (0, t_max).
+    #[inline]
+    fn occluded(&self, ray: &Ray, t_max: f32, instances: &[Instance]) -> bool {
+        let (origin, dir) = (ray.origin, ray.dir);
+        !self
+            .bvh
+            .ray_traverse_miss(bvh_ray(origin, dir, t_max), |r, id| {
+                if !instances[self.owners[id].0 as usize].casts_shadows {
+                    return f32::INFINITY;
+                }
+                let tri = &self.tris[id];
+                intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax)
+                    .map_or(f32::INFINITY, |h| h.0)
+            })
+    }
+}
+
 impl Geometry {
-    pub fn new(meshes: Vec<Mesh>, instances: Vec<Instance>) -> Self {
+    pub fn new(mut meshes: Vec<Mesh>, instances: Vec<Instance>) -> Self {
         let aabbs: Vec<Aabb> = instances
             .iter()
             .map(|inst| transform_aabb(&meshes[inst.mesh as usize].aabb(), &inst.object_to_world))
@@ -364,15 +512,39 @@ impl Geometry {
         for b in &aabbs {
             bounds = bounds.union(b);
         }
-        let tlas = if aabbs.is_empty() {
-            CwBvh::default()
+        let mut uses = vec![0u32; meshes.len()];
+        for inst in &instances {
+            uses[inst.mesh as usize] += 1;
+        }
+        let flat: Vec<bool> = instances
+            .iter()
+            .map(|inst| uses[inst.mesh as usize] == 1)
+            .collect();
+        meshes
+            .par_iter_mut()
+            .zip(&uses)
+            .filter(|(_, &n)| n > 1)
+            .for_each(|(mesh, _)| mesh.ensure_bvh());
+        let flat_level = FlatLevel::build(&meshes, &instances, &flat);
+        let shared: Vec<u32> = (0..instances.len() as u32)
+            .filter(|&i| !flat[i as usize])
+            .collect();
+        let (tlas, tlas_order) = if shared.is_empty() {
+            (CwBvh::default(), Vec::new())
         } else {
-            wide_bvh::build(&aabbs, build_params(aabbs.len()))
+            let shared_aabbs: Vec<Aabb> = shared.iter().map(|&i| aabbs[i as usize]).collect();
+            let tlas = wide_bvh::build(&shared_aabbs, build_params(shared_aabbs.len()));
+            let order = tlas
+                .primitive_indices
+                .iter()
+                .map(|&k| shared[k as usize])
+                .collect();
+            (tlas, order)
         };
-        let tlas_order = tlas.primitive_indices.clone();
         Geometry {
             meshes,
             instances,
+            flat: flat_level,
             tlas,
             tlas_order,
             bounds,
@@ -409,28 +581,16 @@ impl Geometry {
         if self.is_empty() {
             return None;
         }
-        let world = bvh_ray(ray.origin, ray.dir, t_max);
         let mut best = BlasHit {
             t: t_max,
             ..Default::default()
         };
-        let mut rh = obvhs::ray::RayHit::none();
-        self.tlas.ray_traverse(world, &mut rh, |r, id| {
-            let inst_id = self.tlas_order[id];
-            let inst = &self.instances[inst_id as usize];
-            let local = bvh_ray(
-                inst.world_to_object.transform_point3(ray.origin),
-                inst.world_to_object.transform_vector3(ray.dir),
-                r.tmax,
-            );
-            let before = best;
-            best.instance = inst_id;
-            let t = self.meshes[inst.mesh as usize].intersect(&local, &mut best);
-            if t == f32::INFINITY {
-                best = before;
-            }
-            t
-        });
+        if let Some(flat) = &self.flat {
+            flat.intersect(ray, &mut best);
+        }
+        if !self.tlas_order.is_empty() {
+            self.intersect_shared(ray, &mut best);
+        }
         (best.t < t_max).then_some(Hit {
             t: best.t,
             instance: best.instance,
@@ -440,9 +600,39 @@ impl Geometry {
         })
     }
 
+    /// Closest hit below `best.t` among the instances that share their mesh (the TLAS).
+    fn intersect_shared(&self, ray: &Ray, best: &mut BlasHit) {
+        let world = bvh_ray(ray.origin, ray.dir, best.t);
+        let mut rh = obvhs::ray::RayHit::none();
+        self.tlas.ray_traverse(world, &mut rh, |r, id| {
+            let inst_id = self.tlas_order[id];
+            let inst = &self.instances[inst_id as usize];
+            let local = bvh_ray(
+                inst.world_to_object.transform_point3(ray.origin),
+                inst.world_to_object.transform_vector3(ray.dir),
+                r.tmax,
+            );
+            let before = *best;
+            best.instance = inst_id;
+            let t = self.meshes[inst.mesh as usize].intersect(&local, best);
+            if t == f32::INFINITY {
+                *best = before;
+            }
+            t
+        });
+    }
+
     /// True if anything blocks the segment origin + t dir, t in (0, t_max).
     pub fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         if self.is_empty() {
+            return false;
+        }
+        if let Some(flat) = &self.flat {
+            if flat.occluded(ray, t_max, &self.instances) {
+                return true;
+            }
+        }
+        if self.tlas_order.is_empty() {
             return false;
         }
         let world = bvh_ray(ray.origin, ray.dir, t_max);

@@ -51,9 +51,9 @@ impl Scene {
             sidecar: None,
             graph: None,
         }));
-        // Meshes: keep valid triangles only (indices in range, finite, non-zero area). Each
-        // mesh's BVH build is itself parallel, but its final steps are not, and scenes are
-        // usually many meshes: building them side by side keeps both cores busy.
+        // Meshes: keep valid triangles only (indices in range, finite, non-zero area), built
+        // side by side. Their BVHs come with the geometry (`Geometry::new`): one flattened BVH
+        // for the meshes one instance uses, a BVH each for the shared ones.
         let described_meshes = meshes.len();
         let built: Vec<(usize, Mesh)> = meshes
             .into_par_iter()
@@ -89,7 +89,7 @@ impl Scene {
                     Some(i) if i < materials.len() => i as u32,
                     _ => default_material,
                 };
-                let mesh = Mesh::new(m.positions, normals, uvs, tris, material)
+                let mesh = Mesh::without_bvh(m.positions, normals, uvs, tris, material)
                     .with_tangents(m.tangents)
                     .with_attributes(m.extra_uvs, m.colors);
                 Some((mi, mesh))
