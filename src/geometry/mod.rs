@@ -110,6 +110,15 @@ fn cached_or_built_bvh(tris: &[TriangleEdges], key_parts: &[&[u8]]) -> CwBvh {
     bvh
 }
 
+/// `items` (one per BVH primitive) in the BVH's leaf order, so that the traversal's primitive
+/// ids index them directly.
+fn leaf_order<T: Copy + Send + Sync>(bvh: &CwBvh, items: &[T]) -> Vec<T> {
+    bvh.primitive_indices
+        .par_iter()
+        .map(|&i| items[i as usize])
+        .collect()
+}
+
 impl Mesh {
     /// Builds the mesh and its BVH. Triangles must already be non-degenerate with valid indices
     /// (the scene loader guarantees it); `material` is the runtime material id.
@@ -180,18 +189,8 @@ impl Mesh {
             ],
         );
         let (tris, indices) = rayon::join(
-            || {
-                bvh.primitive_indices
-                    .par_iter()
-                    .map(|&i| self.tris[i as usize])
-                    .collect()
-            },
-            || {
-                bvh.primitive_indices
-                    .par_iter()
-                    .map(|&i| self.indices[i as usize])
-                    .collect()
-            },
+            || leaf_order(&bvh, &self.tris),
+            || leaf_order(&bvh, &self.indices),
         );
         self.tris = tris;
         self.indices = indices;
@@ -439,20 +438,7 @@ impl FlatLevel {
         // by the world-space triangles themselves.
         let corners: Vec<Vec3> = tris.iter().flat_map(|t| [t.v0, t.e1, t.e2]).collect();
         let bvh = cached_or_built_bvh(&tris, &[bytemuck::cast_slice(&corners)]);
-        let (tris, owners) = rayon::join(
-            || {
-                bvh.primitive_indices
-                    .par_iter()
-                    .map(|&i| tris[i as usize])
-                    .collect()
-            },
-            || {
-                bvh.primitive_indices
-                    .par_iter()
-                    .map(|&i| owners[i as usize])
-                    .collect()
-            },
-        );
+        let (tris, owners) = rayon::join(|| leaf_order(&bvh, &tris), || leaf_order(&bvh, &owners));
         Some(FlatLevel { bvh, tris, owners })
     }
 
