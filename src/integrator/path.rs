@@ -349,8 +349,9 @@ impl<'a> PathTracer<'a> {
                 // white furnace keeps the single sphere's mean within 0.1%). Not only right
                 // after an exit: flights chain (exit, a reflection off an eye from outside, the
                 // head from inside): ending only those right after an exit left the SSS Cornell
-                // box's full noise at 0.0077 instead of 0.0044. An open subsurface surface seen from its back by an indirect ray
-                // ends the path too; subsurface needs closed meshes, as in Cycles.
+                // box's full noise at 0.0077 instead of 0.0044. An open subsurface surface seen
+                // from its back by an indirect ray ends the path too; subsurface needs closed
+                // meshes, as in Cycles.
                 break;
             }
             let wo_world = -ray.dir;
