@@ -119,11 +119,8 @@ fn flattened_and_instanced_levels_agree_with_brute_force() {
         }
         best
     };
-    let mut seed = 7u32;
-    let mut rnd = || {
-        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-        (seed >> 8) as f32 / (1u32 << 24) as f32
-    };
+    let mut rng = prism::sampler::Pcg32::new(7, 0, 0);
+    let mut rnd = || rng.next_1d();
     let (mut hits, mut near_ties, mut passed_through) = (0, 0, 0);
     for _ in 0..4000 {
         let origin = Vec3::new(rnd() * 8.0 - 4.0, rnd() * 8.0 - 4.0, 5.0);

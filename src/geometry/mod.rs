@@ -52,12 +52,21 @@ pub struct Mesh {
 }
 
 /// Vertex + two edges: what the Möller–Trumbore test needs, packed together for locality.
+/// Plain bytes (three `Vec3`, no padding), so the flattened level keys its BVH cache entry on
+/// them in place.
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 struct TriangleEdges {
     v0: Vec3,
     e1: Vec3,
     e2: Vec3,
 }
+
+// SAFETY: repr(C) of three glam Vec3 (each Pod, 12 bytes, align 4): no padding, every bit
+// pattern valid.
+unsafe impl bytemuck::Zeroable for TriangleEdges {}
+unsafe impl bytemuck::Pod for TriangleEdges {}
+const _: () = assert!(std::mem::size_of::<TriangleEdges>() == 36);
 
 impl obvhs::Boundable for TriangleEdges {
     fn aabb(&self) -> Aabb {
@@ -436,8 +445,7 @@ impl FlatLevel {
             .collect();
         // Cached like the meshes' BVHs (a re-render with nothing moved skips the build), keyed
         // by the world-space triangles themselves.
-        let corners: Vec<Vec3> = tris.iter().flat_map(|t| [t.v0, t.e1, t.e2]).collect();
-        let bvh = cached_or_built_bvh(&tris, &[bytemuck::cast_slice(&corners)]);
+        let bvh = cached_or_built_bvh(&tris, &[bytemuck::cast_slice(&tris)]);
         let (tris, owners) = rayon::join(|| leaf_order(&bvh, &tris), || leaf_order(&bvh, &owners));
         Some(FlatLevel { bvh, tris, owners })
     }
