@@ -11,6 +11,7 @@ pub mod geometry;
 pub mod integrator;
 pub mod lights;
 pub mod math;
+pub mod media;
 pub mod render;
 pub mod sampler;
 pub mod scene;

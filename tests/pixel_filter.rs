@@ -168,6 +168,7 @@ fn edge_scene() -> Scene {
         },
         sidecar: None,
         graph: None,
+        ..Default::default()
     };
     let desc = SceneDesc {
         meshes: vec![MeshDesc {

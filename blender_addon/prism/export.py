@@ -152,7 +152,9 @@ def _linked_image(sock):
     return None
 
 
-def _surface_node(mat):
+def _output_node(mat, socket="Surface"):
+    """The node linked into the active Material Output's `socket` ("Surface" or "Volume"),
+    through reroutes; None when nothing (or a muted link) is there."""
     nt = mat.node_tree if getattr(mat, "node_tree", None) is not None else None
     if nt is None:
         return None
@@ -163,10 +165,109 @@ def _surface_node(mat):
                 out = n
     if out is None:
         return None
-    s = out.inputs.get("Surface")
-    if s is None or not s.is_linked:
+    s = out.inputs.get(socket)
+    for _ in range(64):
+        if s is None or not s.is_linked or getattr(s.links[0], "is_muted", False):
+            return None
+        node = s.links[0].from_node
+        if node.type != "REROUTE":
+            return node
+        s = node.inputs[0]
+    return None
+
+
+def _surface_node(mat):
+    return _output_node(mat, "Surface")
+
+
+# The volume shader nodes the renderer takes (homogeneous: constant inputs), and how Cycles
+# turns their inputs into coefficients per unit length (intern/cycles/kernel/svm/closure.h).
+VOLUME_NODES = {"PRINCIPLED_VOLUME", "VOLUME_ABSORPTION", "VOLUME_SCATTER", "EMISSION", "ADD_SHADER", "MIX_SHADER"}
+
+
+def volume_lobes(node, warn, weight=1.0, depth=0):
+    """The volume shader tree at `node` -> [(sigma_a, sigma_s, g, emission)] (RGB lists), each
+    already scaled by its Mix/Add weight; `warn(node, what)` names what is not translated.
+    Coefficients are linear in the closures' weights, so mixtures add exactly; only the
+    phase functions of several scattering lobes are merged into one (see `volume_json`)."""
+    zero = [0.0, 0.0, 0.0]
+    if node is None or depth > 32 or weight <= 0.0:
+        return []
+    t = node.type
+
+    def const(name, default):
+        sock = _socket(node, name)
+        if sock is None:
+            return default
+        if sock.is_linked:
+            warn(node, "input '%s' is linked; volumes are homogeneous here (no textures or attributes), using its value" % name)
+        return sock.default_value
+
+    def rgb(name, default=(1.0, 1.0, 1.0, 1.0)):
+        return [max(float(c), 0.0) for c in list(const(name, default))[:3]]
+
+    if t == "PRINCIPLED_VOLUME":
+        color = rgb("Color")
+        density = weight * max(float(const("Density", 1.0)), 0.0)
+        absorption_color = [math.sqrt(c) for c in rgb("Absorption Color", (0, 0, 0, 1))]
+        sigma_s = [density * c for c in color]
+        sigma_a = [density * max(1.0 - c, 0.0) * max(1.0 - a, 0.0) for c, a in zip(color, absorption_color)]
+        strength = max(float(const("Emission Strength", 0.0)), 0.0)
+        emission = [weight * strength * c for c in rgb("Emission Color")]
+        if float(const("Blackbody Intensity", 0.0)) > 0.0:
+            warn(node, "Blackbody Intensity (fire) is not supported; no blackbody emission")
+        return [(sigma_a, sigma_s, float(const("Anisotropy", 0.0)), emission)]
+    if t == "VOLUME_ABSORPTION":
+        density = weight * max(float(const("Density", 1.0)), 0.0)
+        return [([density * max(1.0 - c, 0.0) for c in rgb("Color")], zero, 0.0, zero)]
+    if t == "VOLUME_SCATTER":
+        phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
+        if phase != "HENYEY_GREENSTEIN":
+            warn(node, "phase function %s is not supported; using Henyey-Greenstein with its Anisotropy" % phase)
+        density = weight * max(float(const("Density", 1.0)), 0.0)
+        return [(zero, [density * c for c in rgb("Color")], float(const("Anisotropy", 0.0)), zero)]
+    if t == "EMISSION":
+        strength = max(float(const("Strength", 1.0)), 0.0)
+        return [(zero, zero, 0.0, [weight * strength * c for c in rgb("Color")])]
+    if t in {"ADD_SHADER", "MIX_SHADER"}:
+        shaders = [s for s in node.inputs if s.type == "SHADER"]
+        weights = [weight, weight]
+        if t == "MIX_SHADER":
+            fac = min(max(float(const("Fac", 0.5)), 0.0), 1.0)
+            weights = [weight * (1.0 - fac), weight * fac]
+        lobes = []
+        for sock, w in zip(shaders, weights):
+            if sock.is_linked and not getattr(sock.links[0], "is_muted", False):
+                src = sock.links[0].from_node
+                while src.type == "REROUTE" and src.inputs[0].is_linked:
+                    src = src.inputs[0].links[0].from_node
+                lobes += volume_lobes(src, warn, w, depth + 1)
+        return lobes
+    warn(node, "is not a supported volume shader (Principled Volume, Volume Absorption, Volume Scatter, Emission, Add/Mix Shader); the volume is ignored")
+    return None
+
+
+def volume_json(lobes, warn_merge):
+    """Lobes -> the material JSON `volume` (or None when it neither absorbs, scatters nor
+    emits). The renderer has one Henyey-Greenstein lobe per volume: several scattering lobes
+    keep their summed sigma_s and get the sigma_s-weighted mean anisotropy (`warn_merge` is
+    called when their anisotropies differ)."""
+    if not lobes:
         return None
-    return s.links[0].from_node
+    sigma_a = [sum(l[0][i] for l in lobes) for i in range(3)]
+    sigma_s = [sum(l[1][i] for l in lobes) for i in range(3)]
+    emission = [sum(l[3][i] for l in lobes) for i in range(3)]
+    scatter_weights = [(sum(l[1]), l[2]) for l in lobes if sum(l[1]) > 0.0]
+    total = sum(w for w, _ in scatter_weights)
+    g = sum(w * g for w, g in scatter_weights) / total if total > 0.0 else 0.0
+    if len({round(g_, 4) for _, g_ in scatter_weights}) > 1:
+        warn_merge()
+    if max(sigma_a + sigma_s + emission) <= 0.0:
+        return None
+    out = {"sigma_a": sigma_a, "sigma_s": sigma_s, "g": min(max(g, -0.99), 0.99)}
+    if max(emission) > 0.0:
+        out["emission"] = emission
+    return out
 
 
 def convert_material(mat):
@@ -1035,6 +1136,10 @@ class Exporter:
         elif surface is not None and surface.type in {"MIX_SHADER", "ADD_SHADER", "BSDF_TRANSPARENT", "BSDF_TRANSLUCENT"}:
             mixed = self._mixed_graph(name, surface, m)
             ok = mixed is not None
+        volume = self._volume(mat, name) if mat is not None else None
+        if volume is not None and surface is None:
+            # Only a Volume shader: the surface does not scatter (Cycles makes it transparent).
+            ok = True
         if not ok:
             self.unsupported.append(name)
             node = _surface_node(mat)
@@ -1097,7 +1202,33 @@ class Exporter:
             self.material_json[name] = {"subsurface": sss}
         if graph is not None:
             self.material_json.setdefault(name, {})["graph"] = graph
+        if volume is not None:
+            if "subsurface" in self.material_json.get(name, {}):
+                self.warnings.append("material '%s': a Volume shader together with subsurface scattering is not supported; the volume is ignored" % name)
+            else:
+                entry = self.material_json.setdefault(name, {})
+                entry["volume"] = volume
+                if surface is None:
+                    entry["surface"] = "none"
         return self.material_index[key]
+
+    def _volume(self, mat, name):
+        """The material JSON `volume` of the shader on the Material Output's Volume input."""
+        node = _output_node(mat, "Volume")
+        if node is None:
+            return None
+        warned = set()
+
+        def warn(n, what):
+            if (n.name, what) not in warned:
+                warned.add((n.name, what))
+                self.warnings.append("material '%s': node '%s' (%s): %s" % (name, n.name, n.bl_idname, what))
+
+        lobes = volume_lobes(node, warn)
+        if lobes is None:
+            return None
+        return volume_json(lobes, lambda: self.warnings.append(
+            "material '%s': volume scattering lobes with different Anisotropy are merged into one (their sigma_s-weighted mean)" % name))
 
     def _mesh(self, key, me, slots):
         if key in self.mesh_cache:
@@ -1512,6 +1643,10 @@ class Exporter:
             return {"color": _rgb(w.color), "strength": 1.0}
         out = next((n for n in nt.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output), None)
         out = out or next((n for n in nt.nodes if n.type == "OUTPUT_WORLD"), None)
+        vol = out.inputs.get("Volume") if out else None
+        if vol is not None and vol.is_linked:
+            self.warnings.append("world '%s': the world Volume ('%s') is not supported; put the volume in a mesh (a large cube around the scene and the camera) instead"
+                                 % (w.name, vol.links[0].from_node.name))
         s = out.inputs.get("Surface") if out else None
         if s is None or not s.is_linked:
             return black

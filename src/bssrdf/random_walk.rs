@@ -14,43 +14,14 @@
 //! Phase function: Henyey-Greenstein, sampled exactly (weight 1).
 
 use crate::geometry::{Geometry, Hit, Ray};
-use crate::math::Frame;
+use crate::media::phase::sample_hg;
 use crate::sampler::Sampler;
 use crate::spectrum::{SampledSpectrum, N_WAVELENGTHS};
-use glam::Vec3;
 
 /// Upper bound on scattering events of one walk (a safety net: Russian roulette ends walks).
 const MAX_SCATTER: u32 = 100_000;
 /// Scattering events before Russian roulette may end the walk.
 const RR_START: u32 = 16;
-
-/// Henyey-Greenstein phase function (Henyey & Greenstein 1941) with `cos_theta` between the
-/// propagation direction before and after scattering.
-pub fn hg_phase(cos_theta: f32, g: f32) -> f32 {
-    let denom = 1.0 + g * g - 2.0 * g * cos_theta;
-    (1.0 - g * g) / (4.0 * std::f32::consts::PI * denom * denom.max(1e-12).sqrt())
-}
-
-/// Samples a new propagation direction from HG around `dir` (phase / pdf = 1).
-/// cos theta by inverting the HG CDF in closed form.
-pub fn sample_hg(dir: Vec3, g: f32, u1: f32, u2: f32) -> Vec3 {
-    let cos_theta = if g.abs() < 1e-3 {
-        1.0 - 2.0 * u1
-    } else {
-        let s = (1.0 - g * g) / (1.0 - g + 2.0 * g * u1);
-        ((1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
-    };
-    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-    let phi = 2.0 * std::f32::consts::PI * u2;
-    let frame = Frame::from_normal(dir);
-    frame
-        .to_world(Vec3::new(
-            sin_theta * phi.cos(),
-            sin_theta * phi.sin(),
-            cos_theta,
-        ))
-        .normalize()
-}
 
 /// log(mean_i exp(x_i)) over the first `n` entries.
 fn log_mean_exp(x: &[f64], n: usize) -> f64 {
@@ -155,29 +126,4 @@ pub fn walk(
         }
     }
     None
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn hg_sampling_mean_cosine_is_g() {
-        let g = 0.6;
-        let n = 20000;
-        let mut sum = 0.0;
-        for i in 0..n {
-            let u1 = (i as f32 + 0.5) / n as f32;
-            let d = sample_hg(Vec3::Z, g, u1, 0.3);
-            sum += d.z;
-        }
-        assert!((sum / n as f32 - g).abs() < 2e-3, "{}", sum / n as f32);
-        // Normalised: \int p dw = 1 by midpoint rule in cos.
-        let mut integral = 0.0;
-        for i in 0..1000 {
-            let c = -1.0 + (i as f32 + 0.5) / 500.0;
-            integral += hg_phase(c, g) * 2.0 * std::f32::consts::PI / 500.0;
-        }
-        assert!((integral - 1.0).abs() < 1e-3, "{integral}");
-    }
 }

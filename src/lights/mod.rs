@@ -629,7 +629,7 @@ impl Lights {
     }
 
     /// The point and spot lights with a radius that the ray (`origin`, unit `dir`) crosses
-    /// before `t_max`: calls `f(light index, radiance)` for each that sends light back along
+    /// before `t_max`: calls `f(light index, distance, radiance)` for each that sends light back along
     /// the ray. Camera rays (`camera`) skip lights hidden from the camera. Lights do not block
     /// the ray (Blender's lights cast no shadow).
     pub fn for_each_round_hit(
@@ -639,7 +639,7 @@ impl Lights {
         t_max: f32,
         camera: bool,
         w: &SampledWavelengths,
-        mut f: impl FnMut(usize, SampledSpectrum),
+        mut f: impl FnMut(usize, f32, SampledSpectrum),
     ) {
         for &(index, visible_camera) in &self.round {
             if camera && !visible_camera {
@@ -660,9 +660,9 @@ impl Lights {
                 } => (r, intensity, Some((frame.n, cone))),
                 _ => continue,
             };
-            if round.intersect(origin, dir, t_max).is_none() {
+            let Some(t) = round.intersect(origin, dir, t_max) else {
                 continue;
-            }
+            };
             let mut scale = round.radiance_per_intensity();
             if let Some((axis, cone)) = spot {
                 // One-sided as Cycles' spot: only rays heading towards the light's centre.
@@ -674,7 +674,7 @@ impl Lights {
                 }
             }
             if scale > 0.0 {
-                f(index as usize, intensity.sample(w) * scale);
+                f(index as usize, t, intensity.sample(w) * scale);
             }
         }
     }

@@ -48,8 +48,7 @@ impl Scene {
                 name: "(glTF default)".into(),
                 ..Default::default()
             },
-            sidecar: None,
-            graph: None,
+            ..Default::default()
         }));
         // Meshes: keep valid triangles only (indices in range, finite, non-zero area), built
         // side by side. Their BVHs come with the geometry (`Geometry::new`): one flattened BVH

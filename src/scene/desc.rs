@@ -203,12 +203,31 @@ pub enum MaterialOverride {
     Dielectric(DielectricDesc),
 }
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct MaterialDesc {
     pub gltf: GltfMaterialDesc,
     pub sidecar: Option<MaterialOverride>,
     /// A shading graph driving some of the material's inputs (material JSON `graph`).
     pub graph: Option<std::sync::Arc<crate::shading::ShadingGraph>>,
+    /// A participating medium inside the material's closed meshes (material JSON `volume`).
+    pub volume: Option<VolumeDesc>,
+    /// The surface does not scatter: rays pass through it and only cross into or out of its
+    /// volume (material JSON `"surface": "none"`; Blender: a material with only a Volume output).
+    pub null_surface: bool,
+}
+
+/// A homogeneous volume (`crate::media::HomogeneousMedium`): coefficients per scene unit in
+/// linear RGB, upsampled per wavelength as unbounded spectra.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct VolumeDesc {
+    /// Absorption coefficient sigma_a.
+    pub sigma_a: Vec3,
+    /// Scattering coefficient sigma_s.
+    pub sigma_s: Vec3,
+    /// Henyey-Greenstein anisotropy in (-1, 1).
+    pub g: f32,
+    /// Emitted radiance per unit length.
+    pub emission: Vec3,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Default)]

@@ -390,8 +390,7 @@ impl Importer<'_> {
             let desc = self.material(&m)?;
             self.scene.materials.push(MaterialDesc {
                 gltf: desc,
-                sidecar: None,
-                graph: None,
+                ..Default::default()
             });
         }
         let roots: Vec<usize> = match self

@@ -89,6 +89,14 @@ fn load_scene_inner(
                 }
             }
         }
+        for (name, volume, null_surface) in &mf.volumes {
+            for (i, n) in imported.material_names.iter().enumerate() {
+                if n.as_deref() == Some(name.as_str()) {
+                    scene.materials[i].volume = Some(volume.clone());
+                    scene.materials[i].null_surface = *null_surface;
+                }
+            }
+        }
         for (name, graph) in &mf.graphs {
             for (i, n) in imported.material_names.iter().enumerate() {
                 if n.as_deref() == Some(name.as_str()) {
@@ -130,6 +138,10 @@ pub fn has_light(scene: &SceneDesc) -> bool {
             .is_some_and(|mat| {
                 mat.gltf.emissive.max_element() > 0.0
                     || mat.graph.as_ref().is_some_and(|g| g.drives_emission())
+                    || mat
+                        .volume
+                        .as_ref()
+                        .is_some_and(|v| v.emission.max_element() > 0.0)
             })
     });
     let punctual = scene

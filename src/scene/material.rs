@@ -8,10 +8,10 @@ use super::texture::sample_texture;
 use crate::bsdf::{Bsdf, DielectricBsdf, DiffuseBsdf, MetallicRoughnessBsdf, TranslucentBsdf};
 use crate::bssrdf::SubsurfaceMaterial;
 use crate::geometry::{Geometry, SurfacePoint};
+use crate::media::HomogeneousMedium;
 use crate::shading::{MaterialInput, ShadingGraph, ShadingInputs};
 use crate::spectrum::{
-    RgbAlbedoSpectrum, RgbIlluminantSpectrum, RgbUnboundedSpectrum, SampledSpectrum,
-    SampledWavelengths,
+    RgbAlbedoSpectrum, RgbIlluminantSpectrum, SampledSpectrum, SampledWavelengths,
 };
 use glam::{Vec2, Vec3, Vec4, Vec4Swizzles};
 use std::sync::Arc;
@@ -49,8 +49,11 @@ pub struct Material {
     /// KHR_materials_specular colour, upsampled once (not per shading point).
     specular_color: RgbAlbedoSpectrum,
     emission: Option<RgbIlluminantSpectrum>,
-    /// Beer–Lambert absorption coefficient inside the object (KHR_materials_volume), per unit length.
-    absorption: Option<RgbUnboundedSpectrum>,
+    /// The medium inside the object: the sidecar's `volume`, or KHR_materials_volume's
+    /// Beer–Lambert absorption. Entered where a path is transmitted into the surface.
+    interior: Option<HomogeneousMedium>,
+    /// The surface does not scatter (`MaterialDesc::null_surface`).
+    null_surface: bool,
     /// A shading graph driving some inputs (they replace the glTF factors and textures).
     graph: Option<Arc<ShadingGraph>>,
     /// A glTF texture slot reads TEXCOORD_1 or above (from `ShadingInputs`).
@@ -91,11 +94,16 @@ impl Material {
         let absorption = (g.attenuation_distance.is_finite() && g.attenuation_distance > 0.0)
             .then(|| {
                 let c = g.attenuation_color.clamp(Vec3::splat(1e-6), Vec3::ONE);
-                RgbUnboundedSpectrum::new(
+                HomogeneousMedium::absorbing(
                     -Vec3::new(c.x.ln(), c.y.ln(), c.z.ln()) / g.attenuation_distance,
                 )
             })
             .filter(|_| g.attenuation_color.min_element() < 1.0);
+        let interior = desc
+            .volume
+            .as_ref()
+            .map(HomogeneousMedium::new)
+            .or(absorption);
         Material {
             name: g.name.clone(),
             gltf: g.clone(),
@@ -104,7 +112,8 @@ impl Material {
             base_albedo: RgbAlbedoSpectrum::new(g.base_color.xyz()),
             specular_color: RgbAlbedoSpectrum::new(g.specular_color),
             emission,
-            absorption,
+            interior,
+            null_surface: desc.null_surface && desc.volume.is_some(),
             graph: desc.graph.clone(),
             uses_uv_sets: [
                 g.base_color_texture,
@@ -238,9 +247,14 @@ impl Material {
         self.gltf.double_sided
     }
 
-    /// Absorption inside the object, if it is a transmissive volume.
-    pub fn absorption(&self, w: &SampledWavelengths) -> Option<SampledSpectrum> {
-        self.absorption.map(|a| a.sample(w))
+    /// The medium inside the object, if it has one.
+    pub fn interior(&self) -> Option<&HomogeneousMedium> {
+        self.interior.as_ref()
+    }
+
+    /// Rays pass through the surface (a volume's boundary without a surface shader).
+    pub fn is_null_surface(&self) -> bool {
+        self.null_surface
     }
 
     /// Radiance emitted towards a viewer on the front (or, if double-sided, either) side.

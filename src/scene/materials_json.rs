@@ -23,7 +23,15 @@
 //! * `materials.<glTF material name>`: at most one of `subsurface` | `dielectric`, and/or a
 //!   `graph` (a shading graph driving the material's inputs: `crate::shading::parse`), and/or
 //!   `holdout` (true: Blender's Holdout shader; the surface is a transparent hole in the image
-//!   and ends paths).
+//!   and ends paths), and/or `volume` (a homogeneous participating medium inside the material's
+//!   closed meshes, `crate::media`: `sigma_a`, `sigma_s` (absorption and scattering coefficients
+//!   per scene unit) and `emission` (radiance emitted per unit length), non-negative linear RGB
+//!   triples, default black; `g` the Henyey-Greenstein anisotropy in (-1, 1), default 0; paths
+//!   enter it where they are transmitted through the surface), with `surface` `"none"` (the
+//!   surface does not scatter: rays pass through it into and out of the volume, as Blender's
+//!   material with only a Volume output) or `"shaded"` (the default). Example, Blender's
+//!   Principled Volume at density 0.5: `"Fog": {"volume": {"sigma_s": [0.25, 0.25, 0.25],
+//!   "sigma_a": [0.25, 0.25, 0.25]}, "surface": "none"}`.
 //! * `subsurface`: exactly one of `preset` | `sigma_a` + `sigma_s` | `reflectance` + `mfp`;
 //!   optional `scale` (> 0, default 1), `eta` (> 0, default 1.33) or `ior` (a number >= 1 or an
 //!   object with exactly one of the dielectric IOR forms below; the BSSRDF then uses its n_d as
@@ -91,7 +99,7 @@ use crate::error::PrismError;
 use crate::film::denoise::{DenoisePrefilter, DenoiseQuality};
 use crate::scene::desc::{
     DielectricDesc, EnvironmentTextureDesc, IorDesc, LensDesc, MaterialOverride, PanoramaDesc,
-    RenderDefaults, SubsurfaceCoefficients, SubsurfaceDesc, WorldDesc,
+    RenderDefaults, SubsurfaceCoefficients, SubsurfaceDesc, VolumeDesc, WorldDesc,
 };
 use crate::shading::image::Image;
 use crate::shading::parse::{parse_graph, ImageLoader, NoImages};
@@ -146,6 +154,9 @@ pub struct MaterialsFile {
     pub graphs: Vec<(String, Arc<ShadingGraph>)>,
     /// Materials that are holdouts (`materials.<name>.holdout`: Blender's Holdout shader).
     pub holdouts: Vec<String>,
+    /// Volumes by glTF material name (`materials.<name>.volume`), and whether the material's
+    /// surface is `"none"`.
+    pub volumes: Vec<(String, VolumeDesc, bool)>,
     /// Problems the user should see that do not stop the render (an unreadable texture).
     pub warnings: Vec<String>,
     /// `None` when the file has no `world` block. Its `texture` is decoded by
@@ -582,6 +593,27 @@ impl Validator<'_> {
                 if let Some(ov) = ov {
                     out.materials.push((name.clone(), ov));
                 }
+                let def_map = self.object(def, &p)?;
+                let volume = match def_map.get("volume") {
+                    Some(v) => Some(self.volume(v, &p.key("volume"))?),
+                    None => None,
+                };
+                let null_surface = match def_map.get("surface") {
+                    Some(v) => {
+                        let sp = p.key("surface");
+                        self.string(v, &sp, &["none", "shaded"], "surface")? == "none"
+                    }
+                    None => false,
+                };
+                if null_surface && volume.is_none() {
+                    return Err(self.err(
+                        &p.key("surface"),
+                        "\"none\" needs a 'volume' (a boundary without a surface and without a volume would be invisible)",
+                    ));
+                }
+                if let Some(v) = volume {
+                    out.volumes.push((name.clone(), v, null_surface));
+                }
                 if let Some(g) = graph {
                     out.graphs.push((name.clone(), Arc::new(g)));
                 }
@@ -607,7 +639,24 @@ impl Validator<'_> {
         path: &JPath,
     ) -> R<(Option<MaterialOverride>, Option<ShadingGraph>)> {
         let m = self.object(v, path)?;
-        self.check_keys(m, &["subsurface", "dielectric", "graph", "holdout"], path)?;
+        self.check_keys(
+            m,
+            &[
+                "subsurface",
+                "dielectric",
+                "graph",
+                "holdout",
+                "volume",
+                "surface",
+            ],
+            path,
+        )?;
+        if m.contains_key("volume") && m.contains_key("subsurface") {
+            return Err(self.err(
+                path,
+                "give 'volume' or 'subsurface', not both (a subsurface material is its own medium)",
+            ));
+        }
         let graph = match m.get("graph") {
             Some(g) => {
                 let gpath = path.key("graph");
@@ -632,15 +681,38 @@ impl Validator<'_> {
                     "give exactly one of 'subsurface' or 'dielectric', not both",
                 ))
             }
-            (None, None) if graph.is_none() && !m.contains_key("holdout") => {
+            (None, None)
+                if graph.is_none() && !m.contains_key("holdout") && !m.contains_key("volume") =>
+            {
                 return Err(self.err(
                     path,
-                    "empty material: give 'subsurface', 'dielectric', 'graph' or 'holdout'",
+                    "empty material: give 'subsurface', 'dielectric', 'graph', 'volume' or 'holdout'",
                 ))
             }
             (None, None) => None,
         };
         Ok((ov, graph))
+    }
+
+    fn volume(&self, v: &Value, path: &JPath) -> R<VolumeDesc> {
+        let m = self.object(v, path)?;
+        self.check_keys(m, &["sigma_a", "sigma_s", "g", "emission"], path)?;
+        let rgb = |key: &str| -> R<Vec3> {
+            match m.get(key) {
+                Some(c) => self.rgb(c, &path.key(key), Range::NonNeg),
+                None => Ok(Vec3::ZERO),
+            }
+        };
+        let g = match m.get("g") {
+            Some(g) => self.number(g, &path.key("g"), Range::OpenSigned)?,
+            None => 0.0,
+        };
+        Ok(VolumeDesc {
+            sigma_a: rgb("sigma_a")?,
+            sigma_s: rgb("sigma_s")?,
+            g,
+            emission: rgb("emission")?,
+        })
     }
 
     fn subsurface(&self, v: &Value, path: &JPath) -> R<SubsurfaceDesc> {

@@ -79,6 +79,9 @@ if [ "$WHICH" = all ] || [ "$WHICH" = bpy ]; then
     echo "== shader node graphs: export and parity with Cycles in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_node_graphs.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== volume shaders (fog, tinted glass, smoke, glow, a camera inside fog) vs Cycles in the bpy wheel"
+    .venv-bpy/bin/python tests/addon/test_volumes.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
     echo "== denoising (the wheel's OIDN) and clamps in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_denoise.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]

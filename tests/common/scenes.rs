@@ -34,6 +34,7 @@ pub fn diffuse_material(name: &str, albedo: Vec3) -> MaterialDesc {
         },
         sidecar: None,
         graph: None,
+        ..Default::default()
     }
 }
 
@@ -42,6 +43,7 @@ pub fn material_with(gltf: GltfMaterialDesc, sidecar: Option<MaterialOverride>) 
         gltf,
         sidecar,
         graph: None,
+        ..Default::default()
     }
 }
 
@@ -295,6 +297,7 @@ pub fn emissive_material(name: &str, rgb: Vec3, double_sided: bool) -> MaterialD
         },
         sidecar: None,
         graph: None,
+        ..Default::default()
     }
 }
 
