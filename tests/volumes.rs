@@ -10,13 +10,14 @@ use prism::geometry::Ray;
 use prism::integrator::PathTracer;
 use prism::integrator::WavelengthPdf;
 use prism::lights::LightSelection;
+use prism::media::CoefficientSpectrum;
 use prism::sampler::Sampler;
 use prism::scene::desc::{
     GltfMaterialDesc, InstanceDesc, IorDesc, MaterialDesc, PunctualKind, PunctualLightDesc,
     SceneDesc, VolumeDesc, WorldDesc,
 };
 use prism::scene::Scene;
-use prism::spectrum::{RgbIlluminantSpectrum, RgbUnboundedSpectrum, SampledWavelengths};
+use prism::spectrum::{RgbIlluminantSpectrum, SampledWavelengths};
 
 /// A material with only a volume (Blender: nothing on Surface, a Volume shader on Volume).
 fn volume_only(name: &str, volume: VolumeDesc) -> MaterialDesc {
@@ -96,7 +97,7 @@ fn absorbing_slab_is_beer_lambert_per_wavelength() {
         },
     );
     let scene = Scene::build(slab_scene(fog, depth, 1.0)).unwrap();
-    let spectrum = RgbUnboundedSpectrum::new(sigma_a);
+    let spectrum = CoefficientSpectrum::new(sigma_a);
     let ray = Ray::new(Vec3::new(0.3, -0.2, 5.0), Vec3::NEG_Z);
     radiance_per_wavelength(&scene, ray, |w, r| {
         let s = spectrum.sample(w);
@@ -132,7 +133,7 @@ fn emitting_slab_matches_the_closed_form() {
     );
     let scene = Scene::build(slab_scene(glow, depth, 0.0)).unwrap();
     let e = RgbIlluminantSpectrum::new(emission);
-    let grey = RgbUnboundedSpectrum::new(Vec3::splat(sigma_a));
+    let grey = CoefficientSpectrum::new(Vec3::splat(sigma_a));
     radiance_per_wavelength(
         &scene,
         Ray::new(Vec3::new(0.0, 0.0, 5.0), Vec3::NEG_Z),
@@ -168,7 +169,7 @@ fn a_camera_inside_a_volume_starts_in_it() {
     desc.meshes = vec![slab_mesh(10.0, 20.0)];
     desc.camera = Some(camera(-5.0, 0.5));
     let scene = Scene::build(desc).unwrap();
-    let grey = RgbUnboundedSpectrum::new(Vec3::splat(sigma_a));
+    let grey = CoefficientSpectrum::new(Vec3::splat(sigma_a));
     radiance_per_wavelength(
         &scene,
         Ray::new(Vec3::new(0.0, 0.0, -5.0), Vec3::NEG_Z),
@@ -215,7 +216,7 @@ fn shadow_rays_are_attenuated_by_the_volumes_they_cross() {
         ..Default::default()
     };
     let scene = Scene::build(desc).unwrap();
-    let grey = RgbUnboundedSpectrum::new(Vec3::splat(sigma_a));
+    let grey = CoefficientSpectrum::new(Vec3::splat(sigma_a));
     let at = |x: f32| {
         let mut v = Vec::new();
         radiance_per_wavelength(
@@ -294,8 +295,8 @@ fn single_scattering_in_a_sunlit_slab_matches_the_closed_form() {
     let floor_tracer = PathTracer::new(&floor, 1, LightSelection::Power);
     let down = Ray::new(Vec3::new(0.0, 0.0, 5.0), Vec3::NEG_Z);
     let (sa, ss) = (
-        RgbUnboundedSpectrum::new(sigma_a),
-        RgbUnboundedSpectrum::new(sigma_s),
+        CoefficientSpectrum::new(sigma_a),
+        CoefficientSpectrum::new(sigma_s),
     );
     let cos_sun = 0.8f32;
     let k = 1.0 + 1.0 / cos_sun;
@@ -425,5 +426,30 @@ fn volume_json_is_parsed_and_checked() {
             .to_string();
         assert!(err.contains(needle), "{err}");
         assert!(!err.contains('\n'), "{err}");
+    }
+}
+
+/// RGB coefficients reproduce per-channel Beer-Lambert (what Blender users see in Cycles and
+/// EEVEE) through about one mean free path, and stay close at other depths
+/// (`prism::media::CoefficientSpectrum`).
+#[test]
+fn rgb_absorption_is_close_to_per_channel_beer_lambert() {
+    let sigma_a = Vec3::new(0.12, 0.72, 0.96);
+    for (d, tolerance) in [(0.5f32, 0.03), (1.6, 0.04), (4.0, 0.15)] {
+        let ink = volume_only(
+            "ink",
+            VolumeDesc {
+                sigma_a,
+                ..Default::default()
+            },
+        );
+        let (mean, _) = render_mean(slab_scene(ink, d, 1.0), 8, 64, 8, 1);
+        let rgb = (-sigma_a * d).exp();
+        let ratio = mean / rgb;
+        eprintln!("depth {d}: {mean} vs per-channel {rgb}: ratio {ratio}");
+        assert!(
+            (ratio - Vec3::ONE).abs().max_element() < tolerance,
+            "depth {d}: ratio {ratio}"
+        );
     }
 }

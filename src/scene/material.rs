@@ -94,9 +94,7 @@ impl Material {
         let absorption = (g.attenuation_distance.is_finite() && g.attenuation_distance > 0.0)
             .then(|| {
                 let c = g.attenuation_color.clamp(Vec3::splat(1e-6), Vec3::ONE);
-                HomogeneousMedium::absorbing(
-                    -Vec3::new(c.x.ln(), c.y.ln(), c.z.ln()) / g.attenuation_distance,
-                )
+                HomogeneousMedium::attenuation(c, g.attenuation_distance)
             })
             .filter(|_| g.attenuation_color.min_element() < 1.0);
         let interior = desc
