@@ -214,8 +214,15 @@ def volume_lobes(node, warn, weight=1.0, depth=0):
         sigma_a = [density * max(1.0 - c, 0.0) * max(1.0 - a, 0.0) for c, a in zip(color, absorption_color)]
         strength = max(float(const("Emission Strength", 0.0)), 0.0)
         emission = [weight * strength * c for c in rgb("Emission Color")]
-        if float(const("Blackbody Intensity", 0.0)) > 0.0:
-            warn(node, "Blackbody Intensity (fire) is not supported; no blackbody emission")
+        blackbody = max(float(const("Blackbody Intensity", 0.0)), 0.0)
+        if blackbody > 0.0:
+            # Fire: Stefan-Boltzmann radiance sigma T^4 / pi (in Cycles' 1e-6 scale), blended
+            # from 1 by the intensity, times the black body's luminance-1 colour and the tint.
+            kelvin = max(float(const("Temperature", 1000.0)), 0.0)
+            intensity = 5.670373e-8 * 1e-6 / math.pi * ((1.0 - blackbody) + blackbody * kelvin ** 4)
+            bb = blackbody_rgb(kelvin) if kelvin > 0.0 else (0.0, 0.0, 0.0)
+            tint = rgb("Blackbody Tint")
+            emission = [e + weight * intensity * t * c for e, t, c in zip(emission, tint, bb)]
         return [(sigma_a, sigma_s, float(const("Anisotropy", 0.0)), emission)]
     if t == "VOLUME_ABSORPTION":
         density = weight * max(float(const("Density", 1.0)), 0.0)
