@@ -402,8 +402,14 @@ class GraphBuilder:
         elif t in {"CURVE_RGB", "CURVE_FLOAT"}:
             j = self._curves_node(node, ctx, t == "CURVE_RGB")
             outs = {"Color": "color", "Value": "value"} if j is not None else None
+        elif t == "CURVE_VEC":
+            j = self._vector_curves_node(node, ctx)
+            outs = {"Vector": "vector"}
         elif t == "BLACKBODY":
             j = {"type": "blackbody", "inputs": self._inputs(node, ctx, {"temperature": I("Temperature")})}
+            outs = {"Color": "color"}
+        elif t == "WAVELENGTH":
+            j = {"type": "wavelength", "inputs": self._inputs(node, ctx, {"wavelength": I("Wavelength")})}
             outs = {"Color": "color"}
         elif t == "NORMAL_MAP":
             if node.space not in {"TANGENT", "WORLD"}:
@@ -492,6 +498,23 @@ class GraphBuilder:
                            "extrapolate": cm.extend == "EXTRAPOLATED"})
             m = {"fac": _in(node, "Factor", "Fac"), "value": _in(node, "Value")}
         return {"type": "curves", "tables": tables, "inputs": self._inputs(node, ctx, m)}
+
+    def _vector_curves_node(self, node, ctx):
+        """Vector Curves: one 257-sample table per axis over the curve's clipping range
+        ([-1, 1] by default), as Cycles bakes them."""
+        cm = node.mapping
+        try:
+            cm.initialize()
+        except Exception:
+            pass
+        lo, hi = float(cm.clip_min_x), float(cm.clip_max_x)
+        if not cm.use_clip or hi <= lo:
+            lo, hi = -1.0, 1.0
+        xs = [lo + (hi - lo) * k / 256.0 for k in range(257)]
+        tables = [{"lo": lo, "hi": hi, "values": [float(cm.evaluate(c, x)) for x in xs],
+                   "extrapolate": cm.extend == "EXTRAPOLATED"} for c in list(cm.curves)[:3]]
+        m = {"fac": _in(node, "Fac", "Factor"), "vector": _in(node, "Vector")}
+        return {"type": "vector_curves", "tables": tables, "inputs": self._inputs(node, ctx, m)}
 
     def _image_node(self, node, ctx):
         img = node.image

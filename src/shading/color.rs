@@ -351,6 +351,18 @@ impl ColorRamp {
     }
 }
 
+/// The Wavelength node as Blender defines it (Cycles' `svm_node_wavelength`): the CIE 1931
+/// colour-matching functions at `lambda_nm` in linear Rec.709, divided by 2.52 (Blender's
+/// scale that keeps every channel at most 1), negative channels clamped to 0, black outside
+/// 380-780 nm. A colour, not a spectral emitter: what the user sees in Cycles.
+pub fn wavelength_color(lambda_nm: f32) -> Vec3 {
+    if !(380.0..780.0).contains(&lambda_nm) {
+        return Vec3::ZERO;
+    }
+    let xyz = crate::spectrum::cie::cie_xyz_bar(lambda_nm);
+    (crate::spectrum::rgb::xyz_to_linear_srgb(xyz) / 2.52).max(Vec3::ZERO)
+}
+
 /// The Blackbody node: linear Rec.709 colour of a black body at `kelvin`, scaled to
 /// luminance 1, as Blender defines it (colours outside Rec.709 clamped to 0; temperatures held
 /// at 800 K and 12000 K beyond that range, as Cycles does). Computed from Planck's law and the
@@ -439,6 +451,28 @@ mod tests {
 
     fn close(a: Vec3, b: Vec3) -> bool {
         (a - b).abs().max_element() < 1e-5
+    }
+
+    #[test]
+    fn wavelength_colours_follow_blender() {
+        assert_eq!(wavelength_color(379.0), Vec3::ZERO);
+        assert_eq!(wavelength_color(780.0), Vec3::ZERO);
+        let (blue, green, red) = (
+            wavelength_color(450.0),
+            wavelength_color(540.0),
+            wavelength_color(610.0),
+        );
+        assert!(blue.z > blue.x && blue.z > blue.y, "{blue}");
+        assert!(green.y > green.x && green.y > green.z, "{green}");
+        assert!(red.x > red.y && red.x > red.z, "{red}");
+        // Blender's 1/2.52 keeps every channel at most about 1, none below 0.
+        for nm in 380..780 {
+            let c = wavelength_color(nm as f32);
+            assert!(
+                c.min_element() >= 0.0 && c.max_element() < 1.05,
+                "{nm}: {c}"
+            );
+        }
     }
 
     #[test]

@@ -15,7 +15,7 @@ use glam::{Mat3, Vec2, Vec3, Vec4, Vec4Swizzles};
 
 use super::color::{
     blackbody, bright_contrast, gamma, hsl_to_rgb, hsv_to_rgb, hue_saturation_value, luminance,
-    rgb_to_hsl, rgb_to_hsv, BlendMode, ColorRamp, CurveTable,
+    rgb_to_hsl, rgb_to_hsv, wavelength_color, BlendMode, ColorRamp, CurveTable,
 };
 use super::image::{Extension, Image, Interpolation};
 use super::math_ops::{safe_divide, smootherstep, smoothstep, MathOp, VectorMathOp};
@@ -166,6 +166,10 @@ pub enum NodeOp {
     },
     /// RGB Curves (3 tables: R, G, B, each with the combined curve applied) or Float Curve (1).
     Curves(Vec<CurveTable>),
+    /// Vector Curves: one table per axis (X, Y, Z), usually over [-1, 1].
+    VectorCurves(Vec<CurveTable>),
+    /// Wavelength: the colour of a wavelength in nm (`color::wavelength_color`).
+    Wavelength,
     Magic {
         depth: i32,
     },
@@ -429,6 +433,14 @@ impl NodeOp {
             ),
             Blackbody => (
                 const { &[f("temperature", 1500.0)] },
+                const { &[out("color", C)] },
+            ),
+            VectorCurves(_) => (
+                const { &[f("fac", 1.0), vec("vector", 0.0, 0.0, 0.0)] },
+                const { &[out("vector", V)] },
+            ),
+            Wavelength => (
+                const { &[f("wavelength", 500.0)] },
                 const { &[out("color", C)] },
             ),
             NormalMap { .. } => (
@@ -1295,6 +1307,12 @@ fn eval_node(op: &NodeOp, i: &[Vec4; MAX_INPUTS], ctx: &ShadingInputs) -> [Vec4;
                 o[0] = rgb(c.lerp(curved, fac));
             }
         }
+        NodeOp::VectorCurves(t) => {
+            let v = i[1].xyz();
+            let curved = Vec3::new(t[0].eval(v.x), t[1].eval(v.y), t[2].eval(v.z));
+            o[0] = v3(v.lerp(curved, i[0].x));
+        }
+        NodeOp::Wavelength => o[0] = rgb(wavelength_color(i[0].x)),
         NodeOp::Bump { .. } => o[0] = v3(i[3].xyz().try_normalize().unwrap_or(ctx.normal)),
         NodeOp::Wave(wave) => {
             let fac = wave.eval(i[0].xyz() * i[1].x, i[2].x, i[3].x, i[4].x, i[5].x, i[6].x);

@@ -51,7 +51,10 @@
 //!   (`invert`; inputs `strength`, `distance`, `height`, `normal`), whose output goes to the
 //!   material input `normal`; `curves` (`tables`: 1 for Float Curve, 3 for RGB Curves, each
 //!   `{"lo", "hi", "values": [...], "extrapolate"}` sampled evenly over [lo, hi]; inputs `fac`
-//!   and `value` / `color`); `normal_map` (`space`: tangent (TEXCOORD_0's frame) | world;
+//!   and `value` / `color`); `vector_curves` (`tables`: 3, for X, Y and Z, sampled over the
+//!   curve's range, usually [-1, 1]; inputs `fac`, `vector`; output `vector`); `wavelength`
+//!   (input `wavelength` in nm; output `color`: Blender's colour of that wavelength);
+//!   `normal_map` (`space`: tangent (TEXCOORD_0's frame) | world;
 //!   inputs `strength`, `color`); `blackbody` (input `temperature` in kelvin).
 //! * `closures` (instead of or with `inputs`): a Mix / Add Shader tree flattened into its
 //!   leaves, `[{"kind": "bsdf" | "emission" | "transparent" | "translucent", "weight": <value or link>,
@@ -117,8 +120,10 @@ pub const NODE_TYPES: &[&str] = &[
     "brick_texture",
     "bump",
     "curves",
+    "vector_curves",
     "normal_map",
     "blackbody",
+    "wavelength",
 ];
 
 /// Loads the images graphs name: `(path as written, linear?) -> image`.
@@ -296,6 +301,7 @@ fn node_op(
         "magic_texture" => &["depth"],
         "bump" => &["invert"],
         "curves" => &["tables"],
+        "vector_curves" => &["tables"],
         "normal_map" => &["space"],
         "brick_texture" => &["offset", "offset_frequency", "squash", "squash_frequency"],
         _ => &[],
@@ -479,7 +485,18 @@ fn node_op(
             })
         }
         "curves" => NodeOp::Curves(curve_tables(m, path)?),
+        "vector_curves" => {
+            let tables = curve_tables(m, path)?;
+            if tables.len() != 3 {
+                return err(
+                    &key_path(path, "tables"),
+                    "a vector_curves node needs 3 tables (X, Y, Z)",
+                );
+            }
+            NodeOp::VectorCurves(tables)
+        }
         "blackbody" => NodeOp::Blackbody,
+        "wavelength" => NodeOp::Wavelength,
         "normal_map" => NodeOp::NormalMap {
             world: enum_value(
                 m,
@@ -991,6 +1008,40 @@ mod tests {
                 < 1e-6
         );
         assert_eq!(v[MaterialInput::Metallic.index()].unwrap().x, 0.25);
+    }
+
+    #[test]
+    fn vector_curves_and_wavelength_nodes() {
+        // X halved by its curve (mixed at fac 0.5), Y and Z identity; the wavelength 610 nm
+        // (from UV u) is red.
+        let line = |lo: f32, hi: f32| json!({"lo": -1.0, "hi": 1.0, "values": [lo, hi]});
+        let g = parse(json!({"version": 1,
+            "nodes": {
+                "Curves": {"type": "vector_curves",
+                           "tables": [line(-0.5, 0.5), line(-1.0, 1.0), line(-1.0, 1.0)],
+                           "inputs": {"fac": 0.5, "vector": [0.8, 0.3, -0.2]}},
+                "Sep": {"type": "separate_xyz", "inputs": {"vector": {"node": "Curves"}}},
+                "UV": {"type": "uv_map"},
+                "U": {"type": "separate_xyz", "inputs": {"vector": {"node": "UV", "output": "uv"}}},
+                "Nm": {"type": "math", "operation": "multiply",
+                       "inputs": {"a": {"node": "U", "output": "x"}, "b": 1000.0}},
+                "Wl": {"type": "wavelength", "inputs": {"wavelength": {"node": "Nm"}}}
+            },
+            "inputs": {"roughness": {"node": "Sep", "output": "x"},
+                       "metallic": {"node": "Sep", "output": "z"},
+                       "base_color": {"node": "Wl", "output": "color"}}}))
+        .unwrap();
+        let mut ctx = ShadingInputs::default();
+        ctx.uv[0] = Vec2::new(0.61, 0.0);
+        let v = g.evaluate(&ctx, false);
+        assert!((v[MaterialInput::Roughness.index()].unwrap().x - 0.6).abs() < 1e-6);
+        assert!((v[MaterialInput::Metallic.index()].unwrap().x + 0.2).abs() < 1e-6);
+        let c = v[MaterialInput::BaseColor.index()].unwrap().xyz();
+        assert!(c.x > 0.2 && c.x > 4.0 * c.y && c.z < 1e-3, "{c}");
+        let bad = parse(json!({"version": 1,
+            "nodes": {"C": {"type": "vector_curves", "tables": [line(0.0, 1.0)]}},
+            "inputs": {"roughness": {"node": "C"}}}));
+        assert!(bad.unwrap_err().contains("3 tables"));
     }
 
     #[test]

@@ -371,6 +371,33 @@ def setups():
     nt.links.new(comb.outputs[0], sh.inputs["Color"])
     out.append(("GeometryWorld", mat))
 
+    # Wavelength: 400-700 nm across the tile (Generated X through Map Range): a rainbow.
+    mat, nt, sh = new_material("WavelengthRainbow", "ShaderNodeEmission")
+    tc = nt.nodes.new("ShaderNodeTexCoord")
+    sep = nt.nodes.new("ShaderNodeSeparateXYZ")
+    mr = nt.nodes.new("ShaderNodeMapRange")
+    mr.inputs[3].default_value = 400.0
+    mr.inputs[4].default_value = 700.0
+    wl = nt.nodes.new("ShaderNodeWavelength")
+    nt.links.new(tc.outputs["Generated"], sep.inputs[0])
+    nt.links.new(sep.outputs["X"], mr.inputs[0])
+    nt.links.new(mr.outputs[0], wl.inputs[0])
+    nt.links.new(wl.outputs[0], sh.inputs["Color"])
+    out.append(("WavelengthRainbow", mat))
+
+    # Vector Curves reshaping the generated coordinates (X scaled down, Y bent up).
+    mat, nt, sh = new_material("VectorCurves", "ShaderNodeEmission")
+    tc = nt.nodes.new("ShaderNodeTexCoord")
+    vc = nt.nodes.new("ShaderNodeVectorCurve")
+    xs = vc.mapping.curves[0].points
+    xs[0].location = (-1.0, 0.1)  # positive outputs: emission colours below 0 differ by renderer
+    xs[len(xs) - 1].location = (1.0, 0.4)
+    vc.mapping.curves[1].points.new(0.5, 0.9)
+    vc.mapping.update()
+    nt.links.new(tc.outputs["Generated"], vc.inputs["Vector"])
+    nt.links.new(vc.outputs["Vector"], sh.inputs["Color"])
+    out.append(("VectorCurves", mat))
+
     mixed("MixDiffuseGlossy")
     mixed("MixCheckerFac", checker_fac)
     mixed("AddEmission", add=True)
