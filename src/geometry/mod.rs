@@ -701,14 +701,37 @@ impl Geometry {
             .mul_vec3a(out.normal.into())
             .normalize_or_zero()
             .into();
-        // Blender's auto texture space: the bounding box, an axis without extent widened to
-        // +-1 around its centre (so a flat mesh reads 0.5 there).
-        let b = mesh.aabb();
-        let (lo, hi) = (Vec3::from(b.min), Vec3::from(b.max));
-        let centre = (lo + hi) * 0.5;
-        let half = Vec3::select((hi - lo).cmpgt(Vec3::ZERO), (hi - lo) * 0.5, Vec3::ONE);
-        out.generated = (out.object - centre) / (2.0 * half) + Vec3::splat(0.5);
+        out.generated = generated_coordinates(mesh, out.object);
         out
+    }
+
+    /// What a shading graph reads at the world point `p` inside a volume of `instance`
+    /// (Position, Object and Generated coordinates as on its surface; no normal or UVs).
+    pub fn volume_inputs(&self, instance: u32, p: Vec3) -> crate::shading::ShadingInputs {
+        let inst = &self.instances[instance as usize];
+        let mesh = &self.meshes[inst.mesh as usize];
+        let object = inst.world_to_object.transform_point3(p);
+        crate::shading::ShadingInputs {
+            position: p,
+            object,
+            generated: generated_coordinates(mesh, object),
+            ..Default::default()
+        }
+    }
+
+    /// World-space bounding box corners of `instance`'s mesh (its object-space box transformed).
+    pub fn instance_box_corners(&self, instance: u32) -> [Vec3; 8] {
+        let inst = &self.instances[instance as usize];
+        let b = self.meshes[inst.mesh as usize].aabb();
+        let (lo, hi) = (Vec3::from(b.min), Vec3::from(b.max));
+        std::array::from_fn(|i| {
+            let c = Vec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            );
+            inst.object_to_world.transform_point3(c)
+        })
     }
 
     /// The shading inputs a Bump node needs at two points `step` (world units) from `sp` along
@@ -1007,6 +1030,17 @@ pub fn offset_ray_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
     } else {
         p - ng * eps
     }
+}
+
+/// Texture Coordinate > Generated of the object-space point `object`: Blender's auto texture
+/// space, the mesh's bounding box, an axis without extent widened to +-1 around its centre (so
+/// a flat mesh reads 0.5 there).
+fn generated_coordinates(mesh: &Mesh, object: Vec3) -> Vec3 {
+    let b = mesh.aabb();
+    let (lo, hi) = (Vec3::from(b.min), Vec3::from(b.max));
+    let centre = (lo + hi) * 0.5;
+    let half = Vec3::select((hi - lo).cmpgt(Vec3::ZERO), (hi - lo) * 0.5, Vec3::ONE);
+    (object - centre) / (2.0 * half) + Vec3::splat(0.5)
 }
 
 #[cfg(test)]

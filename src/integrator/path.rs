@@ -9,7 +9,9 @@ use crate::bssrdf::{active_wavelengths, random_walk, SubsurfaceMethod, WalkBound
 use crate::geometry::{bump_terminator_shadowing, offset_ray_origin, Ray};
 use crate::lights::{LightSelection, ShadingContext};
 use crate::math::{power_heuristic, Frame};
-use crate::media::{MediumEntry, MediumStack, PhaseMixture, SegmentMedium};
+use crate::media::{
+    transmittance, MediumEntry, MediumStack, PhaseMixture, SegmentMedium, MAX_TRACKING_STEPS,
+};
 use crate::sampler::Sampler;
 use crate::scene::Scene;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
@@ -165,17 +167,123 @@ impl<'a> PathTracer<'a> {
         distance: f32,
         media: &MediumStack,
         w: &SampledWavelengths,
+        sampler: &mut Sampler,
     ) -> SampledSpectrum {
         if !self.alpha && !self.null_surfaces {
             if self.scene.geometry.occluded(&ray, distance) {
                 return SampledSpectrum::ZERO;
             }
             return match self.segment_medium(media, w) {
-                Some(seg) => seg.transmittance(distance),
+                Some(seg) => self.segment_transmittance(&seg, &ray, distance, sampler),
                 None => SampledSpectrum::ONE,
             };
         }
-        self.transmittance_through(ray, distance, media, w)
+        self.transmittance_through(ray, distance, media, w, sampler)
+    }
+
+    /// The transmittance of `seg` over [0, `d`] along `ray`: Beer-Lambert, or a ratio-tracking
+    /// estimate through heterogeneous volumes.
+    fn segment_transmittance(
+        &self,
+        seg: &SegmentMedium,
+        ray: &Ray,
+        d: f32,
+        sampler: &mut Sampler,
+    ) -> SampledSpectrum {
+        if !seg.is_heterogeneous() {
+            return seg.transmittance(d);
+        }
+        seg.ratio_tracking(
+            d,
+            || sampler.next_1d(),
+            |e, t| self.density_at(e, ray.at(t)),
+        )
+    }
+
+    /// Delta tracking (Woodcock et al. 1965) through a segment with heterogeneous volumes, with
+    /// the spectral MIS of pbrt-v4's volumetric path tracer: tentative collisions at the hero's
+    /// majorant rate; at each, the volumes' emission is counted (sigma_e / sigma_maj per point
+    /// integrates T sigma_e), then the hero chooses a real collision with probability
+    /// sigma_t,0 / sigma_maj,0, else a null one; every wavelength multiplies its throughput by
+    /// its own outcome's value over the hero's density and its MIS ratio by its own density.
+    /// Returns where the flight ended (`segment_end` when it passed), the emission seen (MIS
+    /// weighted, to add to the path's radiance) and, at a scattering collision, its phase
+    /// function and albedo. An absorbed flight leaves `beta` at 0.
+    fn delta_track(
+        &self,
+        seg: &SegmentMedium,
+        ray: &Ray,
+        segment_end: f32,
+        beta: &mut SampledSpectrum,
+        mis: &mut SpectralMis,
+        sampler: &mut Sampler,
+    ) -> (
+        f32,
+        SampledSpectrum,
+        Option<(PhaseMixture, SampledSpectrum)>,
+    ) {
+        let sigma_maj = seg.majorant;
+        let m0 = sigma_maj[0];
+        let mut emitted = SampledSpectrum::ZERO;
+        if !(m0 > 0.0) {
+            // The hero sees no extinction: the flight passes; the other wavelengths carry
+            // their majorant transmittance (their densities' ratio).
+            let tm = transmittance(sigma_maj, segment_end);
+            *beta *= tm;
+            mis.scatter(1.0, tm);
+            return (segment_end, emitted, None);
+        }
+        let mut t = 0.0f32;
+        for _ in 0..MAX_TRACKING_STEPS {
+            let step = -(1.0 - sampler.next_1d()).ln() / m0;
+            if t + step >= segment_end {
+                let tm = transmittance(sigma_maj, segment_end - t);
+                *beta *= tm / tm[0];
+                mis.scatter(tm[0], tm);
+                return (segment_end, emitted, None);
+            }
+            t += step;
+            let tm = transmittance(sigma_maj, step);
+            let p = seg.at(|e| self.density_at(e, ray.at(t)));
+            if !seg.emission.is_black() {
+                let pdf = tm[0] * m0;
+                let mut m = *mis;
+                m.scatter(pdf, tm * sigma_maj);
+                emitted += *beta * tm * seg.emission / (pdf * m.denominator());
+            }
+            if sampler.next_1d() * m0 < p.sigma_t[0] {
+                let pdf = tm[0] * p.sigma_t[0];
+                *beta *= tm * p.sigma_s / pdf;
+                mis.scatter(pdf, tm * p.sigma_t);
+                let event = p.phase.map(|phase| (phase, p.sigma_s.safe_div(p.sigma_t)));
+                if event.is_none() {
+                    *beta = SampledSpectrum::ZERO;
+                }
+                return (t, emitted, event);
+            }
+            let sigma_n = (sigma_maj - p.sigma_t).clamp_zero();
+            let pdf = tm[0] * sigma_n[0];
+            if !(pdf > 0.0) {
+                *beta = SampledSpectrum::ZERO;
+                return (t, emitted, None);
+            }
+            *beta *= tm * sigma_n / pdf;
+            mis.scatter(pdf, tm * sigma_n);
+        }
+        *beta = SampledSpectrum::ZERO;
+        (t, emitted, None)
+    }
+
+    /// The density of the heterogeneous volume `e` at the world point `p`.
+    fn density_at(&self, e: &MediumEntry, p: glam::Vec3) -> f32 {
+        let Some(field) = self.scene.materials[e.material as usize]
+            .interior()
+            .and_then(|m| m.density())
+        else {
+            return 1.0;
+        };
+        let inputs = self.scene.geometry.volume_inputs(e.instance, p);
+        field.graph.volume_density(&inputs).unwrap_or(1.0)
     }
 
     /// Stochastic transparency at `sp`: true with probability 1 - alpha (opaque materials:
@@ -211,6 +319,7 @@ impl<'a> PathTracer<'a> {
         distance: f32,
         media: &MediumStack,
         w: &SampledWavelengths,
+        sampler: &mut Sampler,
     ) -> SampledSpectrum {
         let geometry = &self.scene.geometry;
         let (mut ray, mut remaining) = (ray, distance);
@@ -219,7 +328,8 @@ impl<'a> PathTracer<'a> {
         for _ in 0..64 {
             let hit = geometry.intersect(&ray, remaining);
             if let Some(seg) = self.segment_medium(&media, w) {
-                t *= seg.transmittance(hit.map_or(remaining, |h| h.t));
+                t *=
+                    self.segment_transmittance(&seg, &ray, hit.map_or(remaining, |h| h.t), sampler);
             }
             let Some(h) = hit else {
                 return t;
@@ -355,20 +465,35 @@ impl<'a> PathTracer<'a> {
                 // along it ends.
                 let (beta_start, mis_start) = (beta, mis);
                 let mut flight_end = segment_end;
+                // A scattering event ended the flight: its phase function and albedo.
+                let mut scattered: Option<(PhaseMixture, SampledSpectrum)> = None;
+                let heterogeneous = segment.as_ref().is_some_and(|s| s.is_heterogeneous());
                 if let Some(seg) = &segment {
-                    // Volume emission seen along the segment, in closed form.
-                    let c = beta * seg.emitted(segment_end) / mis.denominator();
-                    l += c;
-                    if depth == 0 {
-                        l_direct += c;
-                    }
-                    if seg.phase.is_some() {
-                        let flight = seg.sample_distance(segment_end, sampler.next_1d());
-                        flight_end = flight.t;
-                        beta *= flight.weight;
-                        mis.scatter(flight.pdf_hero, flight.pdf_wavelengths);
+                    let emitted = if heterogeneous {
+                        let (end, emitted, event) =
+                            self.delta_track(seg, &ray, segment_end, &mut beta, &mut mis, sampler);
+                        flight_end = end;
+                        scattered = event;
+                        emitted
                     } else {
-                        beta *= seg.transmittance(segment_end);
+                        // Volume emission seen along the segment, in closed form.
+                        let emitted = beta * seg.emitted(segment_end) / mis.denominator();
+                        if let Some(phase) = seg.phase {
+                            let flight = seg.sample_distance(segment_end, sampler.next_1d());
+                            flight_end = flight.t;
+                            beta *= flight.weight;
+                            mis.scatter(flight.pdf_hero, flight.pdf_wavelengths);
+                            if flight.scattered {
+                                scattered = Some((phase, seg.sigma_s.safe_div(seg.sigma_t)));
+                            }
+                        } else {
+                            beta *= seg.transmittance(segment_end);
+                        }
+                        emitted
+                    };
+                    l += emitted;
+                    if depth == 0 {
+                        l_direct += emitted;
                     }
                 }
                 if lights.has_round() && !in_walk {
@@ -376,12 +501,19 @@ impl<'a> PathTracer<'a> {
                     // flight ends: they do not block it, so the path goes on as before. In a
                     // volume, light from distance s arrives attenuated by T(s); with a sampled
                     // flight the hero passed s with probability T_0(s), and every wavelength
-                    // carries its density ratio as above.
+                    // carries its density ratio as above. Through heterogeneous volumes the
+                    // lights along the whole segment count, times a ratio-tracking estimate
+                    // of T(s).
                     let dir = ray.dir;
+                    let t_max = if heterogeneous {
+                        segment_end
+                    } else {
+                        flight_end
+                    };
                     lights.for_each_round_hit(
                         ray.origin,
                         dir,
-                        flight_end,
+                        t_max,
                         depth == 0,
                         &alive,
                         |index, s, le| {
@@ -393,12 +525,16 @@ impl<'a> PathTracer<'a> {
                             };
                             let (mut b, mut m) = (beta_start, mis_start);
                             if let Some(seg) = &segment {
-                                let tr = seg.transmittance(s);
-                                if seg.phase.is_some() {
-                                    b *= tr / tr[0];
-                                    m.scatter(tr[0], tr);
+                                if heterogeneous {
+                                    b *= self.segment_transmittance(seg, &ray, s, sampler);
                                 } else {
-                                    b *= tr;
+                                    let tr = seg.transmittance(s);
+                                    if seg.phase.is_some() {
+                                        b *= tr / tr[0];
+                                        m.scatter(tr[0], tr);
+                                    } else {
+                                        b *= tr;
+                                    }
                                 }
                             }
                             let c = b * le * (weight / m.denominator());
@@ -411,11 +547,11 @@ impl<'a> PathTracer<'a> {
                         },
                     );
                 }
-                if let Some(seg) = segment.filter(|_| flight_end < segment_end) {
-                    if let Some(phase) = seg.phase {
-                        let albedo = seg.sigma_s.safe_div(seg.sigma_t);
+                if flight_end < segment_end {
+                    if let Some((phase, albedo)) = scattered {
                         medium_event = Some((flight_end, phase, albedo));
                     }
+                    // Else the flight was absorbed (beta is 0).
                     break;
                 }
                 let Some(h) = next_hit else {
@@ -484,8 +620,13 @@ impl<'a> PathTracer<'a> {
                     let f = phase.eval(ray.dir.dot(ls.wi));
                     if f > 0.0 {
                         rays += 1;
-                        let shadow =
-                            self.transmittance(Ray::new(p, ls.wi), ls.distance, &media, &alive);
+                        let shadow = self.transmittance(
+                            Ray::new(p, ls.wi),
+                            ls.distance,
+                            &media,
+                            &alive,
+                            sampler,
+                        );
                         if !shadow.is_black() {
                             let weight = if ls.delta {
                                 1.0
@@ -737,6 +878,7 @@ impl<'a> PathTracer<'a> {
                             ls.distance,
                             &shadow_media,
                             &alive,
+                            sampler,
                         );
                         let visible = !shadow.is_black();
                         if visible && eval_after_shadow {
@@ -917,6 +1059,7 @@ impl<'a> PathTracer<'a> {
                             ls.distance,
                             &media,
                             &alive,
+                            sampler,
                         );
                         if !shadow.is_black() {
                             let weight = if ls.delta {

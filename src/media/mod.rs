@@ -76,9 +76,20 @@ impl CoefficientSpectrum {
     }
 }
 
-/// A homogeneous medium: coefficients per scene unit, upsampled from linear RGB.
+/// A density that varies inside the volume: a shading graph's `volume_density` output
+/// multiplying the coefficients (emission excepted, as in Cycles' Principled Volume), bounded by
+/// `majorant` (estimated when the scene is built: `scene::build`; larger values are clamped to
+/// it, which no sampled point of the volume's box reached).
 #[derive(Clone, Debug)]
-pub struct HomogeneousMedium {
+pub struct DensityField {
+    pub graph: std::sync::Arc<crate::shading::ShadingGraph>,
+    pub majorant: f32,
+}
+
+/// A volume: coefficients per scene unit, upsampled from linear RGB, constant or times a
+/// density field.
+#[derive(Clone, Debug)]
+pub struct Medium {
     sigma_a: CoefficientSpectrum,
     sigma_s: CoefficientSpectrum,
     /// Henyey-Greenstein anisotropy.
@@ -87,11 +98,12 @@ pub struct HomogeneousMedium {
     emission: Option<RgbIlluminantSpectrum>,
     emission_rgb: glam::Vec3,
     scatters: bool,
+    density: Option<DensityField>,
 }
 
-impl HomogeneousMedium {
+impl Medium {
     pub fn new(desc: &VolumeDesc) -> Self {
-        HomogeneousMedium {
+        Medium {
             sigma_a: CoefficientSpectrum::new(desc.sigma_a),
             sigma_s: CoefficientSpectrum::new(desc.sigma_s),
             g: desc.g.clamp(-0.99, 0.99),
@@ -99,13 +111,14 @@ impl HomogeneousMedium {
                 .then(|| RgbIlluminantSpectrum::new(desc.emission)),
             emission_rgb: desc.emission.max(glam::Vec3::ZERO),
             scatters: desc.sigma_s.max_element() > 0.0,
+            density: None,
         }
     }
 
     /// Absorption only, the medium of coloured glass: glTF's KHR_materials_volume, light keeps
     /// `color` over `distance`.
     pub fn attenuation(color: glam::Vec3, distance: f32) -> Self {
-        HomogeneousMedium {
+        Medium {
             sigma_a: CoefficientSpectrum::from_transmittance(color, distance),
             ..Self::new(&VolumeDesc::default())
         }
@@ -115,11 +128,31 @@ impl HomogeneousMedium {
         self.scatters
     }
 
+    /// Makes the coefficients vary with `field`'s density.
+    pub fn with_density(mut self, field: DensityField) -> Self {
+        self.density = Some(field);
+        self
+    }
+
+    pub fn density(&self) -> Option<&DensityField> {
+        self.density.as_ref()
+    }
+
+    /// Sets the bound of the density field (no-op without one).
+    pub fn set_majorant(&mut self, majorant: f32) {
+        if let Some(d) = &mut self.density {
+            d.majorant = majorant;
+        }
+    }
+
     /// The emitted radiance per unit length as linear RGB (black when it does not emit).
     pub fn emitted_rgb(&self) -> glam::Vec3 {
         self.emission_rgb
     }
 }
+
+/// Bound on the tentative collisions of one tracked segment (a safety net).
+pub const MAX_TRACKING_STEPS: u32 = 100_000;
 
 /// One volume the path is inside: the instance whose boundary it crossed and its material.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -176,10 +209,37 @@ impl MediumStack {
 /// enclosing volumes.
 #[derive(Clone, Copy, Debug)]
 pub struct SegmentMedium {
+    /// The homogeneous volumes' sums (the heterogeneous ones are in `varying`).
     pub sigma_s: SampledSpectrum,
     pub sigma_t: SampledSpectrum,
+    /// Every enclosing volume's emission (constant: not scaled by a density).
     pub emission: SampledSpectrum,
-    /// `None` when nothing scatters.
+    /// The homogeneous volumes' phase function; `None` when they do not scatter.
+    pub phase: Option<PhaseMixture>,
+    /// The homogeneous volumes' HG lobes `(g, mean sigma_s)`.
+    lobes: [(f32, f32); MAX_MEDIA],
+    n_lobes: usize,
+    /// Volumes with a density field: their coefficients at density 1 and the field's bound.
+    varying: [Option<VaryingPart>; MAX_MEDIA],
+    /// sigma_t's majorant: `sigma_t` plus every varying part's at its bound.
+    pub majorant: SampledSpectrum,
+}
+
+/// A heterogeneous volume on a segment.
+#[derive(Clone, Copy, Debug)]
+pub struct VaryingPart {
+    pub entry: MediumEntry,
+    sigma_s: SampledSpectrum,
+    sigma_t: SampledSpectrum,
+    g: f32,
+    max_density: f32,
+}
+
+/// The coefficients at one point of a segment (heterogeneous volumes evaluated there).
+#[derive(Clone, Copy, Debug)]
+pub struct PointCoefficients {
+    pub sigma_s: SampledSpectrum,
+    pub sigma_t: SampledSpectrum,
     pub phase: Option<PhaseMixture>,
 }
 
@@ -203,7 +263,7 @@ impl SegmentMedium {
     /// when the stack is empty or the volumes neither absorb, scatter nor emit.
     pub fn collect<'m>(
         stack: &MediumStack,
-        medium_of: impl Fn(u32) -> Option<&'m HomogeneousMedium>,
+        medium_of: impl Fn(u32) -> Option<&'m Medium>,
         w: &SampledWavelengths,
     ) -> Option<Self> {
         if stack.is_empty() {
@@ -214,25 +274,44 @@ impl SegmentMedium {
         let mut emission = SampledSpectrum::ZERO;
         let mut lobes = [(0.0f32, 0.0f32); MAX_MEDIA];
         let mut n_lobes = 0;
-        for e in stack.entries() {
+        let mut varying = [None; MAX_MEDIA];
+        let mut majorant = SampledSpectrum::ZERO;
+        for (i, e) in stack.entries().iter().enumerate() {
             let Some(m) = medium_of(e.material) else {
                 continue;
             };
-            sigma_a += m.sigma_a.sample(w);
+            if let Some(em) = &m.emission {
+                emission += em.sample(w);
+            }
+            let a = m.sigma_a.sample(w);
+            let s = if m.scatters {
+                m.sigma_s.sample(w)
+            } else {
+                SampledSpectrum::ZERO
+            };
+            if let Some(field) = &m.density {
+                varying[i] = Some(VaryingPart {
+                    entry: *e,
+                    sigma_s: s,
+                    sigma_t: a + s,
+                    g: m.g,
+                    max_density: field.majorant,
+                });
+                majorant += (a + s) * field.majorant;
+                continue;
+            }
+            sigma_a += a;
             if m.scatters {
-                let s = m.sigma_s.sample(w);
                 sigma_s += s;
                 // Overlapping volumes: each lobe weighted by its share of sigma_s averaged over
                 // the path's wavelengths (exact for one volume or equal colours).
                 lobes[n_lobes] = (m.g, s.average());
                 n_lobes += 1;
             }
-            if let Some(em) = &m.emission {
-                emission += em.sample(w);
-            }
         }
         let sigma_t = sigma_a + sigma_s;
-        if sigma_t.is_black() && emission.is_black() {
+        majorant += sigma_t;
+        if majorant.is_black() && emission.is_black() {
             return None;
         }
         Some(SegmentMedium {
@@ -240,7 +319,89 @@ impl SegmentMedium {
             sigma_t,
             emission,
             phase: PhaseMixture::new(&lobes[..n_lobes]).filter(|_| !sigma_s.is_black()),
+            lobes,
+            n_lobes,
+            varying,
+            majorant,
         })
+    }
+
+    /// Some volume on the segment has a density field: flights need delta tracking
+    /// (`PathTracer`) and transmittance ratio tracking ([`SegmentMedium::ratio_tracking`]).
+    pub fn is_heterogeneous(&self) -> bool {
+        self.varying.iter().any(Option::is_some)
+    }
+
+    /// Something on the segment can scatter.
+    pub fn may_scatter(&self) -> bool {
+        self.phase.is_some()
+            || self
+                .varying
+                .iter()
+                .flatten()
+                .any(|v| !v.sigma_s.is_black() && v.max_density > 0.0)
+    }
+
+    /// The coefficients at a point, `density(entry)` giving each heterogeneous volume's
+    /// density there (clamped to its bound).
+    pub fn at(&self, mut density: impl FnMut(&MediumEntry) -> f32) -> PointCoefficients {
+        let (mut sigma_s, mut sigma_t) = (self.sigma_s, self.sigma_t);
+        let mut lobes = self.lobes;
+        let mut n = self.n_lobes;
+        for v in self.varying.iter().flatten() {
+            let d = density(&v.entry).clamp(0.0, v.max_density);
+            if d > 0.0 {
+                sigma_s += v.sigma_s * d;
+                sigma_t += v.sigma_t * d;
+                if !v.sigma_s.is_black() && n < MAX_MEDIA {
+                    lobes[n] = (v.g, v.sigma_s.average() * d);
+                    n += 1;
+                }
+            }
+        }
+        PointCoefficients {
+            sigma_s,
+            sigma_t,
+            phase: PhaseMixture::new(&lobes[..n]).filter(|_| !sigma_s.is_black()),
+        }
+    }
+
+    /// An unbiased estimate of the transmittance over [0, `d`] (finite) for every wavelength:
+    /// ratio tracking (Novak et al. 2014) with tentative points at the hero's majorant rate;
+    /// each point multiplies wavelength k by T_maj,k sigma_n,k / (T_maj,0 sigma_maj,0) and the
+    /// end by T_maj,k / T_maj,0, whose expectation is exp(-integral of sigma_t,k) for every k.
+    /// `u` gives uniform numbers, `density(entry, t)` the densities at distance t.
+    pub fn ratio_tracking(
+        &self,
+        d: f32,
+        mut u: impl FnMut() -> f32,
+        mut density: impl FnMut(&MediumEntry, f32) -> f32,
+    ) -> SampledSpectrum {
+        let m0 = self.majorant[0];
+        if !(m0 > 0.0) || !d.is_finite() {
+            return self.transmittance(d);
+        }
+        let mut tr = SampledSpectrum::ONE;
+        let mut t = 0.0f32;
+        for _ in 0..MAX_TRACKING_STEPS {
+            let step = -(1.0 - u()).ln() / m0;
+            if t + step >= d {
+                let rest = d - t;
+                return tr * transmittance(self.majorant, rest) / (-m0 * rest).exp();
+            }
+            t += step;
+            let p = self.at(|e| density(e, t));
+            let sigma_n = (self.majorant - p.sigma_t).clamp_zero();
+            tr *= transmittance(self.majorant, step) * sigma_n / ((-m0 * step).exp() * m0);
+            if tr.max_component() < 1e-4 {
+                // Russian roulette on a nearly opaque estimate.
+                if u() < 0.5 {
+                    return SampledSpectrum::ZERO;
+                }
+                tr *= 2.0;
+            }
+        }
+        SampledSpectrum::ZERO
     }
 
     /// Transmittance exp(-sigma_t d) (Beer-Lambert); 0 over an infinite distance unless
@@ -326,8 +487,8 @@ mod tests {
     use crate::spectrum::WavelengthPdf;
     use glam::Vec3;
 
-    fn medium(sigma_a: Vec3, sigma_s: Vec3, emission: Vec3) -> HomogeneousMedium {
-        HomogeneousMedium::new(&VolumeDesc {
+    fn medium(sigma_a: Vec3, sigma_s: Vec3, emission: Vec3) -> Medium {
+        Medium::new(&VolumeDesc {
             sigma_a,
             sigma_s,
             g: 0.3,

@@ -119,6 +119,7 @@ impl Scene {
             })
             .collect();
         let geometry = Geometry::new(runtime_meshes, runtime_instances);
+        estimate_density_bounds(&geometry, &mut runtime_materials);
 
         let tint = if world.strength > 0.0 {
             world.color.max(Vec3::ZERO) * world.strength
@@ -180,6 +181,46 @@ impl Scene {
         match self.camera.lens {
             Some(l) => camera.with_thin_lens(l.aperture_radius, l.focus_distance),
             None => camera,
+        }
+    }
+}
+
+/// Points per instance at which a heterogeneous volume's density is sampled for its bound.
+const DENSITY_BOUND_SAMPLES: u64 = 8192;
+
+/// Bounds the density field of every heterogeneous volume (`crate::media::DensityField`):
+/// the largest density found at jittered points of each instance's bounding box, plus 25%.
+/// Delta tracking needs a majorant; shading graphs have no analytic bound, so densities above
+/// it (narrow peaks between the samples) are clamped to it.
+fn estimate_density_bounds(geometry: &Geometry, materials: &mut [Material]) {
+    use crate::sampler::mix64;
+    let unit = |k: u64, axis: u64| (mix64(k * 4 + axis) >> 40) as f32 / (1u64 << 24) as f32;
+    for (mi, material) in materials.iter_mut().enumerate() {
+        let Some(field) = material.interior().and_then(|m| m.density()).cloned() else {
+            continue;
+        };
+        let mut max_density = 0.0f32;
+        for (ii, inst) in geometry.instances.iter().enumerate() {
+            if geometry.meshes[inst.mesh as usize].material != mi as u32 {
+                continue;
+            }
+            let c = geometry.instance_box_corners(ii as u32);
+            let max = (0..DENSITY_BOUND_SAMPLES)
+                .into_par_iter()
+                .map(|k| {
+                    // A point of the (transformed) box: trilinear in its corners.
+                    let u = glam::Vec3::new(unit(k, 1), unit(k, 2), unit(k, 3));
+                    let lerp = |a: glam::Vec3, b: glam::Vec3, t: f32| a + (b - a) * t;
+                    let y0 = lerp(lerp(c[0], c[1], u.x), lerp(c[2], c[3], u.x), u.y);
+                    let y1 = lerp(lerp(c[4], c[5], u.x), lerp(c[6], c[7], u.x), u.y);
+                    let inputs = geometry.volume_inputs(ii as u32, lerp(y0, y1, u.z));
+                    field.graph.volume_density(&inputs).unwrap_or(0.0)
+                })
+                .reduce(|| 0.0f32, f32::max);
+            max_density = max_density.max(max);
+        }
+        if let Some(m) = material.interior_mut() {
+            m.set_majorant(max_density * 1.25);
         }
     }
 }

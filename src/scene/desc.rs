@@ -216,7 +216,7 @@ pub struct MaterialDesc {
     pub null_surface: bool,
 }
 
-/// A homogeneous volume (`crate::media::HomogeneousMedium`): coefficients per scene unit in
+/// A homogeneous volume (`crate::media::Medium`): coefficients per scene unit in
 /// linear RGB, upsampled per wavelength as unbounded spectra.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct VolumeDesc {

@@ -8,7 +8,7 @@ use super::texture::sample_texture;
 use crate::bsdf::{Bsdf, DielectricBsdf, DiffuseBsdf, MetallicRoughnessBsdf, TranslucentBsdf};
 use crate::bssrdf::SubsurfaceMaterial;
 use crate::geometry::{Geometry, SurfacePoint};
-use crate::media::HomogeneousMedium;
+use crate::media::{DensityField, Medium};
 use crate::shading::{MaterialInput, ShadingGraph, ShadingInputs};
 use crate::spectrum::{
     RgbAlbedoSpectrum, RgbIlluminantSpectrum, SampledSpectrum, SampledWavelengths,
@@ -51,7 +51,7 @@ pub struct Material {
     emission: Option<RgbIlluminantSpectrum>,
     /// The medium inside the object: the sidecar's `volume`, or KHR_materials_volume's
     /// Beer–Lambert absorption. Entered where a path is transmitted into the surface.
-    interior: Option<HomogeneousMedium>,
+    interior: Option<Medium>,
     /// The surface does not scatter (`MaterialDesc::null_surface`).
     null_surface: bool,
     /// A shading graph driving some inputs (they replace the glTF factors and textures).
@@ -94,13 +94,27 @@ impl Material {
         let absorption = (g.attenuation_distance.is_finite() && g.attenuation_distance > 0.0)
             .then(|| {
                 let c = g.attenuation_color.clamp(Vec3::splat(1e-6), Vec3::ONE);
-                HomogeneousMedium::attenuation(c, g.attenuation_distance)
+                Medium::attenuation(c, g.attenuation_distance)
             })
             .filter(|_| g.attenuation_color.min_element() < 1.0);
+        let density_graph = desc
+            .graph
+            .clone()
+            .filter(|g| g.drives(crate::shading::MaterialInput::VolumeDensity));
         let interior = desc
             .volume
             .as_ref()
-            .map(HomogeneousMedium::new)
+            .map(|v| {
+                let medium = Medium::new(v);
+                match density_graph {
+                    // The bound is estimated once the geometry exists (`Scene::build`).
+                    Some(graph) => medium.with_density(DensityField {
+                        graph,
+                        majorant: 1.0,
+                    }),
+                    None => medium,
+                }
+            })
             .or(absorption);
         Material {
             name: g.name.clone(),
@@ -246,8 +260,13 @@ impl Material {
     }
 
     /// The medium inside the object, if it has one.
-    pub fn interior(&self) -> Option<&HomogeneousMedium> {
+    pub fn interior(&self) -> Option<&Medium> {
         self.interior.as_ref()
+    }
+
+    /// The interior medium, for setting its density bound (`Scene::build`).
+    pub fn interior_mut(&mut self) -> Option<&mut Medium> {
+        self.interior.as_mut()
     }
 
     /// Rays pass through the surface (a volume's boundary without a surface shader).

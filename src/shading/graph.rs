@@ -553,6 +553,9 @@ pub enum MaterialInput {
     Normal,
     /// 1: the closure is Lambertian transmission (Translucent BSDF) of colour `base_color`.
     Translucent,
+    /// A multiplier on the material's volume coefficients at a point inside it (a textured
+    /// Density: heterogeneous volumes, `crate::media`).
+    VolumeDensity,
 }
 
 pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
@@ -566,9 +569,10 @@ pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
     ("alpha", MaterialInput::Alpha, F),
     ("normal", MaterialInput::Normal, V),
     ("translucent", MaterialInput::Translucent, F),
+    ("volume_density", MaterialInput::VolumeDensity, F),
 ];
 
-pub const N_MATERIAL_INPUTS: usize = 10;
+pub const N_MATERIAL_INPUTS: usize = 11;
 
 impl MaterialInput {
     pub fn index(self) -> usize {
@@ -581,11 +585,13 @@ impl MaterialInput {
         )
     }
 
-    /// Which evaluation program computes the input: 0 scattering, 1 emission, 2 normal.
+    /// Which evaluation program computes the input: 0 scattering, 1 emission, 2 normal,
+    /// 3 volume density.
     fn program(self) -> usize {
         match self {
             MaterialInput::Emission | MaterialInput::EmissionStrength => 1,
             MaterialInput::Normal => 2,
+            MaterialInput::VolumeDensity => 3,
             _ => 0,
         }
     }
@@ -617,6 +623,7 @@ pub struct ShadingGraph {
     surface_program: Vec<u32>,
     emission_program: Vec<u32>,
     normal_program: Vec<u32>,
+    volume_program: Vec<u32>,
     /// World-space inputs and the normal output are in a Z-up frame (Blender's; the add-on's
     /// graphs) rather than the scene's glTF Y-up one.
     pub z_up: bool,
@@ -720,6 +727,7 @@ impl ShadingGraph {
         let surface_program = program(0);
         let emission_program = program(1);
         let normal_program = program(2);
+        let volume_program = program(3);
         // The height cone of every Bump node: re-run at the offset points.
         let bump_cones = nodes
             .iter()
@@ -735,6 +743,7 @@ impl ShadingGraph {
             surface_program,
             emission_program,
             normal_program,
+            volume_program,
             bump_cones,
             z_up: false,
         }
@@ -905,7 +914,8 @@ impl ShadingGraph {
             let program = match which {
                 0 => &self.surface_program,
                 1 => &self.emission_program,
-                _ => &self.normal_program,
+                2 => &self.normal_program,
+                _ => &self.volume_program,
             };
             for &i in program {
                 self.eval_into(i, &mut slots, ctx, bump);
@@ -989,6 +999,19 @@ impl ShadingGraph {
             .map(|c| read(&c.weight, slots, ctx).x.max(0.0))
             .sum::<f32>()
             .min(1.0)
+    }
+
+    /// The volume density multiplier at a point inside the material (`ctx` from
+    /// `Geometry::volume_inputs`), if the graph drives it; never negative.
+    pub fn volume_density(&self, ctx: &ShadingInputs) -> Option<f32> {
+        let source = self
+            .bindings
+            .iter()
+            .find(|(m, _)| *m == MaterialInput::VolumeDensity)?
+            .1;
+        let ctx = &self.local(ctx);
+        let d = self.run_with(ctx, 3, None, |slots| read(&source, slots, ctx).x);
+        Some(if d > 0.0 { d } else { 0.0 })
     }
 
     pub fn drives(&self, input: MaterialInput) -> bool {
