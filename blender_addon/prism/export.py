@@ -185,22 +185,30 @@ def _surface_node(mat):
 VOLUME_NODES = {"PRINCIPLED_VOLUME", "VOLUME_ABSORPTION", "VOLUME_SCATTER", "EMISSION", "ADD_SHADER", "MIX_SHADER"}
 
 
-def volume_lobes(node, warn, weight=1.0, depth=0):
-    """The volume shader tree at `node` -> [(sigma_a, sigma_s, g, emission)] (RGB lists), each
-    already scaled by its Mix/Add weight; `warn(node, what)` names what is not translated.
-    Coefficients are linear in the closures' weights, so mixtures add exactly; only the
-    phase functions of several scattering lobes are merged into one (see `volume_json`)."""
+def volume_lobes(node, warn, weight=1.0, depth=0, densities=None):
+    """The volume shader tree at `node` -> [(sigma_a, sigma_s, g, emission, density socket)]
+    (RGB lists), each already scaled by its Mix/Add weight; `warn(node, what)` names what is not
+    translated. Coefficients are linear in the closures' weights, so mixtures add exactly; only
+    the phase functions of several scattering lobes are merged into one (see `volume_json`).
+    A linked Density (a texture: a heterogeneous volume) gives its lobe's coefficients at
+    density 1 and the socket, which the caller binds to the graph's `volume_density`, when
+    `densities` is True; otherwise it is warned about and its value used."""
     zero = [0.0, 0.0, 0.0]
     if node is None or depth > 32 or weight <= 0.0:
         return []
     t = node.type
+    linked_density = [None]
 
     def const(name, default):
         sock = _socket(node, name)
         if sock is None:
             return default
         if sock.is_linked:
-            warn(node, "input '%s' is linked; volumes are homogeneous here (no textures or attributes), using its value" % name)
+            if name == "Density" and densities:
+                linked_density[0] = sock
+                return 1.0
+            warn(node, "input '%s' is linked; %s, using its value" % (
+                name, "only Density may vary in a volume" if densities else "volumes are homogeneous here (no textures or attributes)"))
         return sock.default_value
 
     def rgb(name, default=(1.0, 1.0, 1.0, 1.0)):
@@ -223,19 +231,19 @@ def volume_lobes(node, warn, weight=1.0, depth=0):
             bb = blackbody_rgb(kelvin) if kelvin > 0.0 else (0.0, 0.0, 0.0)
             tint = rgb("Blackbody Tint")
             emission = [e + weight * intensity * t * c for e, t, c in zip(emission, tint, bb)]
-        return [(sigma_a, sigma_s, float(const("Anisotropy", 0.0)), emission)]
+        return [(sigma_a, sigma_s, float(const("Anisotropy", 0.0)), emission, linked_density[0])]
     if t == "VOLUME_ABSORPTION":
         density = weight * max(float(const("Density", 1.0)), 0.0)
-        return [([density * max(1.0 - c, 0.0) for c in rgb("Color")], zero, 0.0, zero)]
+        return [([density * max(1.0 - c, 0.0) for c in rgb("Color")], zero, 0.0, zero, linked_density[0])]
     if t == "VOLUME_SCATTER":
         phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
         if phase != "HENYEY_GREENSTEIN":
             warn(node, "phase function %s is not supported; using Henyey-Greenstein with its Anisotropy" % phase)
         density = weight * max(float(const("Density", 1.0)), 0.0)
-        return [(zero, [density * c for c in rgb("Color")], float(const("Anisotropy", 0.0)), zero)]
+        return [(zero, [density * c for c in rgb("Color")], float(const("Anisotropy", 0.0)), zero, linked_density[0])]
     if t == "EMISSION":
         strength = max(float(const("Strength", 1.0)), 0.0)
-        return [(zero, zero, 0.0, [weight * strength * c for c in rgb("Color")])]
+        return [(zero, zero, 0.0, [weight * strength * c for c in rgb("Color")], None)]
     if t in {"ADD_SHADER", "MIX_SHADER"}:
         shaders = [s for s in node.inputs if s.type == "SHADER"]
         weights = [weight, weight]
@@ -248,7 +256,7 @@ def volume_lobes(node, warn, weight=1.0, depth=0):
                 src = sock.links[0].from_node
                 while src.type == "REROUTE" and src.inputs[0].is_linked:
                     src = src.inputs[0].links[0].from_node
-                lobes += volume_lobes(src, warn, w, depth + 1)
+                lobes += volume_lobes(src, warn, w, depth + 1, densities)
         return lobes
     warn(node, "is not a supported volume shader (Principled Volume, Volume Absorption, Volume Scatter, Emission, Add/Mix Shader); the volume is ignored")
     return None
@@ -800,6 +808,8 @@ class Exporter:
         self.normal_uv_maps = {}
         # Materials whose Normal input is not exported (Bump, object-space maps, ...).
         self.unsupported_normals = []
+        # Graphs of textured volume densities by material name (`_volume`).
+        self.volume_graphs = {}
         self.images = []
         self.image_index = {}
         self.lights = []
@@ -1217,6 +1227,16 @@ class Exporter:
                 entry["volume"] = volume
                 if surface is None:
                     entry["surface"] = "none"
+                vg = self.volume_graphs.get(name)
+                if vg is not None:
+                    # One graph per material: the volume's density beside the surface inputs
+                    # (node names are the node tree's own, unique within it).
+                    g = entry.get("graph")
+                    if g is None:
+                        entry["graph"] = vg
+                    else:
+                        g["nodes"].update(vg["nodes"])
+                        g["inputs"].update(vg["inputs"])
         return self.material_index[key]
 
     def _volume(self, mat, name):
@@ -1231,11 +1251,23 @@ class Exporter:
                 warned.add((n.name, what))
                 self.warnings.append("material '%s': node '%s' (%s): %s" % (name, n.name, n.bl_idname, what))
 
-        lobes = volume_lobes(node, warn)
+        lobes = volume_lobes(node, warn, densities=True)
         if lobes is None:
             return None
-        return volume_json(lobes, lambda: self.warnings.append(
+        sockets = {l[4].as_pointer(): l[4] for l in lobes if l[4] is not None}
+        extinct = [l for l in lobes if max(l[0] + l[1]) > 0.0]
+        if sockets and (len(sockets) > 1 or any(l[4] is None for l in extinct)):
+            # One density field per volume: several, or one beside constant densities, cannot
+            # be represented; fall back to the sliders' values.
+            lobes = volume_lobes(node, warn, densities=False)
+            sockets = {}
+        volume = volume_json(lobes, lambda: self.warnings.append(
             "material '%s': volume scattering lobes with different Anisotropy are merged into one (their sigma_s-weighted mean)" % name))
+        if volume is not None and sockets:
+            gb = GraphBuilder(name, self._graph_image, self._uv_set, self._color_set, self.warnings.append)
+            if gb.bind("volume_density", next(iter(sockets.values()))):
+                self.volume_graphs[name] = gb.result()
+        return volume
 
     def _mesh(self, key, me, slots):
         if key in self.mesh_cache:
