@@ -526,14 +526,14 @@ fn heterogeneous_density_tracks_its_optical_depth() {
     mean_transmittance(
         &scene,
         Ray::new(Vec3::new(-3.0, 0.1, -0.5), Vec3::X),
-        20_000,
+        80_000,
         |w| spectrum.sample(w).map(|s| (-s * 2.0).exp()).0,
     );
     // Straight down at x = 1: density 0.75 through depth 1.
     mean_transmittance(
         &scene,
         Ray::new(Vec3::new(1.0, 0.2, 5.0), Vec3::NEG_Z),
-        20_000,
+        80_000,
         |w| spectrum.sample(w).map(|s| (-s * 0.75).exp()).0,
     );
 }

@@ -93,14 +93,19 @@ impl<'a> PathTracer<'a> {
 
     /// The summed coefficients of the volumes on `media` at the path's wavelengths.
     #[inline]
-    fn segment_medium(&self, media: &MediumStack, w: &SampledWavelengths) -> Option<SegmentMedium> {
+    fn segment_medium(
+        &self,
+        media: &MediumStack,
+        w: &SampledWavelengths,
+    ) -> Option<SegmentMedium<'a>> {
         if media.is_empty() {
             return None;
         }
-        let materials = &self.scene.materials;
+        let scene = self.scene;
         SegmentMedium::collect(
             media,
-            |m| materials.get(m as usize).and_then(|x| x.interior()),
+            |m| scene.materials.get(m as usize).and_then(|x| x.interior()),
+            |i| scene.geometry.instances[i as usize].world_to_object,
             w,
         )
     }
@@ -194,6 +199,8 @@ impl<'a> PathTracer<'a> {
             return seg.transmittance(d);
         }
         seg.ratio_tracking(
+            ray.origin,
+            ray.dir,
             d,
             || sampler.next_1d(),
             |e, t| self.density_at(e, ray.at(t)),
@@ -222,56 +229,62 @@ impl<'a> PathTracer<'a> {
         SampledSpectrum,
         Option<(PhaseMixture, SampledSpectrum)>,
     ) {
-        let sigma_maj = seg.majorant;
-        let m0 = sigma_maj[0];
         let mut emitted = SampledSpectrum::ZERO;
-        if !(m0 > 0.0) {
-            // The hero sees no extinction: the flight passes; the other wavelengths carry
-            // their majorant transmittance (their densities' ratio).
-            let tm = transmittance(sigma_maj, segment_end);
-            *beta *= tm;
-            mis.scatter(1.0, tm);
-            return (segment_end, emitted, None);
-        }
-        let mut t = 0.0f32;
-        for _ in 0..MAX_TRACKING_STEPS {
-            let step = -(1.0 - sampler.next_1d()).ln() / m0;
-            if t + step >= segment_end {
-                let tm = transmittance(sigma_maj, segment_end - t);
-                *beta *= tm / tm[0];
-                mis.scatter(tm[0], tm);
-                return (segment_end, emitted, None);
-            }
-            t += step;
-            let tm = transmittance(sigma_maj, step);
-            let p = seg.at(|e| self.density_at(e, ray.at(t)));
-            if !seg.emission.is_black() {
-                let pdf = tm[0] * m0;
-                let mut m = *mis;
-                m.scatter(pdf, tm * sigma_maj);
-                emitted += *beta * tm * seg.emission / (pdf * m.denominator());
-            }
-            if sampler.next_1d() * m0 < p.sigma_t[0] {
-                let pdf = tm[0] * p.sigma_t[0];
-                *beta *= tm * p.sigma_s / pdf;
-                mis.scatter(pdf, tm * p.sigma_t);
-                let event = p.phase.map(|phase| (phase, p.sigma_s.safe_div(p.sigma_t)));
-                if event.is_none() {
-                    *beta = SampledSpectrum::ZERO;
+        let mut steps = 0;
+        for (t0, t1, sigma_maj, cap) in seg.majorant_runs(ray.origin, ray.dir, segment_end) {
+            let m0 = sigma_maj[0];
+            let mut t = t0;
+            loop {
+                if !(m0 > 0.0) {
+                    // The hero sees no extinction here: the flight passes the run; the other
+                    // wavelengths carry their majorant transmittance (their densities' ratio).
+                    let tm = transmittance(sigma_maj, t1 - t);
+                    *beta *= tm;
+                    mis.scatter(1.0, tm);
+                    break;
                 }
-                return (t, emitted, event);
+                let step = -(1.0 - sampler.next_1d()).ln() / m0;
+                if t + step >= t1 {
+                    let tm = transmittance(sigma_maj, t1 - t);
+                    *beta *= tm / tm[0];
+                    mis.scatter(tm[0], tm);
+                    break;
+                }
+                t += step;
+                steps += 1;
+                if steps > MAX_TRACKING_STEPS {
+                    *beta = SampledSpectrum::ZERO;
+                    return (t, emitted, None);
+                }
+                let tm = transmittance(sigma_maj, step);
+                let p = seg.at(|e| self.density_at(e, ray.at(t)).min(cap));
+                if !seg.emission.is_black() {
+                    let pdf = tm[0] * m0;
+                    let mut m = *mis;
+                    m.scatter(pdf, tm * sigma_maj);
+                    emitted += *beta * tm * seg.emission / (pdf * m.denominator());
+                }
+                if sampler.next_1d() * m0 < p.sigma_t[0] {
+                    let pdf = tm[0] * p.sigma_t[0];
+                    *beta *= tm * p.sigma_s / pdf;
+                    mis.scatter(pdf, tm * p.sigma_t);
+                    let event = p.phase.map(|phase| (phase, p.sigma_s.safe_div(p.sigma_t)));
+                    if event.is_none() {
+                        *beta = SampledSpectrum::ZERO;
+                    }
+                    return (t, emitted, event);
+                }
+                let sigma_n = (sigma_maj - p.sigma_t).clamp_zero();
+                let pdf = tm[0] * sigma_n[0];
+                if !(pdf > 0.0) {
+                    *beta = SampledSpectrum::ZERO;
+                    return (t, emitted, None);
+                }
+                *beta *= tm * sigma_n / pdf;
+                mis.scatter(pdf, tm * sigma_n);
             }
-            let sigma_n = (sigma_maj - p.sigma_t).clamp_zero();
-            let pdf = tm[0] * sigma_n[0];
-            if !(pdf > 0.0) {
-                *beta = SampledSpectrum::ZERO;
-                return (t, emitted, None);
-            }
-            *beta *= tm * sigma_n / pdf;
-            mis.scatter(pdf, tm * sigma_n);
         }
-        *beta = SampledSpectrum::ZERO;
-        (t, emitted, None)
+        (segment_end, emitted, None)
     }
 
     /// The density of the heterogeneous volume `e` at the world point `p`.

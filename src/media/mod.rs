@@ -12,12 +12,14 @@
 //! The random-walk subsurface medium is a medium behind a dielectric with its own estimator
 //! (`crate::bssrdf::random_walk`); it shares the phase function (`phase`).
 
+pub mod grid;
 pub mod phase;
 
 use crate::scene::desc::VolumeDesc;
 use crate::spectrum::{
     RgbAlbedoSpectrum, RgbIlluminantSpectrum, SampledSpectrum, SampledWavelengths,
 };
+pub use grid::MajorantGrid;
 pub use phase::{PhaseMixture, MAX_MEDIA};
 
 /// An extinction-like coefficient spectrum (per unit length) from linear RGB.
@@ -84,6 +86,8 @@ impl CoefficientSpectrum {
 pub struct DensityField {
     pub graph: std::sync::Arc<crate::shading::ShadingGraph>,
     pub majorant: f32,
+    /// Local bounds per instance of the volume (`grid`), from `scene::build`.
+    pub grids: Vec<(u32, std::sync::Arc<MajorantGrid>)>,
 }
 
 /// A volume: coefficients per scene unit, upsampled from linear RGB, constant or times a
@@ -138,10 +142,11 @@ impl Medium {
         self.density.as_ref()
     }
 
-    /// Sets the bound of the density field (no-op without one).
-    pub fn set_majorant(&mut self, majorant: f32) {
+    /// Sets the bounds of the density field: global and per instance (no-op without one).
+    pub fn set_bounds(&mut self, majorant: f32, grids: Vec<(u32, std::sync::Arc<MajorantGrid>)>) {
         if let Some(d) = &mut self.density {
             d.majorant = majorant;
+            d.grids = grids;
         }
     }
 
@@ -208,7 +213,7 @@ impl MediumStack {
 /// The optical coefficients along a ray segment at the path's wavelengths: the sums over the
 /// enclosing volumes.
 #[derive(Clone, Copy, Debug)]
-pub struct SegmentMedium {
+pub struct SegmentMedium<'m> {
     /// The homogeneous volumes' sums (the heterogeneous ones are in `varying`).
     pub sigma_s: SampledSpectrum,
     pub sigma_t: SampledSpectrum,
@@ -223,6 +228,9 @@ pub struct SegmentMedium {
     varying: [Option<VaryingPart>; MAX_MEDIA],
     /// sigma_t's majorant: `sigma_t` plus every varying part's at its bound.
     pub majorant: SampledSpectrum,
+    /// With exactly one heterogeneous volume that has a majorant grid: the grid, its
+    /// instance's world-to-object transform and the part's index in `varying`.
+    grid: Option<(&'m MajorantGrid, glam::Affine3A, usize)>,
 }
 
 /// A heterogeneous volume on a segment.
@@ -258,12 +266,14 @@ pub struct DistanceSample {
     pub pdf_wavelengths: SampledSpectrum,
 }
 
-impl SegmentMedium {
-    /// The sum of the volumes on `stack` (`medium_of` gives a material's medium), or `None`
-    /// when the stack is empty or the volumes neither absorb, scatter nor emit.
-    pub fn collect<'m>(
+impl<'m> SegmentMedium<'m> {
+    /// The sum of the volumes on `stack` (`medium_of` gives a material's medium,
+    /// `world_to_object` an instance's inverse transform), or `None` when the stack is empty or
+    /// the volumes neither absorb, scatter nor emit.
+    pub fn collect(
         stack: &MediumStack,
         medium_of: impl Fn(u32) -> Option<&'m Medium>,
+        world_to_object: impl Fn(u32) -> glam::Affine3A,
         w: &SampledWavelengths,
     ) -> Option<Self> {
         if stack.is_empty() {
@@ -276,6 +286,8 @@ impl SegmentMedium {
         let mut n_lobes = 0;
         let mut varying = [None; MAX_MEDIA];
         let mut majorant = SampledSpectrum::ZERO;
+        let mut grids = 0;
+        let mut grid = None;
         for (i, e) in stack.entries().iter().enumerate() {
             let Some(m) = medium_of(e.material) else {
                 continue;
@@ -298,6 +310,12 @@ impl SegmentMedium {
                     max_density: field.majorant,
                 });
                 majorant += (a + s) * field.majorant;
+                grids += 1;
+                grid = field
+                    .grids
+                    .iter()
+                    .find(|(inst, _)| *inst == e.instance)
+                    .map(|(_, g)| (&**g, world_to_object(e.instance), i));
                 continue;
             }
             sigma_a += a;
@@ -323,7 +341,30 @@ impl SegmentMedium {
             n_lobes,
             varying,
             majorant,
+            grid: grid.filter(|_| grids == 1),
         })
+    }
+
+    /// The runs of constant majorant along `[0, t_end)` of the ray (`origin`, `dir`): `(t0,
+    /// t1, sigma_maj, cap)` where `cap` bounds the heterogeneous density in the run. One run
+    /// with the global majorant unless a majorant grid applies.
+    pub fn majorant_runs(
+        &self,
+        origin: glam::Vec3,
+        dir: glam::Vec3,
+        t_end: f32,
+    ) -> impl Iterator<Item = (f32, f32, SampledSpectrum, f32)> + '_ {
+        let (grid_runs, single) = match self.grid {
+            Some((g, m, part)) => {
+                let unit = self.varying[part].map_or(SampledSpectrum::ZERO, |v| v.sigma_t);
+                let runs = g
+                    .runs(&m, origin, dir, t_end)
+                    .map(move |(t0, t1, bound)| (t0, t1, self.sigma_t + unit * bound, bound));
+                (Some(runs), None)
+            }
+            None => (None, Some((0.0, t_end, self.majorant, f32::INFINITY))),
+        };
+        grid_runs.into_iter().flatten().chain(single)
     }
 
     /// Some volume on the segment has a density field: flights need delta tracking
@@ -373,35 +414,49 @@ impl SegmentMedium {
     /// `u` gives uniform numbers, `density(entry, t)` the densities at distance t.
     pub fn ratio_tracking(
         &self,
+        origin: glam::Vec3,
+        dir: glam::Vec3,
         d: f32,
         mut u: impl FnMut() -> f32,
         mut density: impl FnMut(&MediumEntry, f32) -> f32,
     ) -> SampledSpectrum {
-        let m0 = self.majorant[0];
-        if !(m0 > 0.0) || !d.is_finite() {
+        if !d.is_finite() {
             return self.transmittance(d);
         }
         let mut tr = SampledSpectrum::ONE;
-        let mut t = 0.0f32;
-        for _ in 0..MAX_TRACKING_STEPS {
-            let step = -(1.0 - u()).ln() / m0;
-            if t + step >= d {
-                let rest = d - t;
-                return tr * transmittance(self.majorant, rest) / (-m0 * rest).exp();
-            }
-            t += step;
-            let p = self.at(|e| density(e, t));
-            let sigma_n = (self.majorant - p.sigma_t).clamp_zero();
-            tr *= transmittance(self.majorant, step) * sigma_n / ((-m0 * step).exp() * m0);
-            if tr.max_component() < 1e-4 {
-                // Russian roulette on a nearly opaque estimate.
-                if u() < 0.5 {
+        let mut steps = 0;
+        for (t0, t1, sigma_maj, cap) in self.majorant_runs(origin, dir, d) {
+            let m0 = sigma_maj[0];
+            let mut t = t0;
+            loop {
+                if !(m0 > 0.0) {
+                    tr *= transmittance(sigma_maj, t1 - t);
+                    break;
+                }
+                let step = -(1.0 - u()).ln() / m0;
+                if t + step >= t1 {
+                    let rest = t1 - t;
+                    tr *= transmittance(sigma_maj, rest) / (-m0 * rest).exp();
+                    break;
+                }
+                t += step;
+                steps += 1;
+                if steps > MAX_TRACKING_STEPS {
                     return SampledSpectrum::ZERO;
                 }
-                tr *= 2.0;
+                let p = self.at(|e| density(e, t).min(cap));
+                let sigma_n = (sigma_maj - p.sigma_t).clamp_zero();
+                tr *= transmittance(sigma_maj, step) * sigma_n / ((-m0 * step).exp() * m0);
+                if tr.max_component() < 1e-4 {
+                    // Russian roulette on a nearly opaque estimate.
+                    if u() < 0.5 {
+                        return SampledSpectrum::ZERO;
+                    }
+                    tr *= 2.0;
+                }
             }
         }
-        SampledSpectrum::ZERO
+        tr
     }
 
     /// Transmittance exp(-sigma_t d) (Beer-Lambert); 0 over an infinite distance unless
@@ -535,13 +590,20 @@ mod tests {
                 material: m,
             });
         }
-        let seg = SegmentMedium::collect(&stack, |m| media.get(m as usize), &w).unwrap();
+        let seg = SegmentMedium::collect(
+            &stack,
+            |m| media.get(m as usize),
+            |_| glam::Affine3A::IDENTITY,
+            &w,
+        )
+        .unwrap();
         let single = SegmentMedium::collect(
             &MediumStack {
                 entries: [MediumEntry::default(); MAX_MEDIA],
                 len: 1,
             },
             |m| media.get(m as usize),
+            |_| glam::Affine3A::IDENTITY,
             &w,
         )
         .unwrap();

@@ -185,42 +185,53 @@ impl Scene {
     }
 }
 
-/// Points per instance at which a heterogeneous volume's density is sampled for its bound.
-const DENSITY_BOUND_SAMPLES: u64 = 8192;
+/// Points per majorant-grid cell at which a heterogeneous volume's density is sampled.
+const DENSITY_SAMPLES_PER_CELL: u64 = 16;
 
-/// Bounds the density field of every heterogeneous volume (`crate::media::DensityField`):
-/// the largest density found at jittered points of each instance's bounding box, plus 25%.
-/// Delta tracking needs a majorant; shading graphs have no analytic bound, so densities above
-/// it (narrow peaks between the samples) are clamped to it.
+/// Bounds the density field of every heterogeneous volume (`crate::media::DensityField`): a
+/// majorant grid per instance over its mesh's box (`crate::media::grid`), each cell the largest
+/// of 16 densities sampled in it plus 25%, and the largest of them as the global
+/// bound. Delta tracking needs a majorant; shading graphs have no analytic bound, so densities
+/// above it (narrow peaks between the samples) are clamped to it.
 fn estimate_density_bounds(geometry: &Geometry, materials: &mut [Material]) {
+    use crate::media::grid::{MajorantGrid, GRID_RES};
     use crate::sampler::mix64;
     let unit = |k: u64, axis: u64| (mix64(k * 4 + axis) >> 40) as f32 / (1u64 << 24) as f32;
+    let n_cells = (GRID_RES * GRID_RES * GRID_RES) as u64;
     for (mi, material) in materials.iter_mut().enumerate() {
         let Some(field) = material.interior().and_then(|m| m.density()).cloned() else {
             continue;
         };
+        let mut grids = Vec::new();
         let mut max_density = 0.0f32;
         for (ii, inst) in geometry.instances.iter().enumerate() {
-            if geometry.meshes[inst.mesh as usize].material != mi as u32 {
+            let mesh = &geometry.meshes[inst.mesh as usize];
+            if mesh.material != mi as u32 {
                 continue;
             }
-            let c = geometry.instance_box_corners(ii as u32);
-            let max = (0..DENSITY_BOUND_SAMPLES)
+            let b = mesh.aabb();
+            let (lo, hi) = (glam::Vec3::from(b.min), glam::Vec3::from(b.max));
+            let sampled: Vec<f32> = (0..n_cells)
                 .into_par_iter()
-                .map(|k| {
-                    // A point of the (transformed) box: trilinear in its corners.
-                    let u = glam::Vec3::new(unit(k, 1), unit(k, 2), unit(k, 3));
-                    let lerp = |a: glam::Vec3, b: glam::Vec3, t: f32| a + (b - a) * t;
-                    let y0 = lerp(lerp(c[0], c[1], u.x), lerp(c[2], c[3], u.x), u.y);
-                    let y1 = lerp(lerp(c[4], c[5], u.x), lerp(c[6], c[7], u.x), u.y);
-                    let inputs = geometry.volume_inputs(ii as u32, lerp(y0, y1, u.z));
-                    field.graph.volume_density(&inputs).unwrap_or(0.0)
+                .map(|cell| {
+                    (0..DENSITY_SAMPLES_PER_CELL)
+                        .map(|j| {
+                            let k = cell * DENSITY_SAMPLES_PER_CELL + j;
+                            let u = glam::Vec3::new(unit(k, 1), unit(k, 2), unit(k, 3));
+                            let object = MajorantGrid::cell_point(lo, hi, cell as usize, u);
+                            let world = inst.object_to_world.transform_point3(object);
+                            let inputs = geometry.volume_inputs(ii as u32, world);
+                            field.graph.volume_density(&inputs).unwrap_or(0.0)
+                        })
+                        .fold(0.0f32, f32::max)
                 })
-                .reduce(|| 0.0f32, f32::max);
-            max_density = max_density.max(max);
+                .collect();
+            let grid = MajorantGrid::from_samples(lo, hi, &sampled, 1.25);
+            max_density = max_density.max(grid.max());
+            grids.push((ii as u32, std::sync::Arc::new(grid)));
         }
         if let Some(m) = material.interior_mut() {
-            m.set_majorant(max_density * 1.25);
+            m.set_bounds(max_density, grids);
         }
     }
 }

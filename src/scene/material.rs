@@ -111,6 +111,7 @@ impl Material {
                     Some(graph) => medium.with_density(DensityField {
                         graph,
                         majorant: 1.0,
+                        grids: Vec::new(),
                     }),
                     None => medium,
                 }
