@@ -22,9 +22,10 @@
 //! * `inputs` binds material inputs (`base_color`, `metallic`, `roughness`, `specular`,
 //!   `transmission`, `emission`, `emission_strength`, `alpha`, `normal`, `translucent`,
 //!   `volume_density`) to a node output or a constant; a bound input replaces the glTF
-//!   material's factor and texture, the others keep the glTF values. `volume_density` (float,
-//!   >= 0) multiplies the material's `volume` coefficients at each point inside it, where the
-//!   graph reads Position, Object and Generated coordinates (a heterogeneous volume).
+//!   material's factor and texture, the others keep the glTF values. `volume_density` (a
+//!   non-negative float) multiplies the material's `volume` coefficients at each point inside
+//!   it, where the graph reads Position, Object and Generated coordinates (a heterogeneous
+//!   volume).
 //! * A node's `inputs` give each socket a number, an array of 3 (vector, colour) or 4 (RGBA)
 //!   numbers, or a link `{ "node": <name>, "output": <socket> }`. Unlinked sockets take the
 //!   defaults listed in `graph::NodeOp::signature` (Blender's); Image Texture's `vector`
