@@ -469,6 +469,26 @@ fn density_graph(
     )
 }
 
+/// An absorbing volume (no surface) whose density is its Generated X coordinate: 0 to 1
+/// across the object's box.
+fn absorbing_along_x(name: &str, sigma_a: Vec3) -> MaterialDesc {
+    let mut m = volume_only(
+        name,
+        VolumeDesc {
+            sigma_a,
+            ..Default::default()
+        },
+    );
+    m.graph = Some(density_graph(
+        serde_json::json!({
+            "TC": {"type": "tex_coord"},
+            "Sep": {"type": "separate_xyz", "inputs": {"vector": {"node": "TC", "output": "generated"}}}
+        }),
+        serde_json::json!({"node": "Sep", "output": "x"}),
+    ));
+    m
+}
+
 /// Mean radiance (over `n` samples at 16 wavelength sets) along `ray`, per wavelength, divided
 /// by the white world's.
 fn mean_transmittance(
@@ -506,20 +526,7 @@ fn mean_transmittance(
 #[test]
 fn heterogeneous_density_tracks_its_optical_depth() {
     let sigma_a = Vec3::new(0.9, 0.5, 0.3);
-    let mut ink = volume_only(
-        "ink",
-        VolumeDesc {
-            sigma_a,
-            ..Default::default()
-        },
-    );
-    ink.graph = Some(density_graph(
-        serde_json::json!({
-            "TC": {"type": "tex_coord"},
-            "Sep": {"type": "separate_xyz", "inputs": {"vector": {"node": "TC", "output": "generated"}}}
-        }),
-        serde_json::json!({"node": "Sep", "output": "x"}),
-    ));
+    let ink = absorbing_along_x("ink", sigma_a);
     let scene = Scene::build(slab_scene(ink, 1.0, 1.0)).unwrap();
     let spectrum = CoefficientSpectrum::new(sigma_a);
     // Along x through the middle of the slab (z = -0.5): integral of (x + 2) / 4 over 4 units = 2.
@@ -543,20 +550,7 @@ fn heterogeneous_density_tracks_its_optical_depth() {
 #[test]
 fn heterogeneous_shadows_use_ratio_tracking() {
     let sigma_a = Vec3::splat(1.2);
-    let mut smoke = volume_only(
-        "smoke",
-        VolumeDesc {
-            sigma_a,
-            ..Default::default()
-        },
-    );
-    smoke.graph = Some(density_graph(
-        serde_json::json!({
-            "TC": {"type": "tex_coord"},
-            "Sep": {"type": "separate_xyz", "inputs": {"vector": {"node": "TC", "output": "generated"}}}
-        }),
-        serde_json::json!({"node": "Sep", "output": "x"}),
-    ));
+    let smoke = absorbing_along_x("smoke", sigma_a);
     let floor = common::scenes::quad_mesh("floor", Vec3::ZERO, Vec3::X * 5.0, Vec3::Y * 5.0, 0);
     let mut slab = slab_mesh(2.0, 0.5);
     slab.material = Some(1);

@@ -60,6 +60,20 @@ def _in(node, *names):
     return None
 
 
+def _curve_samples(node, default_range):
+    """(mapping, lo, hi, 257 x positions) of a curve node: its clipping range, or
+    `default_range` without clipping, sampled evenly as Cycles bakes curves."""
+    cm = node.mapping
+    try:
+        cm.initialize()
+    except Exception:
+        pass
+    lo, hi = float(cm.clip_min_x), float(cm.clip_max_x)
+    if not cm.use_clip or hi <= lo:
+        lo, hi = default_range
+    return cm, lo, hi, [lo + (hi - lo) * k / 256.0 for k in range(257)]
+
+
 class GraphBuilder:
     """Collects the graph of one material.
 
@@ -475,15 +489,7 @@ class GraphBuilder:
         """RGB Curves / Float Curve as tables of 257 samples over the curve's clipping range, as
         Cycles bakes them (RGB: each channel's curve after the combined one, as Blender's
         curvemapping_evaluate_premulRGBF)."""
-        cm = node.mapping
-        try:
-            cm.initialize()
-        except Exception:
-            pass
-        lo, hi = float(cm.clip_min_x), float(cm.clip_max_x)
-        if not cm.use_clip or hi <= lo:
-            lo, hi = 0.0, 1.0
-        xs = [lo + (hi - lo) * k / 256.0 for k in range(257)]
+        cm, lo, hi, xs = _curve_samples(node, (0.0, 1.0))
         curves = list(cm.curves)
         tables = []
         if rgb:
@@ -502,15 +508,7 @@ class GraphBuilder:
     def _vector_curves_node(self, node, ctx):
         """Vector Curves: one 257-sample table per axis over the curve's clipping range
         ([-1, 1] by default), as Cycles bakes them."""
-        cm = node.mapping
-        try:
-            cm.initialize()
-        except Exception:
-            pass
-        lo, hi = float(cm.clip_min_x), float(cm.clip_max_x)
-        if not cm.use_clip or hi <= lo:
-            lo, hi = -1.0, 1.0
-        xs = [lo + (hi - lo) * k / 256.0 for k in range(257)]
+        cm, lo, hi, xs = _curve_samples(node, (-1.0, 1.0))
         tables = [{"lo": lo, "hi": hi, "values": [float(cm.evaluate(c, x)) for x in xs],
                    "extrapolate": cm.extend == "EXTRAPOLATED"} for c in list(cm.curves)[:3]]
         m = {"fac": _in(node, "Fac", "Factor"), "vector": _in(node, "Vector")}

@@ -287,6 +287,53 @@ impl<'a> PathTracer<'a> {
         (segment_end, emitted, None)
     }
 
+    /// Next-event estimation with a scattering function that is the same at every wavelength
+    /// (a volume's phase function, a subsurface exit lobe): a light sampled from `ctx` with
+    /// `u`, `scatter(wi)` giving (f times its cosine if any, the density with which the vertex
+    /// samples wi, the shadow ray's origin) or `None` where it does not scatter, the shadow ray
+    /// traced through `media`. Returns the contribution per unit throughput, MIS-weighted
+    /// against sampling the scattering function, divided by the hero MIS denominator.
+    #[allow(clippy::too_many_arguments)]
+    fn sample_direct(
+        &self,
+        ctx: &ShadingContext,
+        (u_light2, u_light): (glam::Vec2, f32),
+        w: &SampledWavelengths,
+        media: &MediumStack,
+        mis: &SpectralMis,
+        sampler: &mut Sampler,
+        rays: &mut u32,
+        scatter: impl Fn(glam::Vec3) -> Option<(f32, f32, glam::Vec3)>,
+    ) -> SampledSpectrum {
+        let scene = self.scene;
+        let Some(ls) = scene.lights.sample(
+            &scene.geometry,
+            &scene.materials,
+            &scene.textures,
+            ctx,
+            u_light,
+            u_light2,
+            w,
+            self.selection,
+        ) else {
+            return SampledSpectrum::ZERO;
+        };
+        let Some((f, pdf, origin)) = scatter(ls.wi) else {
+            return SampledSpectrum::ZERO;
+        };
+        *rays += 1;
+        let shadow = self.transmittance(Ray::new(origin, ls.wi), ls.distance, media, w, sampler);
+        if shadow.is_black() {
+            return SampledSpectrum::ZERO;
+        }
+        let weight = if ls.delta {
+            1.0
+        } else {
+            mis.light_weight(ls.pdf, SampledSpectrum::splat(pdf))
+        };
+        ls.li * shadow * (f * weight / (ls.pdf * mis.denominator()))
+    }
+
     /// The density of the heterogeneous volume `e` at the world point `p`.
     fn density_at(&self, e: &MediumEntry, p: glam::Vec3) -> f32 {
         let Some(field) = self.scene.materials[e.material as usize]
@@ -619,41 +666,15 @@ impl<'a> PathTracer<'a> {
                     break;
                 }
                 let ctx = ShadingContext { p, n: None };
-                let (u_light2, u_light) = sampler.light();
-                if let Some(ls) = lights.sample(
-                    geometry,
-                    &scene.materials,
-                    &scene.textures,
-                    &ctx,
-                    u_light,
-                    u_light2,
-                    &alive,
-                    selection,
-                ) {
-                    let f = phase.eval(ray.dir.dot(ls.wi));
-                    if f > 0.0 {
-                        rays += 1;
-                        let shadow = self.transmittance(
-                            Ray::new(p, ls.wi),
-                            ls.distance,
-                            &media,
-                            &alive,
-                            sampler,
-                        );
-                        if !shadow.is_black() {
-                            let weight = if ls.delta {
-                                1.0
-                            } else {
-                                mis.light_weight(ls.pdf, SampledSpectrum::splat(f))
-                            };
-                            let c =
-                                beta * ls.li * shadow * (f * weight / (ls.pdf * mis.denominator()));
-                            l += c;
-                            if depth == 0 {
-                                l_direct += c;
-                            }
-                        }
-                    }
+                let u = sampler.light();
+                let c = beta
+                    * self.sample_direct(&ctx, u, &alive, &media, &mis, sampler, &mut rays, |wi| {
+                        let f = phase.eval(ray.dir.dot(wi));
+                        (f > 0.0).then_some((f, f, p))
+                    });
+                l += c;
+                if depth == 0 {
+                    l_direct += c;
                 }
                 let (u_lobe, u_dir) = sampler.bsdf();
                 let wi = phase.sample(ray.dir, u_lobe, u_dir.x, u_dir.y);
@@ -1047,49 +1068,31 @@ impl<'a> PathTracer<'a> {
             }
             if let Some((p_exit, ng_i, frame_i, lobe)) = exit {
                 // Next-event estimation at the exit point with the exit lobe.
-                let (u_light2, u_light) = sampler.exit_light();
                 let exit_ctx = ShadingContext {
                     p: p_exit,
                     n: Some(ng_i),
                 };
-                if let Some(ls) = lights.sample(
-                    geometry,
-                    &scene.materials,
-                    &scene.textures,
-                    &exit_ctx,
-                    u_light,
-                    u_light2,
-                    &alive,
-                    selection,
-                ) {
-                    let cos = frame_i.to_local(ls.wi).z;
-                    let f = lobe.eval(cos);
-                    if f > 0.0 && ls.wi.dot(ng_i) > 0.0 {
-                        rays += 1;
-                        let origin = offset_ray_origin(p_exit, ng_i, ls.wi);
-                        let shadow = self.transmittance(
-                            Ray::new(origin, ls.wi),
-                            ls.distance,
-                            &media,
-                            &alive,
-                            sampler,
-                        );
-                        if !shadow.is_black() {
-                            let weight = if ls.delta {
-                                1.0
-                            } else {
-                                mis.light_weight(ls.pdf, SampledSpectrum::splat(lobe.pdf(cos)))
-                            };
-                            let c = beta
-                                * ls.li
-                                * shadow
-                                * (f * cos * weight / (ls.pdf * mis.denominator()));
-                            l += c;
-                            if depth == 0 {
-                                l_direct += c;
-                            }
-                        }
-                    }
+                let u = sampler.exit_light();
+                let c = beta
+                    * self.sample_direct(
+                        &exit_ctx,
+                        u,
+                        &alive,
+                        &media,
+                        &mis,
+                        sampler,
+                        &mut rays,
+                        |wi| {
+                            let cos = frame_i.to_local(wi).z;
+                            let f = lobe.eval(cos);
+                            (f > 0.0 && wi.dot(ng_i) > 0.0).then(|| {
+                                (f * cos, lobe.pdf(cos), offset_ray_origin(p_exit, ng_i, wi))
+                            })
+                        },
+                    );
+                l += c;
+                if depth == 0 {
+                    l_direct += c;
                 }
                 let wi = lobe.sample(sampler.exit_lobe());
                 let pdf = lobe.pdf(wi.z);
