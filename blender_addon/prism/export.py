@@ -263,12 +263,10 @@ def volume_lobes(node, warn, weight=1.0, depth=0, densities=None):
 
 
 def volume_json(lobes, warn_merge):
-    """Lobes -> the material JSON `volume` (or None when it neither absorbs, scatters nor
-    emits). The renderer has one Henyey-Greenstein lobe per volume: several scattering lobes
-    keep their summed sigma_s and get the sigma_s-weighted mean anisotropy (`warn_merge` is
-    called when their anisotropies differ)."""
-    if not lobes:
-        return None
+    """Lobes -> the material JSON `volume` (an empty volume, density 0 or no lobes, stays: a
+    surface-less material is still invisible). The renderer has one Henyey-Greenstein lobe per
+    volume: several scattering lobes keep their summed sigma_s and get the sigma_s-weighted
+    mean anisotropy (`warn_merge` is called when their anisotropies differ)."""
     sigma_a = [sum(l[0][i] for l in lobes) for i in range(3)]
     sigma_s = [sum(l[1][i] for l in lobes) for i in range(3)]
     emission = [sum(l[3][i] for l in lobes) for i in range(3)]
@@ -277,8 +275,6 @@ def volume_json(lobes, warn_merge):
     g = sum(w * g for w, g in scatter_weights) / total if total > 0.0 else 0.0
     if len({round(g_, 4) for _, g_ in scatter_weights}) > 1:
         warn_merge()
-    if max(sigma_a + sigma_s + emission) <= 0.0:
-        return None
     out = {"sigma_a": sigma_a, "sigma_s": sigma_s, "g": min(max(g, -0.99), 0.99)}
     if max(emission) > 0.0:
         out["emission"] = emission
@@ -1253,7 +1249,9 @@ class Exporter:
 
         lobes = volume_lobes(node, warn, densities=True)
         if lobes is None:
-            return None
+            # Not translatable (warned): an empty volume, so a surface-less material stays
+            # invisible as in Cycles instead of turning into a grey surface.
+            return {"sigma_a": [0.0] * 3, "sigma_s": [0.0] * 3, "g": 0.0}
         sockets = {l[4].as_pointer(): l[4] for l in lobes if l[4] is not None}
         extinct = [l for l in lobes if max(l[0] + l[1]) > 0.0]
         if sockets and (len(sockets) > 1 or any(l[4] is None for l in extinct)):

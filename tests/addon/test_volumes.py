@@ -235,8 +235,11 @@ def test_untranslatable_volume_inputs_are_named():
     out = next(n for n in w.nodes if n.type == "OUTPUT_WORLD")
     wv = w.nodes.new("ShaderNodeVolumeScatter")
     w.links.new(wv.outputs[0], out.inputs["Volume"])
-    C.use_prism(sc, 4)
-    C.render_pixels(sc, os.path.join(OUT, "warnings.exr"))
+    # A volume of density 0 and nothing on Surface: invisible, as in Cycles (not a grey surface).
+    empty = volume_material("Empty", lambda nt: principled(nt, Density=0.0).outputs[0])
+    C.mesh_object("EmptyBox", C.cube(1.0), empty, location=(0.0, -3.0, 1.0))
+    C.use_prism(sc, 16)
+    px = C.render_pixels(sc, os.path.join(OUT, "warnings.exr"))
     warnings = prism.engine.LAST["warnings"]
     print("  warnings: %s" % warnings)
     C.check(any("'Fog'" in x and pv.name in x and "'Color'" in x for x in warnings),
@@ -245,6 +248,12 @@ def test_untranslatable_volume_inputs_are_named():
         C.check(any("'Smoke'" in x and smoke_scatter.name in x and "RAYLEIGH" in x for x in warnings),
                 "an unsupported phase function is named")
     C.check(any("world" in x and wv.name in x and "Volume" in x for x in warnings), "the world Volume is named")
+    C.check(not any("Empty" in x for x in warnings), "an empty volume is no grey surface and no warning")
+    # The box stands in front of the smoke cube (the middle object): hiding it changes nothing.
+    bpy.data.objects["EmptyBox"].hide_render = True
+    without = C.render_pixels(sc, os.path.join(OUT, "warnings_nobox.exr"))
+    a, b = region(px, 2).mean(axis=(0, 1)), region(without, 2).mean(axis=(0, 1))
+    C.check(bool(np.all(np.abs(a - b) <= 0.1 * b)), "the empty box is invisible: %s vs %s without it" % (a, b))
 
 
 if __name__ == "__main__":
