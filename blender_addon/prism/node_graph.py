@@ -426,12 +426,12 @@ class GraphBuilder:
             j = {"type": "wavelength", "inputs": self._inputs(node, ctx, {"wavelength": I("Wavelength")})}
             outs = {"Color": "color"}
         elif t == "NORMAL_MAP":
-            if node.space not in {"TANGENT", "WORLD"}:
+            if node.space not in {"TANGENT", "OBJECT", "WORLD"}:
                 self.warn(node, "%s space is not supported; the normal is left unperturbed" % node.space)
                 return None
             if node.space == "TANGENT" and node.uv_map:
                 self.warn(node, "the UV map '%s' is not used for tangents; the active UV map is" % node.uv_map)
-            j = {"type": "normal_map", "space": "world" if node.space == "WORLD" else "tangent",
+            j = {"type": "normal_map", "space": node.space.lower(),
                  "inputs": self._inputs(node, ctx, {"strength": I("Strength"), "color": I("Color")})}
             outs = {"Normal": "normal"}
         elif t == "BUMP":

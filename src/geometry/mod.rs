@@ -694,6 +694,7 @@ impl Geometry {
         out.true_normal = sp.ng * flip;
         (out.tangent, out.bitangent) = self.normal_map_frame(sp);
         out.object = inst.world_to_object.transform_point3(sp.p);
+        out.normal_to_world = Mat3::from(inst.world_to_object.matrix3).transpose();
         out.object_normal = inst
             .object_to_world
             .matrix3

@@ -160,9 +160,10 @@ pub enum NodeOp {
         invert: bool,
     },
     Blackbody,
-    /// Normal Map: a colour-encoded normal in tangent space (TEXCOORD_0's frame) or world space.
+    /// Normal Map: a colour-encoded normal in tangent space (TEXCOORD_0's frame), object space
+    /// (the object's own axes, turned to world space by its normal matrix) or world space.
     NormalMap {
-        world: bool,
+        space: NormalSpace,
     },
     /// RGB Curves (3 tables: R, G, B, each with the combined curve applied) or Float Curve (1).
     Curves(Vec<CurveTable>),
@@ -174,6 +175,14 @@ pub enum NodeOp {
         depth: i32,
     },
     Brick(Brick),
+}
+
+/// The space a Normal Map node's colour encodes its normal in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NormalSpace {
+    Tangent,
+    Object,
+    World,
 }
 
 use SocketType::{Color as C, Float as F, Vector as V};
@@ -794,6 +803,11 @@ impl ShadingGraph {
     fn local(&self, ctx: &ShadingInputs) -> ShadingInputs {
         let mut c = *ctx;
         if self.z_up {
+            c.normal_to_world = Mat3::from_cols(
+                self.vector_in(c.normal_to_world.x_axis),
+                self.vector_in(c.normal_to_world.y_axis),
+                self.vector_in(c.normal_to_world.z_axis),
+            );
             for v in [
                 &mut c.position,
                 &mut c.normal,
@@ -1302,15 +1316,15 @@ fn eval_node(op: &NodeOp, i: &[Vec4; MAX_INPUTS], ctx: &ShadingInputs) -> [Vec4;
         // Without offsets (evaluated outside a normal binding) the normal passes unchanged;
         // `ShadingGraph::run` computes the bumped one.
         NodeOp::Blackbody => o[0] = rgb(blackbody(i[0].x)),
-        NodeOp::NormalMap { world } => {
+        NodeOp::NormalMap { space } => {
             // Work with the outward normal and frame, answer on the viewer's side.
             let side = if ctx.backfacing { -1.0 } else { 1.0 };
             let n_out = ctx.normal * side;
             let c = i[1].xyz() * 2.0 - Vec3::ONE;
-            let mapped = if *world {
-                c
-            } else {
-                ctx.tangent * c.x + ctx.bitangent * c.y + n_out * c.z
+            let mapped = match space {
+                NormalSpace::World => c,
+                NormalSpace::Object => ctx.normal_to_world * c,
+                NormalSpace::Tangent => ctx.tangent * c.x + ctx.bitangent * c.y + n_out * c.z,
             };
             let mapped = mapped.try_normalize().unwrap_or(n_out);
             let strength = i[0].x.max(0.0);

@@ -42,6 +42,9 @@ pub struct ShadingInputs {
     pub normal: Vec3,
     /// Shading normal in object space (Texture Coordinate > Normal).
     pub object_normal: Vec3,
+    /// Turns object-space normals into world space: the inverse transpose of the object's
+    /// linear transform (object-space normal maps).
+    pub normal_to_world: glam::Mat3,
     /// Geometric normal, world space, flipped like `normal`.
     pub true_normal: Vec3,
     /// The tangent frame of TEXCOORD_0 (MikkTSpace tangents when the mesh has them), world
@@ -77,6 +80,7 @@ impl Default for ShadingInputs {
             generated: Vec3::ZERO,
             normal: Vec3::Z,
             object_normal: Vec3::Z,
+            normal_to_world: glam::Mat3::IDENTITY,
             true_normal: Vec3::Z,
             tangent: Vec3::X,
             bitangent: Vec3::Y,

@@ -58,7 +58,7 @@
 //!   and `value` / `color`); `vector_curves` (`tables`: 3, for X, Y and Z, sampled over the
 //!   curve's range, usually [-1, 1]; inputs `fac`, `vector`; output `vector`); `wavelength`
 //!   (input `wavelength` in nm; output `color`: Blender's colour of that wavelength);
-//!   `normal_map` (`space`: tangent (TEXCOORD_0's frame) | world;
+//!   `normal_map` (`space`: tangent (TEXCOORD_0's frame) | object | world;
 //!   inputs `strength`, `color`); `blackbody` (input `temperature` in kelvin).
 //! * `closures` (instead of or with `inputs`): a Mix / Add Shader tree flattened into its
 //!   leaves, `[{"kind": "bsdf" | "emission" | "transparent" | "translucent", "weight": <value or link>,
@@ -78,8 +78,8 @@ use serde_json::{Map, Value};
 
 use super::color::{ColorRamp, BLEND_MODES, RAMP_INTERPOLATIONS};
 use super::graph::{
-    ColorModel, GraphNode, MapRangeInterpolation, MappingKind, MaterialInput, NodeOp, ShadingGraph,
-    SocketType, Source, MATERIAL_INPUTS,
+    ColorModel, GraphNode, MapRangeInterpolation, MappingKind, MaterialInput, NodeOp, NormalSpace,
+    ShadingGraph, SocketType, Source, MATERIAL_INPUTS,
 };
 use super::image::{Image, EXTENSIONS, INTERPOLATIONS};
 use super::math_ops::{MATH_OPS, VECTOR_MATH_OPS};
@@ -502,12 +502,16 @@ fn node_op(
         "blackbody" => NodeOp::Blackbody,
         "wavelength" => NodeOp::Wavelength,
         "normal_map" => NodeOp::NormalMap {
-            world: enum_value(
+            space: enum_value(
                 m,
                 "space",
                 path,
-                &[("tangent", false), ("world", true)],
-                false,
+                &[
+                    ("tangent", NormalSpace::Tangent),
+                    ("object", NormalSpace::Object),
+                    ("world", NormalSpace::World),
+                ],
+                NormalSpace::Tangent,
             )?,
         },
         "bump" => NodeOp::Bump {

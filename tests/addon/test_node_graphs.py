@@ -24,7 +24,7 @@ OUT = tempfile.mkdtemp(prefix="prism_addon_test_graph_")
 prism = C.enable_addon()
 C.prefs().binary_path = C.BINARY
 
-COLS = 5
+COLS = 6  # the image stays wider than tall: an orthographic scale spans the larger side
 TILE_PX = 24
 
 
@@ -353,6 +353,7 @@ def setups():
     nt.links.new(nm.outputs["Normal"], sh.inputs["Normal"])
     out.append(("NormalMapGraph", mat))
 
+
     # World-space vectors in Blender's frame (Z up): an up-facing tile's normal z is 1, and its
     # world position x varies across the grid.
     mat, nt, sh = new_material("GeometryWorld", "ShaderNodeEmission")
@@ -401,6 +402,21 @@ def setups():
     mixed("MixDiffuseGlossy")
     mixed("MixCheckerFac", checker_fac)
     mixed("AddEmission", add=True)
+
+    # An object-space normal map on a tile turned about Z and tilted (build_scene): the
+    # object's normal matrix takes the encoded normals to world space.
+    omap = image("ObjectTilts", 8, 8, lambda x, y: (0.75, 0.5, 0.85, 1.0) if (x // 2) % 2 else (0.4, 0.7, 0.85, 1.0),
+                 non_color=True)
+    mat, nt, sh = new_material("NormalMapObject", "ShaderNodeBsdfPrincipled")
+    sh.inputs["Base Color"].default_value = (0.6, 0.6, 0.6, 1.0)
+    tex = nt.nodes.new("ShaderNodeTexImage")
+    tex.image = omap
+    tex.interpolation = "Closest"
+    nm = nt.nodes.new("ShaderNodeNormalMap")
+    nm.space = "OBJECT"
+    nt.links.new(tex.outputs["Color"], nm.inputs["Color"])
+    nt.links.new(nm.outputs["Normal"], sh.inputs["Normal"])
+    out.append(("NormalMapObject", mat))
     return out
 
 
@@ -411,7 +427,10 @@ def build_scene():
     rows = (len(tiles) + COLS - 1) // COLS
     for i, (name, mat) in enumerate(tiles):
         r, c = divmod(i, COLS)
-        C.mesh_object(name, tile_mesh, mat, location=(c * 1.2 - (COLS - 1) * 0.6, (rows - 1) * 0.6 - r * 1.2, 0.0))
+        # The object-space normal map's tile is turned, so object and world space differ.
+        rotation = (0.25, 0.0, 0.3) if name == "NormalMapObject" else (0.0, 0.0, 0.0)
+        C.mesh_object(name, tile_mesh, mat, location=(c * 1.2 - (COLS - 1) * 0.6, (rows - 1) * 0.6 - r * 1.2, 0.0),
+                      rotation=rotation)
     floor = C.material("Floor", "ShaderNodeBsdfDiffuse", (0.5, 0.45, 0.4))
     C.mesh_object("Floor", C.plane(40.0), floor, location=(0.0, 0.0, -0.5))
     C.world((1.0, 1.0, 1.0), 0.3)
@@ -430,7 +449,10 @@ def tile_pixels(img, i, rows):
     h, w = img.shape[:2]
     r, c = divmod(i, COLS)
     cx = (c + 0.5) * w / COLS
-    cy = h - (r + 0.5) * h / rows
+    # From the tile's world y (build_scene) through the orthographic view's scale: the image
+    # height is rounded to whole pixels, so rows are not exactly h / rows apart.
+    px_per_unit = w / (COLS * 1.2)
+    cy = h / 2 + ((rows - 1) * 0.6 - r * 1.2) * px_per_unit
     half = 0.35 * TILE_PX
     return img[int(cy - half):int(cy + half), int(cx - half):int(cx + half)]
 
@@ -450,7 +472,7 @@ def test_node_setups_match_cycles():
         rel = C.rel_mse(C.blur(a), C.blur(b))
         # Within 10% per channel (absolutely for channels near 0).
         ok = bool(np.all(np.abs(ma - mb) <= 0.10 * np.maximum(mb, 0.02))) and rel <= 0.03
-        if name in {"BumpNoise", "NormalMapGraph"}:
+        if name in {"BumpNoise", "NormalMapGraph", "NormalMapObject"}:
             # The bump pattern itself (a flat tile would match the means too).
             la, lb = a.mean(axis=-1).ravel(), b.mean(axis=-1).ravel()
             corr = float(np.corrcoef(la, lb)[0, 1])
