@@ -180,29 +180,24 @@ fn a_camera_inside_a_volume_starts_in_it() {
     );
 }
 
-#[test]
-fn shadow_rays_are_attenuated_by_the_volumes_they_cross() {
-    // A diffuse floor at z = 0 under a sun from straight above; an absorbing box
-    // [-1, 1]^2 x [1, 1.5] (no surface) between them shades x < 1 by exp(-sigma_a 0.5).
-    let sigma_a = 0.8;
+/// A diffuse floor (albedo 0.5) at z = 0 under a sun straight above, with `volume` drawn as
+/// `mesh` (a slab whose top is at its z = 0) lifted by `lift`, between them; black world.
+fn sunlit_floor_under(
+    volume: MaterialDesc,
+    mut mesh: prism::scene::desc::MeshDesc,
+    lift: f32,
+) -> SceneDesc {
     let floor = common::scenes::quad_mesh("floor", Vec3::ZERO, Vec3::X * 5.0, Vec3::Y * 5.0, 0);
-    let mut box_mesh = slab_mesh(1.0, 0.5);
-    box_mesh.material = Some(1);
-    let desc = SceneDesc {
-        meshes: vec![floor, box_mesh],
+    mesh.material = Some(1);
+    SceneDesc {
+        meshes: vec![floor, mesh],
         instances: vec![
             instance(0, Mat4::IDENTITY),
-            instance(1, Mat4::from_translation(Vec3::new(0.0, 0.0, 1.5))),
+            instance(1, Mat4::from_translation(Vec3::new(0.0, 0.0, lift))),
         ],
         materials: vec![
             common::scenes::diffuse_material("floor", Vec3::splat(0.5)),
-            volume_only(
-                "smoke",
-                VolumeDesc {
-                    sigma_a: Vec3::splat(sigma_a),
-                    ..Default::default()
-                },
-            ),
+            volume,
         ],
         lights: vec![PunctualLightDesc {
             kind: PunctualKind::Directional,
@@ -214,7 +209,22 @@ fn shadow_rays_are_attenuated_by_the_volumes_they_cross() {
         camera: Some(camera(10.0, 0.5)),
         world: world(0.0),
         ..Default::default()
-    };
+    }
+}
+
+#[test]
+fn shadow_rays_are_attenuated_by_the_volumes_they_cross() {
+    // A diffuse floor at z = 0 under a sun from straight above; an absorbing box
+    // [-1, 1]^2 x [1, 1.5] (no surface) between them shades x < 1 by exp(-sigma_a 0.5).
+    let sigma_a = 0.8;
+    let smoke = volume_only(
+        "smoke",
+        VolumeDesc {
+            sigma_a: Vec3::splat(sigma_a),
+            ..Default::default()
+        },
+    );
+    let desc = sunlit_floor_under(smoke, slab_mesh(1.0, 0.5), 1.5);
     let scene = Scene::build(desc).unwrap();
     let grey = CoefficientSpectrum::new(Vec3::splat(sigma_a));
     let at = |x: f32| {
@@ -551,30 +561,7 @@ fn heterogeneous_density_tracks_its_optical_depth() {
 fn heterogeneous_shadows_use_ratio_tracking() {
     let sigma_a = Vec3::splat(1.2);
     let smoke = absorbing_along_x("smoke", sigma_a);
-    let floor = common::scenes::quad_mesh("floor", Vec3::ZERO, Vec3::X * 5.0, Vec3::Y * 5.0, 0);
-    let mut slab = slab_mesh(2.0, 0.5);
-    slab.material = Some(1);
-    let desc = SceneDesc {
-        meshes: vec![floor, slab],
-        instances: vec![
-            instance(0, Mat4::IDENTITY),
-            instance(1, Mat4::from_translation(Vec3::new(0.0, 0.0, 2.0))),
-        ],
-        materials: vec![
-            common::scenes::diffuse_material("floor", Vec3::splat(0.5)),
-            smoke,
-        ],
-        lights: vec![PunctualLightDesc {
-            kind: PunctualKind::Directional,
-            direction: Vec3::NEG_Z,
-            intensity: 3.0,
-            color: Vec3::ONE,
-            ..Default::default()
-        }],
-        camera: Some(camera(10.0, 0.5)),
-        world: world(0.0),
-        ..Default::default()
-    };
+    let desc = sunlit_floor_under(smoke, slab_mesh(2.0, 0.5), 2.0);
     let scene = Scene::build(desc).unwrap();
     let tracer = PathTracer::new(&scene, 1, LightSelection::Power);
     let mean_at = |x: f32| {
