@@ -57,7 +57,7 @@ def normal_image(name="NormalMap", size=64):
 def normal_mapped_material(name, strength=1.0, mode="MAP"):
     """Principled BSDF, grey, no specular layer (pure Lambertian: the comparison is about the
     normal, not the glossy lobe). mode: MAP (tangent-space Normal Map + image), NONE, BUMP,
-    OBJECT (object-space Normal Map)."""
+    OBJECT or BLENDER_OBJECT (a Normal Map in that space)."""
     mat = C.material(name, "ShaderNodeBsdfPrincipled", (ALBEDO,) * 3, Roughness=1.0)
     nt = mat.node_tree
     bsdf = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
@@ -72,7 +72,7 @@ def normal_mapped_material(name, strength=1.0, mode="MAP"):
     tex = nt.nodes.new("ShaderNodeTexImage")
     tex.image = normal_image()
     nmap = nt.nodes.new("ShaderNodeNormalMap")
-    nmap.space = "TANGENT" if mode == "MAP" else "OBJECT"
+    nmap.space = "TANGENT" if mode == "MAP" else mode
     nmap.uv_map = "UVMap"
     nmap.inputs["Strength"].default_value = strength
     nt.links.new(tex.outputs["Color"], nmap.inputs["Color"])
@@ -179,9 +179,10 @@ def test_export_normal_texture_and_tangents():
 
 
 def test_unsupported_normal_inputs_warn():
-    """An object-space Normal Map: no normalTexture, no TANGENT, one warning naming the
-    material; the export still succeeds. A Bump node is exported through the shading graph."""
-    for mode in ("BUMP", "OBJECT"):
+    """A Blender-object-space Normal Map: no normalTexture, no TANGENT, one warning naming the
+    material; the export still succeeds. A Bump node and an object-space Normal Map are
+    exported through the shading graph (compared with Cycles in test_node_graphs.py)."""
+    for mode in ("BUMP", "OBJECT", "BLENDER_OBJECT"):
         g, d, warnings = export(scene(mode=mode))
         mat = g["materials"][0]
         prim = g["meshes"][0]["primitives"][0]
@@ -193,6 +194,12 @@ def test_unsupported_normal_inputs_warn():
             C.check(any(n["type"] == "bump" for n in graph["nodes"].values()) and "normal" in graph["inputs"],
                     "BUMP: exported as a graph bump (%s)" % graph)
             C.check(not warnings, "BUMP: no warnings %s" % warnings)
+        elif mode == "OBJECT":
+            with open(os.path.join(d, "scene.materials.json")) as f:
+                graph = json.load(f)["materials"][mat["name"]]["graph"]
+            C.check(any(n["type"] == "normal_map" and n.get("space") == "object" for n in graph["nodes"].values())
+                    and "normal" in graph["inputs"], "OBJECT: exported as an object-space graph normal map (%s)" % graph)
+            C.check(not warnings, "OBJECT: no warnings %s" % warnings)
         else:
             C.check(any("Normal inputs ignored" in w and "Mapped" in w for w in warnings), "%s: warning %s" % (mode, warnings))
 
