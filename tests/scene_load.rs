@@ -786,7 +786,7 @@ fn glb_and_external_buffers_load() {
         None,
     ));
     assert!(
-        e.ends_with("gone.gltf: buffer 0: cannot read 'gone.bin': No such file or directory"),
+        e.ends_with("gone.gltf: buffers[0]: cannot read 'gone.bin': No such file or directory"),
         "{e}"
     );
 }

@@ -146,10 +146,20 @@ impl GltfMaterialDesc {
     /// The transmissive part's IOR: the Abbe form with n_d = `ior` and V_d = 20 / `dispersion`
     /// when `dispersion` > 0, else the constant `ior`. Falls back to the constant if the pair is
     /// invalid (the glTF loader rejects such files; hand-built descriptions may not).
+    ///
+    /// KHR_materials_ior's `ior = 0` means F0 = 1: the limit of an ever denser dielectric,
+    /// which refraction gets as [`IOR_ZERO_LIMIT`] (F0 = 0.9996; the metallic-roughness BRDF
+    /// takes the exact limit from `ior` = 0 itself).
     pub fn ior_model(&self) -> IorDesc {
+        if self.ior == 0.0 {
+            return IorDesc::Constant(IOR_ZERO_LIMIT);
+        }
         IorDesc::from_gltf(self.ior, self.dispersion).unwrap_or(IorDesc::Constant(self.ior))
     }
 }
+
+/// The refractive index that stands for KHR_materials_ior's `ior = 0` (F0 = 1) in refraction.
+pub const IOR_ZERO_LIMIT: f32 = 1.0e4;
 
 /// Measured or explicit participating medium of a subsurface material (consumed by the BSSRDF).
 #[derive(Clone, Debug, PartialEq)]

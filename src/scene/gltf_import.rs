@@ -16,6 +16,7 @@
 //! [`PrismError::Input`] naming the file.
 
 use rayon::prelude::*;
+use std::cell::OnceCell;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -26,6 +27,7 @@ use gltf::Semantic;
 
 use crate::error::PrismError;
 use crate::scene::desc::*;
+use crate::scene::gltf_json::{prepare, TextureSource};
 use crate::scene::materials_json::io_msg;
 use crate::scene::texture::{decode_image, parse_data_uri, percent_decode, to_linear_texels};
 
@@ -70,8 +72,9 @@ pub struct GltfImport {
 /// Most node visits accepted: a node may legally be reached along several paths (instancing),
 /// and a malicious DAG could otherwise reach exponentially many instances.
 const MAX_NODE_VISITS: usize = 1 << 22;
-/// Upper bound for accessor element counts not backed by a buffer view (sparse-only accessors).
-const MAX_SPARSE_BASE_ELEMENTS: usize = 1 << 27;
+/// Upper bound for the element count of an accessor without a buffer view (all zeros, or
+/// sparse-only): nothing in the file bounds its memory otherwise.
+const MAX_ZERO_ACCESSOR_ELEMENTS: usize = 1 << 24;
 
 type R<T> = Result<T, PrismError>;
 
@@ -90,42 +93,52 @@ pub fn import_gltf(path: &Path, camera_name: Option<&str>) -> R<GltfImport> {
     } else {
         (&bytes[..], None)
     };
-    let root: gltf::json::Root = gltf::json::deserialize::from_slice(json_bytes)
-        .map_err(|e| fail(format!("invalid glTF JSON: {e}")))?;
-    precheck(&root).map_err(fail)?;
-    let unsupported_extensions: Vec<String> = root
-        .extensions_used
-        .iter()
-        .filter(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str()))
-        .cloned()
-        .collect();
-    let doc = gltf::Document::from_json(root).map_err(|e| fail(validation_message(e)))?;
+    let prepared = prepare(json_bytes).map_err(fail)?;
+    let mut warnings = prepared.warnings;
+    let root = prepared.root;
+    let (unsupported_used, unreadable_required) = extension_support(&root);
+    if !unsupported_used.is_empty() {
+        // Optional extensions may be ignored (glTF 2.0 spec 3.12); say which, since the image
+        // then differs from what the author saw (clearcoat, sheen, ...).
+        warnings.push(format!(
+            "extensions not supported and ignored: {}",
+            unsupported_used.join(", ")
+        ));
+    }
+    if let Some(ext) = unreadable_required.first() {
+        // Compressed geometry the renderer cannot decode: the only required extensions that
+        // would draw wrong (nothing, or garbage) rather than approximately.
+        return Err(fail(format!(
+            "extensionsRequired: {ext} is required and not supported (its geometry cannot be read)"
+        )));
+    }
+    // The crate's validation refuses valid files (issue 16) and stops at the first problem
+    // anywhere; the importer checks every object it uses, where it uses it.
+    let doc = gltf::Document::from_json_without_validation(root);
     let dir = path
         .parent()
         .map(Path::to_path_buf)
         .unwrap_or_else(|| PathBuf::from("."));
-    let buffers = load_buffers(&doc, bin, &dir).map_err(fail)?;
+    let buffers = (0..doc.as_json().buffers.len())
+        .map(|_| OnceCell::new())
+        .collect();
     let mut imp = Importer {
         doc: &doc,
+        bin,
         buffers,
         dir,
         scene: SceneDesc::default(),
         mesh_cache: HashMap::new(),
         image_cache: HashMap::new(),
         texture_cache: HashMap::new(),
+        texture_sources: prepared.texture_sources,
+        unknown_lights: prepared.unknown_lights,
+        material_errors: Vec::new(),
         cameras: Vec::new(),
         skipped_non_triangle: 0,
         warned: Vec::new(),
     };
-    if !unsupported_extensions.is_empty() {
-        // Optional extensions may be ignored (glTF 2.0 spec 3.12); say which, since the image
-        // then differs from what the author saw (clearcoat, sheen, ...). Required ones were
-        // rejected by validation above.
-        imp.scene.warnings.push(format!(
-            "extensions not supported and ignored: {}",
-            unsupported_extensions.join(", ")
-        ));
-    }
+    imp.scene.warnings = warnings;
     imp.run(camera_name).map_err(fail)?;
     if imp.scene.camera.is_none() {
         return Err(PrismError::input(format!("no camera in {file}")));
@@ -207,32 +220,10 @@ fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
     }
 }
 
-/// Checks that `gltf`'s validation would index out of range on (its primitive hook reads
-/// `root.accessors[POSITION]` before the index itself is validated).
-fn precheck(root: &gltf::json::Root) -> Result<(), String> {
-    for (mi, mesh) in root.meshes.iter().enumerate() {
-        for (pi, prim) in mesh.primitives.iter().enumerate() {
-            for (sem, acc) in &prim.attributes {
-                if acc.value() >= root.accessors.len() {
-                    let name = match sem {
-                        gltf::json::validation::Checked::Valid(s) => s.to_string(),
-                        _ => "?".into(),
-                    };
-                    return Err(format!(
-                        "meshes[{mi}].primitives[{pi}].attributes.{name}: accessor {} does not exist ({} accessors)",
-                        acc.value(),
-                        root.accessors.len()
-                    ));
-                }
-            }
-        }
-    }
-    Ok(())
-}
-
 /// The glTF extensions the importer implements (everything else in `extensionsUsed` is
 /// ignored with one warning).
 const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "EXT_texture_webp",
     "KHR_lights_punctual",
     "KHR_materials_dispersion",
     "KHR_materials_emissive_strength",
@@ -240,35 +231,40 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_volume",
+    // Integer (normalised or not) positions, normals and UVs: every attribute is read through
+    // `read_component`, which converts all component types.
+    "KHR_mesh_quantization",
     "KHR_texture_transform",
 ];
 
-fn validation_message(e: gltf::Error) -> String {
-    match e {
-        gltf::Error::Validation(errs) => {
-            let more = if errs.len() > 1 {
-                format!(" (and {} more problems)", errs.len() - 1)
-            } else {
-                String::new()
-            };
-            match errs.first() {
-                Some((path, err)) => {
-                    let what = match err {
-                        gltf::json::validation::Error::IndexOutOfBounds => "index out of range",
-                        gltf::json::validation::Error::Invalid => "invalid value",
-                        gltf::json::validation::Error::Missing => "missing",
-                        gltf::json::validation::Error::Oversize => "size exceeds system limits",
-                        gltf::json::validation::Error::Unsupported => {
-                            "required extension is not supported"
-                        }
-                    };
-                    format!("invalid glTF: {path}: {what}{more}")
-                }
-                None => "invalid glTF".into(),
-            }
-        }
-        other => format!("invalid glTF: {other}"),
-    }
+/// Geometry-compression extensions: when required, their primitives cannot be read at all.
+const GEOMETRY_COMPRESSION: &[&str] = &["KHR_draco_mesh_compression", "EXT_meshopt_compression"];
+
+/// (extensions used but not supported, required extensions whose geometry cannot be read).
+/// Other unsupported required extensions (texture formats, material models) draw
+/// approximately and are warned about where they are met.
+fn extension_support(root: &gltf::json::Root) -> (Vec<String>, Vec<String>) {
+    let mut used: Vec<String> = root
+        .extensions_used
+        .iter()
+        .chain(root.extensions_required.iter())
+        .filter(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str()))
+        .cloned()
+        .collect();
+    used.sort();
+    used.dedup();
+    let unreadable = root
+        .extensions_required
+        .iter()
+        .filter(|e| GEOMETRY_COMPRESSION.contains(&e.as_str()))
+        .cloned()
+        .collect();
+    (used, unreadable)
+}
+
+/// "`what`: index `i` out of range (`n` `things`)", the one wording of a broken reference.
+fn out_of_range(what: &str, i: usize, n: usize, things: &str) -> String {
+    format!("{what}: index {i} out of range ({n} {things})")
 }
 
 fn is_remote(uri: &str) -> bool {
@@ -280,47 +276,47 @@ fn resolve_uri(dir: &Path, uri: &str) -> PathBuf {
     dir.join(String::from_utf8_lossy(&decoded).as_ref())
 }
 
-fn load_buffers(
-    doc: &gltf::Document,
+/// Reads buffer `i` (called on first use: a buffer no drawn geometry reads may be missing).
+fn load_buffer(
+    json: &gltf::json::Buffer,
+    i: usize,
     bin: Option<&[u8]>,
     dir: &Path,
-) -> Result<Vec<Vec<u8>>, String> {
-    let mut out = Vec::new();
-    for buffer in doc.buffers() {
-        let i = buffer.index();
-        let (data, what) = match buffer.source() {
-            gltf::buffer::Source::Bin => match bin {
-                Some(b) => (b.to_vec(), "the GLB BIN chunk".to_string()),
-                None => {
-                    return Err(format!(
-                        "buffer {i}: refers to the GLB binary chunk, but the file has none"
-                    ))
-                }
-            },
-            gltf::buffer::Source::Uri(uri) => {
-                if let Some(d) = parse_data_uri(uri) {
-                    let d = d.map_err(|e| format!("buffer {i}: {e}"))?;
-                    (d.bytes, "its data URI".to_string())
-                } else if is_remote(uri) {
-                    return Err(format!("buffer {i}: unsupported remote URI '{uri}'"));
-                } else {
-                    let p = resolve_uri(dir, uri);
-                    let data = std::fs::read(&p)
-                        .map_err(|e| format!("buffer {i}: cannot read '{uri}': {}", io_msg(&e)))?;
-                    (data, format!("'{uri}'"))
-                }
+) -> Result<Vec<u8>, String> {
+    let (data, what) = match json.uri.as_deref() {
+        // Only the first buffer may refer to the GLB-stored BIN chunk (glTF 2.0 spec 4.4.3.3);
+        // a later one without `uri` has no data (an EXT_meshopt_compression fallback, say).
+        None if i == 0 => match bin {
+            Some(b) => (b.to_vec(), "the GLB BIN chunk".to_string()),
+            None => {
+                return Err(format!(
+                    "buffers[{i}]: has no 'uri' and the file has no GLB binary chunk"
+                ))
             }
-        };
-        if data.len() < buffer.length() {
-            return Err(format!(
-                "buffer {i}: {what} has {} bytes, the glTF says {}",
-                data.len(),
-                buffer.length()
-            ));
+        },
+        None => return Err(format!("buffers[{i}]: has no 'uri', so no data")),
+        Some(uri) => {
+            if let Some(d) = parse_data_uri(uri) {
+                let d = d.map_err(|e| format!("buffers[{i}]: {e}"))?;
+                (d.bytes, "its data URI".to_string())
+            } else if is_remote(uri) {
+                return Err(format!("buffers[{i}]: unsupported remote URI '{uri}'"));
+            } else {
+                let p = resolve_uri(dir, uri);
+                let data = std::fs::read(&p)
+                    .map_err(|e| format!("buffers[{i}]: cannot read '{uri}': {}", io_msg(&e)))?;
+                (data, format!("'{uri}'"))
+            }
         }
-        out.push(data);
+    };
+    let declared = json.byte_length.0 as usize;
+    if data.len() < declared {
+        return Err(format!(
+            "buffers[{i}]: {what} has {} bytes, its byteLength says {declared}",
+            data.len()
+        ));
     }
-    Ok(out)
+    Ok(data)
 }
 
 struct CameraCandidate {
@@ -332,7 +328,10 @@ struct CameraCandidate {
 
 struct Importer<'d> {
     doc: &'d gltf::Document,
-    buffers: Vec<Vec<u8>>,
+    /// The GLB BIN chunk, if any.
+    bin: Option<&'d [u8]>,
+    /// Buffers by index, each read on first use.
+    buffers: Vec<OnceCell<Result<Vec<u8>, String>>>,
     dir: PathBuf,
     scene: SceneDesc,
     /// (mesh, primitive) -> index into `scene.meshes` (None: no triangles / skipped).
@@ -340,6 +339,13 @@ struct Importer<'d> {
     image_cache: HashMap<usize, crate::scene::texture::DecodedImage>,
     /// (image, colour space is sRGB, wrap s, wrap t, bilinear) -> texture index.
     texture_cache: HashMap<(usize, bool, bool, bool, bool), usize>,
+    /// By texture index: the image it reads, or why it reads none.
+    texture_sources: Vec<TextureSource>,
+    /// KHR_lights_punctual lights of types this renderer does not know: (index, type).
+    unknown_lights: Vec<(usize, String)>,
+    /// By material index: why the material could not be read. Raised when a drawn primitive
+    /// uses it, a warning otherwise.
+    material_errors: Vec<Option<String>>,
     cameras: Vec<CameraCandidate>,
     skipped_non_triangle: usize,
     warned: Vec<String>,
@@ -349,7 +355,7 @@ fn finite_all(xs: &[f32]) -> bool {
     xs.iter().all(|x| x.is_finite())
 }
 
-impl Importer<'_> {
+impl<'d> Importer<'d> {
     fn warn_once(&mut self, msg: String) {
         if !self.warned.contains(&msg) {
             self.warned.push(msg.clone());
@@ -386,31 +392,72 @@ impl Importer<'_> {
     }
 
     fn run(&mut self, camera_name: Option<&str>) -> Result<(), String> {
-        for m in self.doc.materials() {
-            let desc = self.material(&m)?;
+        // Every material is read (the sidecar addresses them by index); one that cannot be is
+        // an error only if drawn geometry uses it.
+        let doc = self.doc;
+        for m in doc.materials() {
+            let i = m.index().expect("listed materials have indices");
+            let desc = self
+                .check_material_references(i)
+                .and_then(|()| self.material(&m));
+            let (desc, error) = match desc {
+                Ok(d) => (d, None),
+                Err(e) => (
+                    GltfMaterialDesc {
+                        name: m.name().map_or_else(|| format!("material {i}"), str::to_string),
+                        ..Default::default()
+                    },
+                    Some(e),
+                ),
+            };
+            self.material_errors.push(error);
             self.scene.materials.push(MaterialDesc {
                 gltf: desc,
                 ..Default::default()
             });
         }
-        let roots: Vec<usize> = match self
-            .doc
-            .default_scene()
-            .or_else(|| self.doc.scenes().next())
-        {
-            Some(s) => s.nodes().map(|n| n.index()).collect(),
+        let json = doc.as_json();
+        let scene = match json.scene {
+            Some(s) if s.value() >= json.scenes.len() => {
+                return Err(out_of_range("scene", s.value(), json.scenes.len(), "scenes"))
+            }
+            Some(s) => Some(s.value()),
+            None => (!json.scenes.is_empty()).then_some(0),
+        };
+        let roots: Vec<usize> = match scene {
+            Some(s) => json.scenes[s].nodes.iter().map(|n| n.value()).collect(),
             None => {
                 // No scene: render every root node (a node that is nobody's child).
-                let mut is_child = vec![false; self.doc.nodes().len()];
-                for n in self.doc.nodes() {
-                    for c in n.children() {
-                        is_child[c.index()] = true;
+                let mut is_child = vec![false; json.nodes.len()];
+                for n in &json.nodes {
+                    for c in n.children.iter().flatten() {
+                        if let Some(flag) = is_child.get_mut(c.value()) {
+                            *flag = true;
+                        }
                     }
                 }
                 (0..is_child.len()).filter(|&i| !is_child[i]).collect()
             }
         };
         self.traverse(&roots)?;
+        let drawn: std::collections::HashSet<usize> = self
+            .scene
+            .meshes
+            .iter()
+            .filter_map(|m| m.material)
+            .collect();
+        let unused_broken: Vec<String> = self
+            .material_errors
+            .iter()
+            .enumerate()
+            .filter(|(i, e)| e.is_some() && !drawn.contains(i))
+            .map(|(_, e)| e.clone().unwrap_or_default())
+            .collect();
+        for e in unused_broken {
+            self.scene
+                .warnings
+                .push(format!("{e} (the material is not used by drawn geometry)"));
+        }
         self.warn_textures_without_uvs();
         if self.skipped_non_triangle > 0 {
             let n = self.skipped_non_triangle;
@@ -446,29 +493,36 @@ impl Importer<'_> {
     }
 
     /// Depth-first, pre-order traversal (the order that decides the default camera), iterative
-    /// so that deep hierarchies cannot overflow the stack; cycles are input errors.
+    /// so that deep hierarchies cannot overflow the stack; cycles and references to nodes that
+    /// do not exist are input errors.
     fn traverse(&mut self, roots: &[usize]) -> Result<(), String> {
         enum Step {
-            Enter(usize, Mat4),
+            /// (node, parent world transform, the node that lists it; None: the scene)
+            Enter(usize, Mat4, Option<usize>),
             Exit(usize),
         }
-        let n_nodes = self.doc.nodes().len();
+        let json = self.doc.as_json();
+        let n_nodes = json.nodes.len();
         let mut on_path = vec![false; n_nodes];
         let mut visits = 0usize;
         let mut stack: Vec<Step> = roots
             .iter()
             .rev()
-            .map(|&r| Step::Enter(r, Mat4::IDENTITY))
+            .map(|&r| Step::Enter(r, Mat4::IDENTITY, None))
             .collect();
         while let Some(step) = stack.pop() {
             match step {
                 Step::Exit(i) => on_path[i] = false,
-                Step::Enter(i, parent) => {
+                Step::Enter(i, parent, referrer) => {
                     if i >= n_nodes {
-                        return Err(format!("node {i} does not exist"));
+                        let user = match referrer {
+                            Some(p) => format!("nodes[{p}].children"),
+                            None => "scenes.nodes".to_string(),
+                        };
+                        return Err(out_of_range(&user, i, n_nodes, "nodes"));
                     }
                     if on_path[i] {
-                        let node = self.doc.nodes().nth(i).unwrap();
+                        let node = self.doc.nodes().nth(i).expect("index checked");
                         return Err(format!(
                             "{}: the node hierarchy has a cycle (the node is its own ancestor)",
                             Self::node_label(&node)
@@ -483,10 +537,8 @@ impl Importer<'_> {
                     let world = self.visit(i, parent)?;
                     on_path[i] = true;
                     stack.push(Step::Exit(i));
-                    let node = self.doc.nodes().nth(i).unwrap();
-                    let children: Vec<usize> = node.children().map(|c| c.index()).collect();
-                    for c in children.into_iter().rev() {
-                        stack.push(Step::Enter(c, world));
+                    for c in json.nodes[i].children.iter().flatten().rev() {
+                        stack.push(Step::Enter(c.value(), world, Some(i)));
                     }
                 }
             }
@@ -533,6 +585,19 @@ impl Importer<'_> {
             .map(str::to_string)
             .unwrap_or_else(|| format!("node {index}"));
 
+        let node_json = &self.doc.as_json().nodes[index];
+        if let Some(m) = node_json.mesh {
+            let n = self.doc.as_json().meshes.len();
+            if m.value() >= n {
+                return Err(out_of_range(&format!("nodes[{index}].mesh"), m.value(), n, "meshes"));
+            }
+        }
+        if let Some(c) = node_json.camera {
+            let n = self.doc.as_json().cameras.len();
+            if c.value() >= n {
+                return Err(out_of_range(&format!("nodes[{index}].camera"), c.value(), n, "cameras"));
+            }
+        }
         if let Some(mesh) = node.mesh() {
             let extras = node
                 .extras()
@@ -587,6 +652,13 @@ impl Importer<'_> {
     // ---------------------------------------------------------------- lights
 
     fn light(&mut self, li: usize, node_name: &str, world: Mat4) -> Result<(), String> {
+        if let Some((_, kind)) = self.unknown_lights.iter().find(|(i, _)| *i == li) {
+            let msg = format!(
+                "KHR_lights_punctual light {li} (on node '{node_name}'): type '{kind}' is not known to this renderer; skipped"
+            );
+            self.warn_once(msg);
+            return Ok(());
+        }
         let light = self
             .doc
             .lights()
@@ -730,6 +802,26 @@ impl Importer<'_> {
             .cameras()
             .nth(cand.camera_index)
             .ok_or_else(|| format!("camera {} does not exist", cand.camera_index))?;
+        {
+            use gltf::json::camera::Type;
+            use gltf::json::validation::Checked;
+            let json = &self.doc.as_json().cameras[cand.camera_index];
+            let path = format!("cameras[{}]", cand.camera_index);
+            match json.type_ {
+                Checked::Invalid => {
+                    return Err(format!(
+                        "{path}.type: must be \"perspective\" or \"orthographic\""
+                    ))
+                }
+                Checked::Valid(Type::Perspective) if json.perspective.is_none() => {
+                    return Err(format!("{path}: type perspective without 'perspective'"))
+                }
+                Checked::Valid(Type::Orthographic) if json.orthographic.is_none() => {
+                    return Err(format!("{path}: type orthographic without 'orthographic'"))
+                }
+                Checked::Valid(_) => {}
+            }
+        }
         let name = cand
             .node_name
             .clone()
@@ -792,18 +884,45 @@ impl Importer<'_> {
 
     // ---------------------------------------------------------------- accessors
 
-    fn view_bytes(&self, view: &gltf::buffer::View) -> Result<&[u8], String> {
-        let buf = &self.buffers[view.buffer().index()];
-        let start = view.offset();
-        let end = start.checked_add(view.length());
-        match end.and_then(|e| buf.get(start..e)) {
+    /// The bytes of buffer view `index`, its buffer read on first use; `user` names the JSON
+    /// path that refers to the view.
+    fn view_bytes(&self, index: usize, user: &str) -> Result<&[u8], String> {
+        let json = self.doc.as_json();
+        let view = json
+            .buffer_views
+            .get(index)
+            .ok_or_else(|| out_of_range(user, index, json.buffer_views.len(), "buffer views"))?;
+        let bi = view.buffer.value();
+        let Some(cell) = self.buffers.get(bi) else {
+            return Err(out_of_range(
+                &format!("bufferViews[{index}].buffer"),
+                bi,
+                self.buffers.len(),
+                "buffers",
+            ));
+        };
+        let loaded = cell.get_or_init(|| load_buffer(&json.buffers[bi], bi, self.bin, &self.dir));
+        let buf = match loaded {
+            Ok(b) => b,
+            Err(e) => {
+                let meshopt = view
+                    .extensions
+                    .as_ref()
+                    .is_some_and(|x| x.others.contains_key("EXT_meshopt_compression"));
+                return Err(if meshopt {
+                    format!("bufferViews[{index}]: its data is EXT_meshopt_compression-compressed, which is not supported ({e})")
+                } else {
+                    e.clone()
+                });
+            }
+        };
+        let start = view.byte_offset.map_or(0, |o| o.0) as usize;
+        let length = view.byte_length.0 as usize;
+        match start.checked_add(length).and_then(|e| buf.get(start..e)) {
             Some(b) => Ok(b),
             None => Err(format!(
-                "buffer view {}: bytes {}..{} are outside buffer {} ({} bytes)",
-                view.index(),
-                start,
-                start as u128 + view.length() as u128,
-                view.buffer().index(),
+                "bufferViews[{index}]: bytes {start}..{} are outside buffer {bi} ({} bytes)",
+                start as u128 + length as u128,
                 buf.len()
             )),
         }
@@ -919,28 +1038,32 @@ impl Importer<'_> {
         let elem = cs * ncomp;
         let count = acc.count();
         let read = component;
+        let json = &self.doc.as_json().accessors[acc.index()];
+        let path = format!("accessors[{}]", acc.index());
+        let offset = json.byte_offset.map_or(0, |o| o.0) as usize;
         let mut out: Vec<T>;
-        match acc.view() {
+        match json.buffer_view {
             Some(view) => {
-                let bytes = self.view_bytes(&view)?;
-                let stride = view.stride().unwrap_or(elem);
+                let vi = view.value();
+                let bytes = self.view_bytes(vi, &format!("{path}.bufferView"))?;
+                let stride = self.doc.as_json().buffer_views[vi]
+                    .byte_stride
+                    .map_or(elem, |s| s.0);
                 if stride < elem {
                     return Err(format!(
                         "{label}: byteStride {stride} is smaller than the element size {elem}"
                     ));
                 }
                 if count > 0 {
-                    let need =
-                        (count as u128 - 1) * stride as u128 + elem as u128 + acc.offset() as u128;
+                    let need = (count as u128 - 1) * stride as u128 + elem as u128 + offset as u128;
                     if need > bytes.len() as u128 {
                         return Err(format!(
-                            "{label}: needs {need} bytes of buffer view {}, which has {}",
-                            view.index(),
+                            "{label}: needs {need} bytes of buffer view {vi}, which has {}",
                             bytes.len()
                         ));
                     }
                 }
-                let data = &bytes[acc.offset()..];
+                let data = &bytes[offset.min(bytes.len())..];
                 // Bounds were checked above.
                 if stride == elem {
                     // Tightly packed: one pass over all components.
@@ -954,31 +1077,39 @@ impl Importer<'_> {
                 }
             }
             None => {
-                if count > MAX_SPARSE_BASE_ELEMENTS {
-                    return Err(format!("{label}: count {count} is too large"));
+                // No buffer view: all zeros (glTF 2.0 spec 3.6.2.3), then the sparse values.
+                if count > MAX_ZERO_ACCESSOR_ELEMENTS {
+                    return Err(format!(
+                        "{label}: count {count} without a bufferView is larger than the {MAX_ZERO_ACCESSOR_ELEMENTS} supported"
+                    ));
                 }
                 out = vec![T::default(); count * ncomp];
             }
         }
-        if let Some(sp) = acc.sparse() {
-            let n = sp.count();
-            let idx = sp.indices();
-            let isize = match idx.index_type() {
-                gltf::accessor::sparse::IndexType::U8 => 1,
-                gltf::accessor::sparse::IndexType::U16 => 2,
-                gltf::accessor::sparse::IndexType::U32 => 4,
+        if let Some(sp) = json.sparse.as_ref() {
+            let n = sp.count.0 as usize;
+            // Checked in `accessor`.
+            let isize = match sp.indices.component_type {
+                gltf::json::validation::Checked::Valid(t) => t.0.size(),
+                gltf::json::validation::Checked::Invalid => 4,
             };
-            let ibytes = self.view_bytes(&idx.view())?;
-            let ineed = idx.offset() as u128 + n as u128 * isize as u128;
+            let (ioff, voff) = (sp.indices.byte_offset.0 as usize, sp.values.byte_offset.0 as usize);
+            let ibytes = self.view_bytes(
+                sp.indices.buffer_view.value(),
+                &format!("{path}.sparse.indices.bufferView"),
+            )?;
+            let ineed = ioff as u128 + n as u128 * isize as u128;
             if ineed > ibytes.len() as u128 {
                 return Err(format!(
                     "{label}: sparse indices need {ineed} bytes, buffer view has {}",
                     ibytes.len()
                 ));
             }
-            let vals = sp.values();
-            let vbytes = self.view_bytes(&vals.view())?;
-            let vneed = vals.offset() as u128 + n as u128 * elem as u128;
+            let vbytes = self.view_bytes(
+                sp.values.buffer_view.value(),
+                &format!("{path}.sparse.values.bufferView"),
+            )?;
+            let vneed = voff as u128 + n as u128 * elem as u128;
             if vneed > vbytes.len() as u128 {
                 return Err(format!(
                     "{label}: sparse values need {vneed} bytes, buffer view has {}",
@@ -986,7 +1117,7 @@ impl Importer<'_> {
                 ));
             }
             for k in 0..n {
-                let io = idx.offset() + k * isize;
+                let io = ioff + k * isize;
                 let target = match isize {
                     1 => ibytes[io] as usize,
                     2 => u16::from_le_bytes([ibytes[io], ibytes[io + 1]]) as usize,
@@ -1003,12 +1134,60 @@ impl Importer<'_> {
                     ));
                 }
                 for c in 0..ncomp {
-                    let o = vals.offset() + k * elem + c * cs;
+                    let o = voff + k * elem + c * cs;
                     out[target * ncomp + c] = read(&vbytes[o..o + cs]);
                 }
             }
         }
         Ok(out)
+    }
+
+    /// Accessor `index`, referred to from `user` (a JSON path), with the enumerations its
+    /// readers rely on checked: the crate's accessors unwrap them.
+    fn accessor(&self, index: usize, user: &str) -> Result<gltf::Accessor<'d>, String> {
+        use gltf::json::validation::Checked;
+        let all = &self.doc.as_json().accessors;
+        let json = all
+            .get(index)
+            .ok_or_else(|| out_of_range(user, index, all.len(), "accessors"))?;
+        let path = format!("accessors[{index}]");
+        if matches!(json.component_type, Checked::Invalid) {
+            return Err(format!("{path}.componentType: not a glTF component type"));
+        }
+        if json.type_ == Checked::Invalid {
+            return Err(format!("{path}.type: not a glTF accessor type"));
+        }
+        if let Some(sp) = json.sparse.as_ref() {
+            if matches!(sp.indices.component_type, Checked::Invalid) {
+                return Err(format!(
+                    "{path}.sparse.indices.componentType: must be UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT"
+                ));
+            }
+        }
+        Ok(self.doc.accessors().nth(index).expect("index checked"))
+    }
+
+    /// The accessor of attribute `semantic` of primitive `prim` of mesh `mesh`, checked.
+    fn attribute(
+        &self,
+        mesh: usize,
+        prim: usize,
+        semantic: Semantic,
+    ) -> Result<Option<gltf::Accessor<'d>>, String> {
+        let json = &self.doc.as_json().meshes[mesh].primitives[prim];
+        let name = semantic.to_string();
+        match json
+            .attributes
+            .get(&gltf::json::validation::Checked::Valid(semantic))
+        {
+            None => Ok(None),
+            Some(i) => self
+                .accessor(
+                    i.value(),
+                    &format!("meshes[{mesh}].primitives[{prim}].attributes.{name}"),
+                )
+                .map(Some),
+        }
     }
 
     fn read_vec3(&self, acc: &gltf::Accessor, what: &str) -> Result<Vec<Vec3>, String> {
@@ -1050,6 +1229,33 @@ impl Importer<'_> {
             .map(|n| format!("mesh '{n}'"))
             .unwrap_or_else(|| format!("mesh {}", mesh.index()));
         let name = format!("{mesh_name} primitive {}", prim.index());
+        let (mi, pi) = (mesh.index(), prim.index());
+        let path = format!("meshes[{mi}].primitives[{pi}]");
+        let json = &self.doc.as_json().meshes[mi].primitives[pi];
+        if json.mode == gltf::json::validation::Checked::Invalid {
+            return Err(format!("{path}.mode: not a glTF primitive mode"));
+        }
+        if let Some(ext) = json.extensions.as_ref().and_then(|e| {
+            GEOMETRY_COMPRESSION
+                .iter()
+                .find(|x| e.others.contains_key(**x))
+        }) {
+            // Without the extension required, the accessors may carry uncompressed fallback
+            // data (Draco: KHR_draco_mesh_compression README, "Conformance").
+            let fallback = json
+                .attributes
+                .get(&gltf::json::validation::Checked::Valid(Semantic::Positions))
+                .and_then(|a| self.doc.as_json().accessors.get(a.value()))
+                .is_some_and(|a| a.buffer_view.is_some());
+            if !fallback {
+                return Err(format!(
+                    "{path}: its geometry is {ext}-compressed, which is not supported"
+                ));
+            }
+            self.warn_once(format!(
+                "{ext} is not supported: its primitives are read from their uncompressed fallback data"
+            ));
+        }
         let mode = prim.mode();
         if matches!(
             mode,
@@ -1058,12 +1264,15 @@ impl Importer<'_> {
             self.skipped_non_triangle += 1;
             return Ok(None);
         }
-        let pos_acc = prim
-            .get(&Semantic::Positions)
-            .ok_or_else(|| format!("{name}: no POSITION attribute"))?;
+        let Some(pos_acc) = self.attribute(mi, pi, Semantic::Positions)? else {
+            // glTF 2.0 spec 3.7.2.1: "When positions are not specified, client
+            // implementations SHOULD skip primitive's rendering".
+            self.warn_once(format!("{name}: no POSITION attribute; not rendered"));
+            return Ok(None);
+        };
         let positions = self.read_vec3(&pos_acc, &format!("{name} POSITION"))?;
         let n = positions.len();
-        let normals = match prim.get(&Semantic::Normals) {
+        let normals = match self.attribute(mi, pi, Semantic::Normals)? {
             Some(a) => {
                 let v = self.read_vec3(&a, &format!("{name} NORMAL"))?;
                 if v.len() != n {
@@ -1076,7 +1285,7 @@ impl Importer<'_> {
             }
             None => None,
         };
-        let uvs = match prim.get(&Semantic::TexCoords(0)) {
+        let uvs = match self.attribute(mi, pi, Semantic::TexCoords(0))? {
             Some(a) => {
                 let v = self.read_floats(&a, Dimensions::Vec2, &format!("{name} TEXCOORD_0"))?;
                 if v.len() / 2 != n {
@@ -1100,22 +1309,26 @@ impl Importer<'_> {
             }
             None => None,
         };
-        let tangents = self.load_tangents(prim, &name, n, normals.is_some())?;
+        let tangents = self.load_tangents(mi, prim, &name, n, normals.is_some())?;
         let mut extra_uvs = Vec::new();
         for set in 1..crate::shading::MAX_ATTRIBUTE_SETS as u32 {
-            extra_uvs.push(match prim.get(&Semantic::TexCoords(set)) {
+            extra_uvs.push(match self.attribute(mi, pi, Semantic::TexCoords(set))? {
                 Some(a) => Some(self.read_uv_set(&a, &name, set, n)?),
                 None => None,
             });
         }
         let mut colors = Vec::new();
         for set in 0..crate::shading::MAX_ATTRIBUTE_SETS as u32 {
-            colors.push(match prim.get(&Semantic::Colors(set)) {
+            colors.push(match self.attribute(mi, pi, Semantic::Colors(set))? {
                 Some(a) => Some(self.read_color_set(&a, &name, set, n)?),
                 None => None,
             });
         }
-        let raw_indices: Vec<u32> = match prim.indices() {
+        let indices = match json.indices {
+            Some(i) => Some(self.accessor(i.value(), &format!("{path}.indices"))?),
+            None => None,
+        };
+        let raw_indices: Vec<u32> = match indices {
             Some(a) => {
                 if !matches!(a.data_type(), DataType::U8 | DataType::U16 | DataType::U32) {
                     return Err(format!(
@@ -1162,7 +1375,24 @@ impl Importer<'_> {
         if kept.is_empty() {
             return Ok(None);
         }
-        let material = prim.material().index();
+        let material = match json.material {
+            None => None,
+            Some(m) => {
+                let m = m.value();
+                match self.material_errors.get(m) {
+                    None => {
+                        return Err(out_of_range(
+                            &format!("{path}.material"),
+                            m,
+                            self.material_errors.len(),
+                            "materials",
+                        ))
+                    }
+                    Some(Some(e)) => return Err(e.clone()),
+                    Some(None) => Some(m),
+                }
+            }
+        };
         let mut desc = compact(name, positions, normals, uvs, tangents, &kept);
         let order = compact_order(desc.positions.len(), &kept, n);
         desc.extra_uvs = extra_uvs
@@ -1187,12 +1417,13 @@ impl Importer<'_> {
     /// tangents (if present) MUST be ignored").
     fn load_tangents(
         &mut self,
+        prim_mesh: usize,
         prim: &gltf::Primitive,
         name: &str,
         n: usize,
         has_normals: bool,
     ) -> Result<Option<Vec<Vec4>>, String> {
-        let Some(a) = prim.get(&Semantic::Tangents) else {
+        let Some(a) = self.attribute(prim_mesh, prim.index(), Semantic::Tangents)? else {
             return Ok(None);
         };
         if !has_normals {
@@ -1242,6 +1473,94 @@ impl Importer<'_> {
     }
 
     // ---------------------------------------------------------------- materials
+
+    /// Checks the references of material `i` that the crate's accessors follow without
+    /// bounds checks (every texture slot, also those the renderer ignores, and alphaMode).
+    fn check_material_references(&self, i: usize) -> Result<(), String> {
+        use gltf::json::validation::Checked;
+        let json = self.doc.as_json();
+        let m = &json.materials[i];
+        let path = format!("materials[{i}]");
+        if m.alpha_mode == Checked::Invalid {
+            return Err(format!(
+                "{path}.alphaMode: must be OPAQUE, MASK or BLEND"
+            ));
+        }
+        let pbr = &m.pbr_metallic_roughness;
+        let ext = m.extensions.as_ref();
+        let slots = [
+            ("pbrMetallicRoughness.baseColorTexture", pbr.base_color_texture.as_ref().map(|t| t.index)),
+            (
+                "pbrMetallicRoughness.metallicRoughnessTexture",
+                pbr.metallic_roughness_texture.as_ref().map(|t| t.index),
+            ),
+            ("normalTexture", m.normal_texture.as_ref().map(|t| t.index)),
+            ("occlusionTexture", m.occlusion_texture.as_ref().map(|t| t.index)),
+            ("emissiveTexture", m.emissive_texture.as_ref().map(|t| t.index)),
+            (
+                "extensions.KHR_materials_transmission.transmissionTexture",
+                ext.and_then(|e| e.transmission.as_ref())
+                    .and_then(|t| t.transmission_texture.as_ref())
+                    .map(|t| t.index),
+            ),
+            (
+                "extensions.KHR_materials_specular.specularTexture",
+                ext.and_then(|e| e.specular.as_ref())
+                    .and_then(|t| t.specular_texture.as_ref())
+                    .map(|t| t.index),
+            ),
+            (
+                "extensions.KHR_materials_specular.specularColorTexture",
+                ext.and_then(|e| e.specular.as_ref())
+                    .and_then(|t| t.specular_color_texture.as_ref())
+                    .map(|t| t.index),
+            ),
+            (
+                "extensions.KHR_materials_volume.thicknessTexture",
+                ext.and_then(|e| e.volume.as_ref())
+                    .and_then(|t| t.thickness_texture.as_ref())
+                    .map(|t| t.index),
+            ),
+        ];
+        for (slot, index) in slots {
+            if let Some(t) = index {
+                if t.value() >= json.textures.len() {
+                    return Err(out_of_range(
+                        &format!("{path}.{slot}.index"),
+                        t.value(),
+                        json.textures.len(),
+                        "textures",
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks the texture's sampler reference and enumerations (the crate's accessors unwrap
+    /// them).
+    fn check_sampler(&self, texture: usize) -> Result<(), String> {
+        use gltf::json::validation::Checked;
+        let json = self.doc.as_json();
+        let Some(si) = json.textures[texture].sampler else {
+            return Ok(());
+        };
+        let path = format!("textures[{texture}].sampler");
+        let sampler = json
+            .samplers
+            .get(si.value())
+            .ok_or_else(|| out_of_range(&path, si.value(), json.samplers.len(), "samplers"))?;
+        let sp = format!("samplers[{}]", si.value());
+        if sampler.wrap_s == Checked::Invalid || sampler.wrap_t == Checked::Invalid {
+            return Err(format!(
+                "{sp}: wrapS/wrapT must be 33071, 33648 or 10497"
+            ));
+        }
+        if sampler.mag_filter == Some(Checked::Invalid) || sampler.min_filter == Some(Checked::Invalid) {
+            return Err(format!("{sp}: magFilter/minFilter is not a glTF filter"));
+        }
+        Ok(())
+    }
 
     fn material(&mut self, m: &gltf::Material) -> Result<GltfMaterialDesc, String> {
         let name = m
@@ -1295,9 +1614,11 @@ impl Importer<'_> {
             0.0,
         )?;
         let ior = m.ior().unwrap_or(1.5);
-        if !(ior.is_finite() && ior > 0.0) {
+        // KHR_materials_ior allows 0 besides [1, inf): F0 = ((ior - 1) / (ior + 1))^2 = 1, the
+        // limit of an infinitely dense dielectric (`GltfMaterialDesc::ior_model`).
+        if !(ior.is_finite() && (ior >= 1.0 || ior == 0.0)) {
             return Err(format!(
-                "{label}: KHR_materials_ior.ior must be a positive number, got {ior}"
+                "{label}: KHR_materials_ior.ior must be 0 or at least 1, got {ior}"
             ));
         }
         let (attenuation_color, attenuation_distance) = match m.volume() {
@@ -1327,9 +1648,13 @@ impl Importer<'_> {
                         "{label}: KHR_materials_dispersion.dispersion must be a number, got {v}"
                     )
                 })?;
-                dispersion = x as f32;
-                crate::spectrum::IorModel::from_gltf(ior, dispersion)
-                    .map_err(|e| format!("{label}: {e} (with KHR_materials_ior.ior = {ior})"))?;
+                // With ior = 0 (F0 = 1) nothing refracts: there is nothing to disperse.
+                if ior != 0.0 {
+                    dispersion = x as f32;
+                    crate::spectrum::IorModel::from_gltf(ior, dispersion).map_err(|e| {
+                        format!("{label}: {e} (with KHR_materials_ior.ior = {ior})")
+                    })?;
+                }
             }
         }
         // Inputs the renderer does not model yet: reported once, never fatal.
@@ -1363,20 +1688,20 @@ impl Importer<'_> {
         };
         let alpha_cutoff = m.alpha_cutoff().unwrap_or(0.5);
         let base_color_texture = match pbr.base_color_texture() {
-            Some(t) => Some(self.texture_ref(&t, ColorSpace::Srgb, &label, "baseColorTexture")?),
+            Some(t) => self.texture_ref(&t, ColorSpace::Srgb, &label, "baseColorTexture")?,
             None => None,
         };
         let metallic_roughness_texture = match pbr.metallic_roughness_texture() {
-            Some(t) => Some(self.texture_ref(
+            Some(t) => self.texture_ref(
                 &t,
                 ColorSpace::Linear,
                 &label,
                 "metallicRoughnessTexture",
-            )?),
+            )?,
             None => None,
         };
         let emissive_texture = match m.emissive_texture() {
-            Some(t) => Some(self.texture_ref(&t, ColorSpace::Srgb, &label, "emissiveTexture")?),
+            Some(t) => self.texture_ref(&t, ColorSpace::Srgb, &label, "emissiveTexture")?,
             None => None,
         };
         // normalTexture (glTF 2.0 spec 5.23): linear texels, XY scaled by `scale`. Its
@@ -1404,7 +1729,7 @@ impl Importer<'_> {
                     &label,
                     slot,
                 )?;
-                (Some(r), scale)
+                (r, scale)
             }
             None => (None, 1.0),
         };
@@ -1442,7 +1767,7 @@ impl Importer<'_> {
         space: ColorSpace,
         label: &str,
         slot: &str,
-    ) -> Result<TextureRef, String> {
+    ) -> Result<Option<TextureRef>, String> {
         let transform = info.texture_transform().map(|t| TextureTransform {
             offset: Vec2::from_array(t.offset()),
             rotation: t.rotation(),
@@ -1460,6 +1785,8 @@ impl Importer<'_> {
     }
 
     /// A texture slot of a material: texture, TEXCOORD set and optional KHR_texture_transform.
+    /// `None` (with a warning) when the texture has no image the renderer decodes: the slot's
+    /// factor alone then applies, as in a viewer without the image's extension.
     fn texture_slot(
         &mut self,
         texture: gltf::Texture,
@@ -1468,7 +1795,21 @@ impl Importer<'_> {
         space: ColorSpace,
         label: &str,
         slot: &str,
-    ) -> Result<TextureRef, String> {
+    ) -> Result<Option<TextureRef>, String> {
+        let ti = texture.index();
+        let image = match &self.texture_sources[ti] {
+            TextureSource::Image(i) => *i,
+            TextureSource::Unsupported(why) => {
+                let msg = format!("{label}: {slot}: texture {ti} is not used because {why}; the factor applies");
+                self.warn_once(msg);
+                return Ok(None);
+            }
+        };
+        let n_images = self.doc.as_json().images.len();
+        if image >= n_images {
+            return Err(out_of_range(&format!("textures[{ti}].source"), image, n_images, "images"));
+        }
+        self.check_sampler(ti)?;
         let mut tex_coord = tex_coord;
         let mut uv_transform = Mat3::IDENTITY;
         if let Some(t) = transform {
@@ -1492,7 +1833,6 @@ impl Importer<'_> {
                 "{label}: {slot} uses TEXCOORD_{tex_coord}; TEXCOORD_0 is used instead"
             ));
         }
-        let image = texture.source().index();
         let sampler = texture.sampler();
         let repeat = |w: gltf::texture::WrappingMode| -> bool {
             !matches!(w, gltf::texture::WrappingMode::ClampToEdge)
@@ -1541,11 +1881,11 @@ impl Importer<'_> {
                 i
             }
         };
-        Ok(TextureRef {
+        Ok(Some(TextureRef {
             texture: index,
             tex_coord,
             uv_transform,
-        })
+        }))
     }
 
     fn image(&mut self, index: usize) -> Result<&crate::scene::texture::DecodedImage, String> {
@@ -1579,12 +1919,7 @@ impl Importer<'_> {
         let img = &self.doc.as_json().images[index];
         let mime = img.mime_type.as_ref().map(|m| m.0.clone());
         if let Some(view_idx) = img.buffer_view.as_ref() {
-            let view = self
-                .doc
-                .views()
-                .nth(view_idx.value())
-                .ok_or_else(|| format!("image {index}: buffer view does not exist"))?;
-            let bytes = self.view_bytes(&view)?;
+            let bytes = self.view_bytes(view_idx.value(), &format!("images[{index}].bufferView"))?;
             return Ok(
                 decode_image(bytes, mime.as_deref()).map_err(|e| format!("image {index}: {e}"))
             );

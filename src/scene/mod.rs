@@ -4,6 +4,7 @@ pub mod build;
 pub mod camera;
 pub mod desc;
 pub mod gltf_import;
+pub mod gltf_json;
 pub mod load;
 pub mod material;
 pub mod materials_json;

@@ -26,13 +26,24 @@ pub fn decode_image(bytes: &[u8], mime: Option<&str>) -> Result<DecodedImage, St
         None => match mime {
             Some("image/png") => image::ImageFormat::Png,
             Some("image/jpeg") => image::ImageFormat::Jpeg,
-            Some(m) => return Err(format!("unsupported image type '{m}' (PNG and JPEG are)")),
-            None => return Err("unrecognised image format (PNG and JPEG are supported)".into()),
+            Some("image/webp") => image::ImageFormat::WebP,
+            Some(m) => {
+                return Err(format!(
+                    "unsupported image type '{m}' (PNG, JPEG and WebP are)"
+                ))
+            }
+            None => {
+                return Err("unrecognised image format (PNG, JPEG and WebP are supported)".into())
+            }
         },
     };
-    if !matches!(format, image::ImageFormat::Png | image::ImageFormat::Jpeg) {
+    // WebP arrives through EXT_texture_webp (glTF textures are PNG or JPEG otherwise).
+    if !matches!(
+        format,
+        image::ImageFormat::Png | image::ImageFormat::Jpeg | image::ImageFormat::WebP
+    ) {
         return Err(format!(
-            "unsupported image format {format:?} (PNG and JPEG are supported)"
+            "unsupported image format {format:?} (PNG, JPEG and WebP are supported)"
         ));
     }
     let mut reader = image::ImageReader::with_format(std::io::Cursor::new(bytes), format);

@@ -12,7 +12,7 @@ pub fn corpus_dir() -> PathBuf {
 /// auto-discovery (`<stem>.materials.json` beside the scene).
 pub const CASES: &[(&str, &str)] = &[
     ("truncated.glb", "truncated GLB"),
-    ("missing_buffer.gltf", "buffer 0: cannot read 'missing_buffer.bin'"),
+    ("missing_buffer.gltf", "buffers[0]: cannot read 'missing_buffer.bin'"),
     ("sidecar_syntax.gltf", "sidecar_syntax.materials.json:4:3: invalid JSON: trailing comma"),
     ("sidecar_nan.gltf", "NaN and Infinity are not valid JSON numbers"),
     ("sidecar_inf.gltf", "materials.Skin.subsurface.sigma_s[2]: 1e+300 is not a finite number"),
