@@ -192,3 +192,27 @@ impl MetallicRoughnessBsdf {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// KHR_materials_ior's `ior = 0` is F0 = ((0 - 1) / (0 + 1))^2 = 1: the dielectric layer
+    /// reflects everything at every angle (F0 = F90 = specular), nothing reaches the diffuse.
+    #[test]
+    fn ior_zero_reflects_everything() {
+        let b = MetallicRoughnessBsdf {
+            base_color: SampledSpectrum::splat(0.8),
+            metallic: 0.0,
+            alpha: 0.25,
+            specular: 1.0,
+            specular_color: SampledSpectrum::ONE,
+            ior: 0.0,
+        };
+        assert_eq!(b.dielectric_f0(), SampledSpectrum::ONE);
+        let (fd, _) = b.fresnels(0.3);
+        assert_eq!(fd, SampledSpectrum::ONE);
+        // The diffuse lobe gets (1 - F) = 0 of the light, so only the GGX lobe is sampled.
+        assert_eq!(b.specular_probability(0.7), 1.0);
+    }
+}

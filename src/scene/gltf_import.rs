@@ -404,7 +404,9 @@ impl<'d> Importer<'d> {
                 Ok(d) => (d, None),
                 Err(e) => (
                     GltfMaterialDesc {
-                        name: m.name().map_or_else(|| format!("material {i}"), str::to_string),
+                        name: m
+                            .name()
+                            .map_or_else(|| format!("material {i}"), str::to_string),
                         ..Default::default()
                     },
                     Some(e),
@@ -419,7 +421,12 @@ impl<'d> Importer<'d> {
         let json = doc.as_json();
         let scene = match json.scene {
             Some(s) if s.value() >= json.scenes.len() => {
-                return Err(out_of_range("scene", s.value(), json.scenes.len(), "scenes"))
+                return Err(out_of_range(
+                    "scene",
+                    s.value(),
+                    json.scenes.len(),
+                    "scenes",
+                ))
             }
             Some(s) => Some(s.value()),
             None => (!json.scenes.is_empty()).then_some(0),
@@ -589,13 +596,23 @@ impl<'d> Importer<'d> {
         if let Some(m) = node_json.mesh {
             let n = self.doc.as_json().meshes.len();
             if m.value() >= n {
-                return Err(out_of_range(&format!("nodes[{index}].mesh"), m.value(), n, "meshes"));
+                return Err(out_of_range(
+                    &format!("nodes[{index}].mesh"),
+                    m.value(),
+                    n,
+                    "meshes",
+                ));
             }
         }
         if let Some(c) = node_json.camera {
             let n = self.doc.as_json().cameras.len();
             if c.value() >= n {
-                return Err(out_of_range(&format!("nodes[{index}].camera"), c.value(), n, "cameras"));
+                return Err(out_of_range(
+                    &format!("nodes[{index}].camera"),
+                    c.value(),
+                    n,
+                    "cameras",
+                ));
             }
         }
         if let Some(mesh) = node.mesh() {
@@ -1093,7 +1110,10 @@ impl<'d> Importer<'d> {
                 gltf::json::validation::Checked::Valid(t) => t.0.size(),
                 gltf::json::validation::Checked::Invalid => 4,
             };
-            let (ioff, voff) = (sp.indices.byte_offset.0 as usize, sp.values.byte_offset.0 as usize);
+            let (ioff, voff) = (
+                sp.indices.byte_offset.0 as usize,
+                sp.values.byte_offset.0 as usize,
+            );
             let ibytes = self.view_bytes(
                 sp.indices.buffer_view.value(),
                 &format!("{path}.sparse.indices.bufferView"),
@@ -1482,21 +1502,28 @@ impl<'d> Importer<'d> {
         let m = &json.materials[i];
         let path = format!("materials[{i}]");
         if m.alpha_mode == Checked::Invalid {
-            return Err(format!(
-                "{path}.alphaMode: must be OPAQUE, MASK or BLEND"
-            ));
+            return Err(format!("{path}.alphaMode: must be OPAQUE, MASK or BLEND"));
         }
         let pbr = &m.pbr_metallic_roughness;
         let ext = m.extensions.as_ref();
         let slots = [
-            ("pbrMetallicRoughness.baseColorTexture", pbr.base_color_texture.as_ref().map(|t| t.index)),
+            (
+                "pbrMetallicRoughness.baseColorTexture",
+                pbr.base_color_texture.as_ref().map(|t| t.index),
+            ),
             (
                 "pbrMetallicRoughness.metallicRoughnessTexture",
                 pbr.metallic_roughness_texture.as_ref().map(|t| t.index),
             ),
             ("normalTexture", m.normal_texture.as_ref().map(|t| t.index)),
-            ("occlusionTexture", m.occlusion_texture.as_ref().map(|t| t.index)),
-            ("emissiveTexture", m.emissive_texture.as_ref().map(|t| t.index)),
+            (
+                "occlusionTexture",
+                m.occlusion_texture.as_ref().map(|t| t.index),
+            ),
+            (
+                "emissiveTexture",
+                m.emissive_texture.as_ref().map(|t| t.index),
+            ),
             (
                 "extensions.KHR_materials_transmission.transmissionTexture",
                 ext.and_then(|e| e.transmission.as_ref())
@@ -1552,11 +1579,11 @@ impl<'d> Importer<'d> {
             .ok_or_else(|| out_of_range(&path, si.value(), json.samplers.len(), "samplers"))?;
         let sp = format!("samplers[{}]", si.value());
         if sampler.wrap_s == Checked::Invalid || sampler.wrap_t == Checked::Invalid {
-            return Err(format!(
-                "{sp}: wrapS/wrapT must be 33071, 33648 or 10497"
-            ));
+            return Err(format!("{sp}: wrapS/wrapT must be 33071, 33648 or 10497"));
         }
-        if sampler.mag_filter == Some(Checked::Invalid) || sampler.min_filter == Some(Checked::Invalid) {
+        if sampler.mag_filter == Some(Checked::Invalid)
+            || sampler.min_filter == Some(Checked::Invalid)
+        {
             return Err(format!("{sp}: magFilter/minFilter is not a glTF filter"));
         }
         Ok(())
@@ -1692,12 +1719,9 @@ impl<'d> Importer<'d> {
             None => None,
         };
         let metallic_roughness_texture = match pbr.metallic_roughness_texture() {
-            Some(t) => self.texture_ref(
-                &t,
-                ColorSpace::Linear,
-                &label,
-                "metallicRoughnessTexture",
-            )?,
+            Some(t) => {
+                self.texture_ref(&t, ColorSpace::Linear, &label, "metallicRoughnessTexture")?
+            }
             None => None,
         };
         let emissive_texture = match m.emissive_texture() {
@@ -1800,14 +1824,21 @@ impl<'d> Importer<'d> {
         let image = match &self.texture_sources[ti] {
             TextureSource::Image(i) => *i,
             TextureSource::Unsupported(why) => {
-                let msg = format!("{label}: {slot}: texture {ti} is not used because {why}; the factor applies");
+                let msg = format!(
+                    "{label}: {slot}: texture {ti} is not used because {why}; the factor applies"
+                );
                 self.warn_once(msg);
                 return Ok(None);
             }
         };
         let n_images = self.doc.as_json().images.len();
         if image >= n_images {
-            return Err(out_of_range(&format!("textures[{ti}].source"), image, n_images, "images"));
+            return Err(out_of_range(
+                &format!("textures[{ti}].source"),
+                image,
+                n_images,
+                "images",
+            ));
         }
         self.check_sampler(ti)?;
         let mut tex_coord = tex_coord;
@@ -1919,7 +1950,8 @@ impl<'d> Importer<'d> {
         let img = &self.doc.as_json().images[index];
         let mime = img.mime_type.as_ref().map(|m| m.0.clone());
         if let Some(view_idx) = img.buffer_view.as_ref() {
-            let bytes = self.view_bytes(view_idx.value(), &format!("images[{index}].bufferView"))?;
+            let bytes =
+                self.view_bytes(view_idx.value(), &format!("images[{index}].bufferView"))?;
             return Ok(
                 decode_image(bytes, mime.as_deref()).map_err(|e| format!("image {index}: {e}"))
             );

@@ -91,7 +91,10 @@ fn prepare_textures(obj: &mut Map<String, Value>) -> Vec<TextureSource> {
     let Some(textures) = obj.get_mut("textures").and_then(Value::as_array_mut) else {
         return Vec::new();
     };
-    let index = |v: Option<&Value>| v.and_then(Value::as_f64).filter(|x| *x >= 0.0 && x.fract() == 0.0);
+    let index = |v: Option<&Value>| {
+        v.and_then(Value::as_f64)
+            .filter(|x| *x >= 0.0 && x.fract() == 0.0)
+    };
     textures
         .iter_mut()
         .map(|tex| {
@@ -196,8 +199,8 @@ mod tests {
 
     #[test]
     fn integral_floats_become_integers_and_others_stay() {
-        let mut v: Value = serde_json::from_str(r#"{"a": 3.0, "b": [1.5, -2.0, 0.0], "c": 7}"#)
-            .unwrap();
+        let mut v: Value =
+            serde_json::from_str(r#"{"a": 3.0, "b": [1.5, -2.0, 0.0], "c": 7}"#).unwrap();
         integers_from_integral_floats(&mut v);
         assert_eq!(v["a"], Value::from(3u64));
         assert_eq!(v["b"][0].as_f64(), Some(1.5));

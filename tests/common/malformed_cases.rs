@@ -25,6 +25,15 @@ pub const CASES: &[(&str, &str)] = &[
     ("index_out_of_range.gltf", "vertex index 7 out of range (4 vertices)"),
     ("node_cycle.gltf", "the node hierarchy has a cycle"),
     ("accessor_overrun.gltf", "needs 12000 bytes of buffer view 0"),
+    ("drawn_accessor_bad_view.gltf", "accessors[0].bufferView: index 9 out of range (4 buffer views)"),
+    ("drawn_material_out_of_range.gltf", "meshes[1].primitives[0].material: index 7 out of range (2 materials)"),
+    ("node_mesh_out_of_range.gltf", "nodes[1].mesh: index 5 out of range (2 meshes)"),
+    ("child_out_of_range.gltf", "nodes[0].children: index 9 out of range (3 nodes)"),
+    ("bad_component_type.gltf", "accessors[0].componentType: not a glTF component type"),
+    ("fractional_count.gltf", "invalid glTF: accessors[0].count: invalid type: floating point `2.5`"),
+    ("drawn_material_bad_texture.gltf", "materials[1].pbrMetallicRoughness.baseColorTexture.index: index 4 out of range (0 textures)"),
+    ("scene_out_of_range.gltf", "scene: index 3 out of range (1 scenes)"),
+    ("draco_required.gltf", "extensionsRequired: KHR_draco_mesh_compression is required and not supported"),
 ];
 
 /// A scene path that does not exist, and the fragment its error must contain.

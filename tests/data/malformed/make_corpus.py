@@ -207,6 +207,48 @@ def main():
     d.accessors[0]["count"] = 1000
     write_gltf("accessor_overrun.gltf", d)
 
+    # Broken references that drawn geometry follows: each names its JSON path (the loader checks
+    # what it uses, not the whole file; tests/data/lenient/ has the unused ones).
+    d = good_scene()
+    d.accessors[0]["bufferView"] = 9
+    write_gltf("drawn_accessor_bad_view.gltf", d)
+
+    d = good_scene()
+    d.meshes[1]["primitives"][0]["material"] = 7
+    write_gltf("drawn_material_out_of_range.gltf", d)
+
+    d = good_scene()
+    d.nodes[1]["mesh"] = 5
+    write_gltf("node_mesh_out_of_range.gltf", d)
+
+    d = good_scene()
+    d.nodes[0]["children"] = [9]
+    write_gltf("child_out_of_range.gltf", d)
+
+    d = good_scene()
+    d.accessors[0]["componentType"] = 5130  # GL_DOUBLE: not a glTF component type
+    write_gltf("bad_component_type.gltf", d)
+
+    d = good_scene()
+    d.accessors[0]["count"] = 2.5
+    write_gltf("fractional_count.gltf", d)
+
+    d = good_scene()
+    d.materials[1]["pbrMetallicRoughness"]["baseColorTexture"] = {"index": 4}
+    write_gltf("drawn_material_bad_texture.gltf", d)
+
+    d = good_scene()
+    doc = d.json()
+    doc["scene"] = 3
+    write("scene_out_of_range.gltf", json.dumps(doc, indent=1) + "\n")
+
+    # Compressed geometry that the renderer cannot decode, required by the file.
+    d = good_scene()
+    doc = d.json()
+    doc["extensionsUsed"] = doc.get("extensionsUsed", []) + ["KHR_draco_mesh_compression"]
+    doc["extensionsRequired"] = ["KHR_draco_mesh_compression"]
+    write("draco_required.gltf", json.dumps(doc, indent=1) + "\n")
+
 
 if __name__ == "__main__":
     main()
