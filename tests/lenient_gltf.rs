@@ -97,6 +97,7 @@ const CASES: &[(&str, &[&str], [f32; 3])] = &[
         &["mesh 'Quad' primitive 1: no POSITION attribute; not rendered"],
         [2.0, 2.0, 2.0],
     ),
+    ("morph_targets.gltf", &[], [2.0, 2.0, 2.0]),
     (
         "unknown_required_extension.gltf",
         &["extensions not supported and ignored: EXT_future_material"],

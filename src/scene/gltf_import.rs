@@ -335,7 +335,9 @@ struct Importer<'d> {
     dir: PathBuf,
     scene: SceneDesc,
     /// (mesh, primitive) -> index into `scene.meshes` (None: no triangles / skipped).
-    mesh_cache: HashMap<(usize, usize), Option<usize>>,
+    /// (mesh, primitive, morph weights' bits) -> index into `scene.meshes` (None: no
+    /// triangles / skipped).
+    mesh_cache: HashMap<(usize, usize, Vec<u32>), Option<usize>>,
     image_cache: HashMap<usize, crate::scene::texture::DecodedImage>,
     /// (image, colour space is sRGB, wrap s, wrap t, bilinear) -> texture index.
     texture_cache: HashMap<(usize, bool, bool, bool, bool), usize>,
@@ -630,8 +632,20 @@ impl<'d> Importer<'d> {
                 camera_visible: flag("prism_visible_camera").unwrap_or(!area_light),
                 holdout: flag("prism_holdout").unwrap_or(false),
             };
+            if node_json.skin.is_some() {
+                let label = Self::node_label(&node);
+                self.warn_once(format!(
+                    "{label}: skinning is not supported; its mesh is rendered unskinned (the bind pose) under the node"
+                ));
+            }
+            // Morph target weights: the node's override the mesh's (glTF 2.0 spec 3.7.2.2).
+            let weights: Vec<f32> = node_json
+                .weights
+                .clone()
+                .or_else(|| self.doc.as_json().meshes[mesh.index()].weights.clone())
+                .unwrap_or_default();
             for prim in mesh.primitives() {
-                if let Some(m) = self.mesh_for(&mesh, &prim)? {
+                if let Some(m) = self.mesh_for(&mesh, &prim, &weights)? {
                     if visibility != InstanceVisibility::default() {
                         let i = self.scene.instances.len();
                         let vis = &mut self.scene.instance_visibility;
@@ -1223,12 +1237,23 @@ impl<'d> Importer<'d> {
         &mut self,
         mesh: &gltf::Mesh,
         prim: &gltf::Primitive,
+        weights: &[f32],
     ) -> Result<Option<usize>, String> {
-        let key = (mesh.index(), prim.index());
+        let has_targets = self.doc.as_json().meshes[mesh.index()].primitives[prim.index()]
+            .targets
+            .as_ref()
+            .is_some_and(|t| !t.is_empty());
+        // Without targets the weights change nothing: one mesh for every node.
+        let weight_bits = if has_targets {
+            weights.iter().map(|w| w.to_bits()).collect()
+        } else {
+            Vec::new()
+        };
+        let key = (mesh.index(), prim.index(), weight_bits);
         if let Some(&m) = self.mesh_cache.get(&key) {
             return Ok(m);
         }
-        let result = match self.load_primitive(mesh, prim)? {
+        let result = match self.load_primitive(mesh, prim, weights)? {
             Some(desc) => {
                 self.scene.meshes.push(desc);
                 Some(self.scene.meshes.len() - 1)
@@ -1243,6 +1268,7 @@ impl<'d> Importer<'d> {
         &mut self,
         mesh: &gltf::Mesh,
         prim: &gltf::Primitive,
+        weights: &[f32],
     ) -> Result<Option<MeshDesc>, String> {
         let mesh_name = mesh
             .name()
@@ -1290,9 +1316,9 @@ impl<'d> Importer<'d> {
             self.warn_once(format!("{name}: no POSITION attribute; not rendered"));
             return Ok(None);
         };
-        let positions = self.read_vec3(&pos_acc, &format!("{name} POSITION"))?;
+        let mut positions = self.read_vec3(&pos_acc, &format!("{name} POSITION"))?;
         let n = positions.len();
-        let normals = match self.attribute(mi, pi, Semantic::Normals)? {
+        let mut normals = match self.attribute(mi, pi, Semantic::Normals)? {
             Some(a) => {
                 let v = self.read_vec3(&a, &format!("{name} NORMAL"))?;
                 if v.len() != n {
@@ -1329,6 +1355,7 @@ impl<'d> Importer<'d> {
             }
             None => None,
         };
+        self.apply_morph_targets(mi, pi, weights, &mut positions, normals.as_mut())?;
         let tangents = self.load_tangents(mi, prim, &name, n, normals.is_some())?;
         let mut extra_uvs = Vec::new();
         for set in 1..crate::shading::MAX_ATTRIBUTE_SETS as u32 {
@@ -1428,6 +1455,60 @@ impl<'d> Importer<'d> {
             fix_normals(normals, &desc.positions, &desc.indices);
         }
         Ok(Some(desc))
+    }
+
+    /// Adds the weighted morph target displacements of POSITION and NORMAL (glTF 2.0 spec
+    /// 3.7.2.2: attribute = base + sum_k weight_k target_k); normals are renormalised later.
+    /// TANGENT displacements are not applied: the normal-map frame orthonormalises the
+    /// tangent against the shading normal anyway (`Geometry::normal_map_frame`).
+    fn apply_morph_targets(
+        &self,
+        mi: usize,
+        pi: usize,
+        weights: &[f32],
+        positions: &mut [Vec3],
+        mut normals: Option<&mut Vec<Vec3>>,
+    ) -> Result<(), String> {
+        let json = &self.doc.as_json().meshes[mi].primitives[pi];
+        let Some(targets) = json.targets.as_ref() else {
+            return Ok(());
+        };
+        let n = positions.len();
+        for (k, target) in targets.iter().enumerate() {
+            let w = weights.get(k).copied().unwrap_or(0.0);
+            if w == 0.0 {
+                continue;
+            }
+            if !w.is_finite() {
+                return Err(format!(
+                    "meshes[{mi}]: morph target weight {k} is not finite"
+                ));
+            }
+            let path = format!("meshes[{mi}].primitives[{pi}].targets[{k}]");
+            let add = |acc: Option<gltf::json::Index<gltf::json::Accessor>>,
+                       what: &str,
+                       dst: &mut [Vec3]|
+             -> Result<(), String> {
+                let Some(a) = acc else { return Ok(()) };
+                let acc = self.accessor(a.value(), &format!("{path}.{what}"))?;
+                let d = self.read_vec3(&acc, &format!("{path}.{what}"))?;
+                if d.len() != n {
+                    return Err(format!(
+                        "{path}.{what}: {} elements but POSITION has {n}",
+                        d.len()
+                    ));
+                }
+                for (x, dx) in dst.iter_mut().zip(&d) {
+                    *x += w * *dx;
+                }
+                Ok(())
+            };
+            add(target.positions, "POSITION", positions)?;
+            if let Some(ns) = normals.as_deref_mut() {
+                add(target.normals, "NORMAL", ns)?;
+            }
+        }
+        Ok(())
     }
 
     /// The `TANGENT` attribute (glTF 2.0 spec 3.7.2.1: VEC4, xyz unit tangent, w = +-1

@@ -180,6 +180,23 @@ def main():
                                       "material": m})
     write_json("primitive_without_position.gltf", d.json())
 
+    # Morph targets with the mesh's default weights: the base shape is a quad a hundredth of
+    # the size, the weighted target (0.5 x twice the difference) brings it to full size.
+    d, _ = emissive_quad()
+    prim = d.meshes[0]["primitives"][0]
+    small = [(0.01 * x, 0.01 * y, z) for (x, y, z) in QUAD]
+    base = d.view(f32s([c for p in small for c in p]))
+    d.accessors.append({"bufferView": base, "componentType": 5126, "count": 4, "type": "VEC3",
+                        "min": [-0.005, -0.005, 0.0], "max": [0.005, 0.005, 0.0]})
+    prim["attributes"]["POSITION"] = len(d.accessors) - 1
+    delta = [(2.0 * (p[0] - q[0]), 2.0 * (p[1] - q[1]), 0.0) for p, q in zip(QUAD, small)]
+    dv = d.view(f32s([c for p in delta for c in p]))
+    d.accessors.append({"bufferView": dv, "componentType": 5126, "count": 4, "type": "VEC3",
+                        "min": [-0.99, -0.99, 0.0], "max": [0.99, 0.99, 0.0]})
+    prim["targets"] = [{"POSITION": len(d.accessors) - 1}]
+    d.meshes[0]["weights"] = [0.5]
+    write_json("morph_targets.gltf", d.json())
+
     # An extension the renderer does not know, required: a warning, not a refusal (only
     # required geometry compression, which cannot be read at all, is refused).
     d, _ = emissive_quad()
