@@ -98,6 +98,8 @@ const CASES: &[(&str, &[&str], [f32; 3])] = &[
         [2.0, 2.0, 2.0],
     ),
     ("morph_targets.gltf", &[], [2.0, 2.0, 2.0]),
+    // Two half-size instances beside an empty centre (the instances are checked below).
+    ("gpu_instancing.gltf", &[], [0.0, 0.0, 0.0]),
     (
         "unknown_required_extension.gltf",
         &["extensions not supported and ignored: EXT_future_material"],
@@ -139,13 +141,25 @@ fn valid_and_unused_broken_files_render_with_the_expected_warnings_and_pixels() 
 }
 
 /// KHR_materials_ior `ior = 0` stays 0 for the glTF BRDF (F0 = ((0 - 1) / (0 + 1))^2 = 1) and
-/// refracts as a dielectric of IOR_ZERO_LIMIT; the unknown light is skipped, the point kept.
+/// refracts as a dielectric of IOR_ZERO_LIMIT; EXT_mesh_gpu_instancing makes one instance per
+/// entry; the unknown light is skipped, the point kept.
 #[test]
-fn ior_zero_and_unknown_lights_load_as_the_extensions_say() {
+fn ior_zero_gpu_instances_and_unknown_lights_load_as_the_extensions_say() {
     let scene = load_scene(&corpus("ior_zero.gltf"), None, None).unwrap();
     let g = &scene.materials[0].gltf;
     assert_eq!(g.ior, 0.0);
     assert!(matches!(g.ior_model(), IorDesc::Constant(n) if n == IOR_ZERO_LIMIT));
+
+    let scene = load_scene(&corpus("gpu_instancing.gltf"), None, None).unwrap();
+    let at: Vec<[f32; 4]> = scene
+        .instances
+        .iter()
+        .map(|i| {
+            let m = i.object_to_world;
+            [m.w_axis.x, m.w_axis.y, m.w_axis.z, m.x_axis.x]
+        })
+        .collect();
+    assert_eq!(at, vec![[-0.8, 0.0, 0.0, 0.5], [0.8, 0.0, 0.0, 0.5]]);
 
     let scene = load_scene(&corpus("unknown_light_type.gltf"), None, None).unwrap();
     assert_eq!(scene.lights.len(), 1);

@@ -223,6 +223,7 @@ fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
 /// The glTF extensions the importer implements (everything else in `extensionsUsed` is
 /// ignored with one warning).
 const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "EXT_mesh_gpu_instancing",
     "EXT_texture_webp",
     "KHR_lights_punctual",
     "KHR_materials_dispersion",
@@ -644,19 +645,25 @@ impl<'d> Importer<'d> {
                 .clone()
                 .or_else(|| self.doc.as_json().meshes[mesh.index()].weights.clone())
                 .unwrap_or_default();
+            let transforms = match self.gpu_instances(index)? {
+                Some(locals) => locals.into_iter().map(|l| world * l).collect(),
+                None => vec![world],
+            };
             for prim in mesh.primitives() {
                 if let Some(m) = self.mesh_for(&mesh, &prim, &weights)? {
-                    if visibility != InstanceVisibility::default() {
-                        let i = self.scene.instances.len();
-                        let vis = &mut self.scene.instance_visibility;
-                        vis.resize(i + 1, InstanceVisibility::default());
-                        vis[i] = visibility;
+                    for &object_to_world in &transforms {
+                        if visibility != InstanceVisibility::default() {
+                            let i = self.scene.instances.len();
+                            let vis = &mut self.scene.instance_visibility;
+                            vis.resize(i + 1, InstanceVisibility::default());
+                            vis[i] = visibility;
+                        }
+                        self.scene.instances.push(InstanceDesc {
+                            mesh: m,
+                            object_to_world,
+                            name: node_name.clone(),
+                        });
                     }
-                    self.scene.instances.push(InstanceDesc {
-                        mesh: m,
-                        object_to_world: world,
-                        name: node_name.clone(),
-                    });
                 }
             }
         }
@@ -678,6 +685,74 @@ impl<'d> Importer<'d> {
             self.light(li, &node_name, world)?;
         }
         Ok(world)
+    }
+
+    /// EXT_mesh_gpu_instancing: the node's per-instance TRANSLATION / ROTATION / SCALE as
+    /// local transforms applied before the node's (the extension's "the node's global transform
+    /// is applied after the instance transform"); `None` without the extension.
+    fn gpu_instances(&self, node: usize) -> Result<Option<Vec<Mat4>>, String> {
+        let Some(ext) = self.doc.as_json().nodes[node]
+            .extensions
+            .as_ref()
+            .and_then(|e| e.others.get("EXT_mesh_gpu_instancing"))
+        else {
+            return Ok(None);
+        };
+        let path = format!("nodes[{node}].extensions.EXT_mesh_gpu_instancing.attributes");
+        let attrs = ext.get("attributes").and_then(|a| a.as_object());
+        let read = |key: &str, dims: Dimensions| -> Result<Option<Vec<f32>>, String> {
+            let Some(v) = attrs.and_then(|a| a.get(key)) else {
+                return Ok(None);
+            };
+            let i = v
+                .as_u64()
+                .ok_or_else(|| format!("{path}.{key}: not an accessor index"))?;
+            let acc = self.accessor(i as usize, &format!("{path}.{key}"))?;
+            self.read_floats(&acc, dims, &format!("{path}.{key}"))
+                .map(Some)
+        };
+        let t = read("TRANSLATION", Dimensions::Vec3)?;
+        let r = read("ROTATION", Dimensions::Vec4)?;
+        let s = read("SCALE", Dimensions::Vec3)?;
+        let counts: Vec<usize> = [
+            t.as_ref().map(|v| v.len() / 3),
+            r.as_ref().map(|v| v.len() / 4),
+            s.as_ref().map(|v| v.len() / 3),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        let Some(&n) = counts.first() else {
+            return Err(format!("{path}: no TRANSLATION, ROTATION or SCALE"));
+        };
+        if counts.iter().any(|&c| c != n) {
+            return Err(format!(
+                "{path}: TRANSLATION, ROTATION and SCALE have different counts"
+            ));
+        }
+        let mut out = Vec::with_capacity(n);
+        for i in 0..n {
+            let tr = t
+                .as_ref()
+                .map_or(Vec3::ZERO, |v| Vec3::from_slice(&v[3 * i..]));
+            let sc = s
+                .as_ref()
+                .map_or(Vec3::ONE, |v| Vec3::from_slice(&v[3 * i..]));
+            let q = r.as_ref().map_or(glam::Quat::IDENTITY, |v| {
+                glam::Quat::from_slice(&v[4 * i..])
+            });
+            let q = if q.length_squared() > 0.0 && q.is_finite() {
+                q.normalize()
+            } else {
+                glam::Quat::IDENTITY
+            };
+            let m = Mat4::from_scale_rotation_translation(sc, q, tr);
+            if !finite_all(&m.to_cols_array()) {
+                return Err(format!("{path}: instance {i} has non-finite values"));
+            }
+            out.push(m);
+        }
+        Ok(Some(out))
     }
 
     // ---------------------------------------------------------------- lights

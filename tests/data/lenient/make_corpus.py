@@ -197,6 +197,20 @@ def main():
     d.meshes[0]["weights"] = [0.5]
     write_json("morph_targets.gltf", d.json())
 
+    # EXT_mesh_gpu_instancing (required): two half-size copies left and right of the centre,
+    # which stays dark; the node's own transform applies after the instances'.
+    d, _ = emissive_quad()
+    tv = d.view(f32s([-0.8, 0.0, 0.0, 0.8, 0.0, 0.0]))
+    d.accessors.append({"bufferView": tv, "componentType": 5126, "count": 2, "type": "VEC3"})
+    sv = d.view(f32s([0.5, 0.5, 0.5] * 2))
+    d.accessors.append({"bufferView": sv, "componentType": 5126, "count": 2, "type": "VEC3"})
+    d.nodes[0]["extensions"] = {"EXT_mesh_gpu_instancing": {"attributes": {
+        "TRANSLATION": len(d.accessors) - 2, "SCALE": len(d.accessors) - 1}}}
+    doc = d.json()
+    doc["extensionsUsed"].append("EXT_mesh_gpu_instancing")
+    doc["extensionsRequired"] = ["EXT_mesh_gpu_instancing"]
+    write_json("gpu_instancing.gltf", doc)
+
     # An extension the renderer does not know, required: a warning, not a refusal (only
     # required geometry compression, which cannot be read at all, is refused).
     d, _ = emissive_quad()
