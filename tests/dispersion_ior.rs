@@ -313,12 +313,6 @@ fn gltf_bad_dispersion_is_a_clear_error() {
             json!({ "dispersion": "lots" }),
             "KHR_materials_dispersion.dispersion must be a number, got \"lots\"",
         ),
-        (
-            // V_d = 20 / 40 = 0.5: n drops below 1 in the red.
-            "dispersion_gltf_huge",
-            json!({ "dispersion": 40.0 }),
-            "the index of refraction must be >= 1 over 360–830 nm",
-        ),
     ] {
         let path = glass_scene(name, Some(1.5), d);
         let e = match load_scene(&path, None, None) {
@@ -329,6 +323,26 @@ fn gltf_bad_dispersion_is_a_clear_error() {
         assert!(e.contains("material 'Glass'"), "{name}: {e}");
         assert!(!e.contains('\n'), "{e}");
     }
+}
+
+/// A valid but extreme pair (the extension allows any dispersion >= 0) that the Abbe form
+/// cannot follow over 360-830 nm renders without dispersion, with a warning.
+#[test]
+fn gltf_dispersion_beyond_the_abbe_form_is_a_warning() {
+    // V_d = 20 / 40 = 0.5: n drops below 1 in the red.
+    let path = glass_scene(
+        "dispersion_gltf_huge",
+        Some(1.5),
+        json!({ "dispersion": 40.0 }),
+    );
+    let scene = load_scene(&path, None, None).expect("loads");
+    let w = scene.warnings.join("\n");
+    assert!(
+        w.contains("material 'Glass': KHR_materials_dispersion ignored")
+            && w.contains("the index of refraction must be >= 1 over 360–830 nm"),
+        "{w}"
+    );
+    assert_eq!(glass_ior(&path), IorModel::Constant(1.5));
 }
 
 #[test]

@@ -763,7 +763,7 @@ fn orthographic_camera_is_imported_and_validated() {
         "orthographic": { "xmag": 2.0, "ymag": 0.0, "znear": 0.1, "zfar": 10.0 } });
     let e = input_error(load_scene(&b.write_gltf(&dir.join("z.gltf")), None, None));
     assert!(
-        e.contains("orthographic ymag must be positive, got 0"),
+        e.contains("orthographic ymag must be a non-zero number, got 0"),
         "{e}"
     );
     assert!(!e.contains('\n'), "{e}");

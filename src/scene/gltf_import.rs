@@ -490,7 +490,9 @@ impl<'d> Importer<'d> {
             );
         }
         if !self.cameras.is_empty() {
-            self.scene.camera = Some(self.pick_camera(camera_name)?);
+            let (camera, warnings) = self.pick_camera(camera_name)?;
+            self.scene.camera = Some(camera);
+            self.scene.warnings.extend(warnings);
         }
         Ok(())
     }
@@ -817,9 +819,11 @@ impl<'d> Importer<'d> {
         } else if kind == PunctualKind::Point {
             Vec3::NEG_Z
         } else {
-            return Err(format!(
-                "{label}: node '{node_name}' has a degenerate transform (no direction)"
+            // A zero-scaled node (a light switched off by scaling, say): no direction to shine.
+            self.warn_once(format!(
+                "{label}: node '{node_name}' has a degenerate transform (no direction); the light is skipped"
             ));
+            return Ok(());
         };
         // What glTF has no field for, written by the add-on in the light's extras:
         // `prism_angle` (a directional light's angular diameter, Blender's sun angle, radians),
@@ -877,7 +881,9 @@ impl<'d> Importer<'d> {
 
     // ---------------------------------------------------------------- camera
 
-    fn pick_camera(&self, camera_name: Option<&str>) -> Result<CameraDesc, String> {
+    /// The camera to render through, and warnings about it.
+    fn pick_camera(&self, camera_name: Option<&str>) -> Result<(CameraDesc, Vec<String>), String> {
+        let mut warnings = Vec::new();
         let cand = match camera_name {
             None => &self.cameras[0],
             Some(want) => self
@@ -935,24 +941,44 @@ impl<'d> Importer<'d> {
             .unwrap_or_else(|| format!("camera {}", cand.camera_index));
         let (yfov, aspect, orthographic) = match cam.projection() {
             gltf::camera::Projection::Orthographic(o) => {
-                for (what, v) in [("xmag", o.xmag()), ("ymag", o.ymag())] {
-                    if !(v.is_finite() && v > 0.0) {
-                        return Err(format!(
-                            "camera '{name}': orthographic {what} must be positive, got {v}"
-                        ));
-                    }
+                // The view's width follows from the image's aspect (xmag is not used); a
+                // negative magnification (allowed, "SHOULD NOT") would mirror the view.
+                let (x, y) = (o.xmag(), o.ymag());
+                if !(y.is_finite() && y != 0.0) {
+                    return Err(format!(
+                        "camera '{name}': orthographic ymag must be a non-zero number, got {y}"
+                    ));
                 }
-                (0.0, None, Some(Vec2::new(o.xmag(), o.ymag())))
+                if x < 0.0 || y < 0.0 {
+                    warnings.push(format!(
+                        "camera '{name}': negative orthographic xmag/ymag would mirror the view; rendered unmirrored"
+                    ));
+                }
+                let x = if x.is_finite() && x != 0.0 {
+                    x.abs()
+                } else {
+                    y.abs()
+                };
+                (0.0, None, Some(Vec2::new(x, y.abs())))
             }
             gltf::camera::Projection::Perspective(p) => (p.yfov(), p.aspect_ratio(), None),
         };
-        if orthographic.is_none()
-            && !(yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI)
-        {
+        if orthographic.is_none() && !(yfov.is_finite() && yfov > 0.0) {
             return Err(format!(
-                "camera '{name}': yfov must be in (0, pi) radians, got {yfov}"
+                "camera '{name}': yfov must be a positive number of radians, got {yfov}"
             ));
         }
+        // yfov >= pi is valid glTF (the validator warns) but no pinhole image: the widest a
+        // perspective projection can show is just under pi.
+        let max_fov = std::f32::consts::PI * 0.999;
+        let yfov = if orthographic.is_none() && yfov > max_fov {
+            warnings.push(format!(
+                "camera '{name}': yfov {yfov} rad is not below pi; rendered with {max_fov} rad"
+            ));
+            max_fov
+        } else {
+            yfov
+        };
         if let Some(a) = aspect {
             if !(a.is_finite() && a > 0.0) {
                 return Err(format!(
@@ -978,14 +1004,17 @@ impl<'d> Importer<'d> {
             axes[2].normalize().extend(0.0),
             w.w_axis,
         );
-        Ok(CameraDesc {
-            name,
-            camera_to_world,
-            yfov,
-            aspect,
-            orthographic,
-            ..Default::default()
-        })
+        Ok((
+            CameraDesc {
+                name,
+                camera_to_world,
+                yfov,
+                aspect,
+                orthographic,
+                ..Default::default()
+            },
+            warnings,
+        ))
     }
 
     // ---------------------------------------------------------------- accessors
@@ -1832,11 +1861,20 @@ impl<'d> Importer<'d> {
                     )
                 })?;
                 // With ior = 0 (F0 = 1) nothing refracts: there is nothing to disperse.
+                if !(x.is_finite() && x >= 0.0) {
+                    return Err(format!(
+                        "{label}: KHR_materials_dispersion.dispersion must be a non-negative number, got {x}"
+                    ));
+                }
                 if ior != 0.0 {
-                    dispersion = x as f32;
-                    crate::spectrum::IorModel::from_gltf(ior, dispersion).map_err(|e| {
-                        format!("{label}: {e} (with KHR_materials_ior.ior = {ior})")
-                    })?;
+                    match crate::spectrum::IorModel::from_gltf(ior, x as f32) {
+                        Ok(_) => dispersion = x as f32,
+                        // A valid pair the Abbe form cannot follow over the rendered range
+                        // (n < 1 somewhere, for an IOR near 1): drawn without dispersion.
+                        Err(e) => self.warn_once(format!(
+                            "{label}: KHR_materials_dispersion ignored: {e} (with KHR_materials_ior.ior = {ior})"
+                        )),
+                    }
                 }
             }
         }
