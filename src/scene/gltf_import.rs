@@ -1679,8 +1679,8 @@ impl<'d> Importer<'d> {
 
     // ---------------------------------------------------------------- materials
 
-    /// Checks the references of material `i` that the crate's accessors follow without
-    /// bounds checks (every texture slot, also those the renderer ignores, and alphaMode).
+    /// Checks the references of material `i` that the importer follows through the crate's
+    /// accessors, which do not check bounds: the texture slots it reads, and alphaMode.
     fn check_material_references(&self, i: usize) -> Result<(), String> {
         use gltf::json::validation::Checked;
         let json = self.doc.as_json();
@@ -1690,7 +1690,6 @@ impl<'d> Importer<'d> {
             return Err(format!("{path}.alphaMode: must be OPAQUE, MASK or BLEND"));
         }
         let pbr = &m.pbr_metallic_roughness;
-        let ext = m.extensions.as_ref();
         let slots = [
             (
                 "pbrMetallicRoughness.baseColorTexture",
@@ -1702,36 +1701,8 @@ impl<'d> Importer<'d> {
             ),
             ("normalTexture", m.normal_texture.as_ref().map(|t| t.index)),
             (
-                "occlusionTexture",
-                m.occlusion_texture.as_ref().map(|t| t.index),
-            ),
-            (
                 "emissiveTexture",
                 m.emissive_texture.as_ref().map(|t| t.index),
-            ),
-            (
-                "extensions.KHR_materials_transmission.transmissionTexture",
-                ext.and_then(|e| e.transmission.as_ref())
-                    .and_then(|t| t.transmission_texture.as_ref())
-                    .map(|t| t.index),
-            ),
-            (
-                "extensions.KHR_materials_specular.specularTexture",
-                ext.and_then(|e| e.specular.as_ref())
-                    .and_then(|t| t.specular_texture.as_ref())
-                    .map(|t| t.index),
-            ),
-            (
-                "extensions.KHR_materials_specular.specularColorTexture",
-                ext.and_then(|e| e.specular.as_ref())
-                    .and_then(|t| t.specular_color_texture.as_ref())
-                    .map(|t| t.index),
-            ),
-            (
-                "extensions.KHR_materials_volume.thicknessTexture",
-                ext.and_then(|e| e.volume.as_ref())
-                    .and_then(|t| t.thickness_texture.as_ref())
-                    .map(|t| t.index),
             ),
         ];
         for (slot, index) in slots {
@@ -1879,22 +1850,40 @@ impl<'d> Importer<'d> {
             }
         }
         // Inputs the renderer does not model yet: reported once, never fatal.
+        // Read from the JSON: the crate's accessors would resolve (and unwrap) the texture
+        // indices, which are not checked for slots the renderer does not read.
         let mut ignored: Vec<&str> = Vec::new();
-        if m.transmission()
-            .is_some_and(|t| t.transmission_texture().is_some())
+        if let Some(ext) = m
+            .index()
+            .and_then(|i| self.doc.as_json().materials[i].extensions.as_ref())
         {
-            ignored.push("transmissionTexture");
-        }
-        if let Some(sp) = m.specular() {
-            if sp.specular_texture().is_some() {
-                ignored.push("specularTexture");
-            }
-            if sp.specular_color_texture().is_some() {
-                ignored.push("specularColorTexture");
-            }
-        }
-        if m.volume().is_some_and(|v| v.thickness_texture().is_some()) {
-            ignored.push("thicknessTexture");
+            let slots = [
+                (
+                    "transmissionTexture",
+                    ext.transmission
+                        .as_ref()
+                        .is_some_and(|t| t.transmission_texture.is_some()),
+                ),
+                (
+                    "specularTexture",
+                    ext.specular
+                        .as_ref()
+                        .is_some_and(|t| t.specular_texture.is_some()),
+                ),
+                (
+                    "specularColorTexture",
+                    ext.specular
+                        .as_ref()
+                        .is_some_and(|t| t.specular_color_texture.is_some()),
+                ),
+                (
+                    "thicknessTexture",
+                    ext.volume
+                        .as_ref()
+                        .is_some_and(|t| t.thickness_texture.is_some()),
+                ),
+            ];
+            ignored.extend(slots.iter().filter(|s| s.1).map(|s| s.0));
         }
         if !ignored.is_empty() {
             self.warn_once(format!(
