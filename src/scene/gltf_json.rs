@@ -49,6 +49,9 @@ const TEXTURE_SOURCE_EXTENSIONS: &[(&str, bool)] = &[
 /// Parses glTF JSON text into the `gltf` crate's model, tolerating the valid forms it cannot
 /// represent (module docs). Errors are one line naming the JSON path of the problem.
 pub fn prepare(json: &[u8]) -> Result<PreparedJson, String> {
+    // A UTF-8 byte order mark is not allowed (glTF 2.0 spec 3.2) but harmless: editors on
+    // Windows write one.
+    let json = json.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(json);
     let mut value: Value =
         serde_json::from_slice(json).map_err(|e| format!("invalid glTF JSON: {e}"))?;
     let Some(obj) = value.as_object_mut() else {
@@ -243,6 +246,12 @@ mod tests {
         let lights = &v["extensions"]["KHR_lights_punctual"]["lights"];
         assert_eq!(lights[1]["type"], Value::from("point"));
         assert!(lights[2]["spot"].is_object());
+    }
+
+    #[test]
+    fn a_byte_order_mark_is_skipped() {
+        let p = prepare(b"\xEF\xBB\xBF{\"asset\": {\"version\": \"2.0\"}}");
+        assert!(p.is_ok());
     }
 
     #[test]
