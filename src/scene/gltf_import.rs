@@ -335,7 +335,6 @@ struct Importer<'d> {
     buffers: Vec<OnceCell<Result<Vec<u8>, String>>>,
     dir: PathBuf,
     scene: SceneDesc,
-    /// (mesh, primitive) -> index into `scene.meshes` (None: no triangles / skipped).
     /// (mesh, primitive, morph weights' bits) -> index into `scene.meshes` (None: no
     /// triangles / skipped).
     mesh_cache: HashMap<(usize, usize, Vec<u32>), Option<usize>>,
