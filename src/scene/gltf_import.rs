@@ -1159,7 +1159,7 @@ impl<'d> Importer<'d> {
         what: &str,
         component: impl Fn(&[u8]) -> T,
     ) -> Result<Vec<T>, String> {
-        let label = format!("accessor {} ({what})", acc.index());
+        let label = format!("accessors[{}] ({what})", acc.index());
         if acc.dimensions() != want {
             return Err(format!(
                 "{label}: expected type {want:?}, found {:?}",
