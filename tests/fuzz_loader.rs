@@ -9,6 +9,7 @@
 //! (`PRISM_FUZZ_SEED` picks another deterministic sequence).
 
 use prism::render::{render_quiet, RenderSettings};
+use prism::sampler::Pcg32;
 use prism::scene::materials_json::load_materials_file;
 use prism::scene::{load_scene, Scene};
 use serde_json::Value;
@@ -18,18 +19,12 @@ use std::time::{Duration, Instant};
 
 const CASE_TIMEOUT: Duration = Duration::from_secs(20);
 
-/// xorshift64*: deterministic, dependency-free.
-struct Rng(u64);
+/// The renderer's own PCG32 stream, with a bounded draw.
+struct Rng(Pcg32);
 
 impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        self.0.wrapping_mul(0x2545_F491_4F6C_DD1D)
-    }
     fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
+        (self.0.next_u32() as usize) % n.max(1)
     }
 }
 
@@ -90,6 +85,18 @@ fn seeds() -> Vec<Seed> {
     for d in ["scenes/cornell", "scenes/prism", "scenes/sss_presets"] {
         add_dir(root.join(d));
     }
+    // The binary container around each small valid scene (JSON chunk only; its buffers stay
+    // data URIs), so mutations reach the GLB header and chunk table with a loadable payload.
+    let glbs: Vec<Seed> = out
+        .iter()
+        .filter(|s| s.kind == Kind::Gltf && s.bytes.len() < 64 * 1024)
+        .map(|s| Seed {
+            kind: Kind::Glb,
+            bytes: glb(&s.bytes),
+            sidecar: s.sidecar.clone(),
+        })
+        .collect();
+    out.extend(glbs);
     // Sidecar features the corpora lack: a graph, a volume, the world and render settings.
     out.push(Seed {
         kind: Kind::Sidecar,
@@ -113,6 +120,23 @@ fn seeds() -> Vec<Seed> {
         .into_bytes(),
         sidecar: None,
     });
+    out
+}
+
+/// A binary glTF holding `json` as its only chunk (glTF 2.0 spec 4.4).
+fn glb(json: &[u8]) -> Vec<u8> {
+    let mut chunk = json.to_vec();
+    while chunk.len() % 4 != 0 {
+        chunk.push(b' ');
+    }
+    let total = 12 + 8 + chunk.len() as u32;
+    let mut out = Vec::with_capacity(total as usize);
+    out.extend_from_slice(b"glTF");
+    out.extend_from_slice(&2u32.to_le_bytes());
+    out.extend_from_slice(&total.to_le_bytes());
+    out.extend_from_slice(&(chunk.len() as u32).to_le_bytes());
+    out.extend_from_slice(b"JSON");
+    out.extend_from_slice(&chunk);
     out
 }
 
@@ -375,8 +399,8 @@ fn mutated_scenes_and_sidecars_never_panic_hang_or_write_non_finite_pixels() {
     let work = base.join("work");
     std::fs::create_dir_all(&work).unwrap();
     let seeds = seeds();
-    assert!(seeds.len() > 40, "{} seeds", seeds.len());
-    let mut rng = Rng(seed | 1);
+    assert!(seeds.len() > 80, "{} seeds", seeds.len());
+    let mut rng = Rng(Pcg32::new(0, 0, seed));
     let start = Instant::now();
     let mut executions = 0u64;
     let mut loaded = 0u64;

@@ -268,6 +268,14 @@ fn out_of_range(what: &str, i: usize, n: usize, things: &str) -> String {
     format!("{what}: index {i} out of range ({n} {things})")
 }
 
+/// `Err(out_of_range(..))` when the optional reference `index` is not below `n`.
+fn check_reference(index: Option<usize>, n: usize, what: &str, things: &str) -> Result<(), String> {
+    match index {
+        Some(i) if i >= n => Err(out_of_range(what, i, n, things)),
+        _ => Ok(()),
+    }
+}
+
 fn is_remote(uri: &str) -> bool {
     uri.contains("://")
 }
@@ -596,29 +604,22 @@ impl<'d> Importer<'d> {
             .map(str::to_string)
             .unwrap_or_else(|| format!("node {index}"));
 
-        let node_json = &self.doc.as_json().nodes[index];
-        if let Some(m) = node_json.mesh {
-            let n = self.doc.as_json().meshes.len();
-            if m.value() >= n {
-                return Err(out_of_range(
-                    &format!("nodes[{index}].mesh"),
-                    m.value(),
-                    n,
-                    "meshes",
-                ));
-            }
-        }
-        if let Some(c) = node_json.camera {
-            let n = self.doc.as_json().cameras.len();
-            if c.value() >= n {
-                return Err(out_of_range(
-                    &format!("nodes[{index}].camera"),
-                    c.value(),
-                    n,
-                    "cameras",
-                ));
-            }
-        }
+        let json = self.doc.as_json();
+        let node_json = &json.nodes[index];
+        let mesh_ref = node_json.mesh.map(|m| m.value());
+        check_reference(
+            mesh_ref,
+            json.meshes.len(),
+            &format!("nodes[{index}].mesh"),
+            "meshes",
+        )?;
+        let camera_ref = node_json.camera.map(|c| c.value());
+        check_reference(
+            camera_ref,
+            json.cameras.len(),
+            &format!("nodes[{index}].camera"),
+            "cameras",
+        )?;
         if let Some(mesh) = node.mesh() {
             let extras = node
                 .extras()
