@@ -126,7 +126,7 @@ fn seeds() -> Vec<Seed> {
 /// A binary glTF holding `json` as its only chunk (glTF 2.0 spec 4.4).
 fn glb(json: &[u8]) -> Vec<u8> {
     let mut chunk = json.to_vec();
-    while chunk.len() % 4 != 0 {
+    while !chunk.len().is_multiple_of(4) {
         chunk.push(b' ');
     }
     let total = 12 + 8 + chunk.len() as u32;
