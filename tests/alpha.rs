@@ -3,7 +3,8 @@
 //!   exactly 70% of the sun through (transparent shadows, as Cycles);
 //! - seen by the camera, the same occluder shows the plane behind at 70%;
 //! - glTF alphaMode MASK below the cutoff is fully transparent, BLEND is coverage;
-//! - a furnace: a Transparent BSDF sphere in a white world vanishes (radiance 1 everywhere).
+//! - a furnace: a Transparent BSDF sphere in a white world vanishes (radiance 1 everywhere);
+//! - a tinted Transparent BSDF passes its colour: in shadows, seen by the camera, and mixed.
 
 mod common;
 
@@ -15,6 +16,9 @@ use prism::scene::{
     SceneDesc,
 };
 use prism::shading::parse::{parse_graph, NoImages};
+use prism::spectrum::cie::{d65_normalized, integrate_xyz};
+use prism::spectrum::rgb::xyz_to_linear_srgb;
+use prism::spectrum::RgbAlbedoSpectrum;
 use serde_json::json;
 use std::sync::Arc;
 
@@ -165,4 +169,60 @@ fn furnace_transparent_bsdf_vanishes() {
             "{p:?}"
         );
     }
+}
+
+/// A Transparent BSDF with colour c (Cycles' transparent closure weight) passes c times the
+/// light, per wavelength: the shadow of a fully transparent tinted veil is the lit plane times
+/// c (the grey plane's spectrum is flat, so exact up to c's RGB round trip, < 2%); seen
+/// through the veil the plane in its shadow is times c's spectrum twice; mixed 50/50 with a black BSDF
+/// the shadow is 0.5 c. Untinted (white) it is the untinted result bit for bit.
+#[test]
+fn tinted_transparent_bsdf_passes_its_colour() {
+    let tint = Vec3::new(0.9, 0.5, 0.2);
+    let veil = |weight: f32, colour: Option<Vec3>| {
+        let mut m = diffuse_material("veil", Vec3::ZERO);
+        let mut leaf = json!({"kind": "transparent", "weight": weight});
+        if let Some(c) = colour {
+            leaf["inputs"] = json!({"base_color": [c.x, c.y, c.z]});
+        }
+        let mut closures = vec![leaf];
+        if weight < 1.0 {
+            closures.push(json!({"kind": "bsdf", "weight": 1.0 - weight,
+                "inputs": {"base_color": [0.0, 0.0, 0.0]}}));
+        }
+        m.graph = Some(graph(
+            json!({"version": 1, "nodes": {}, "closures": closures}),
+        ));
+        m
+    };
+    let lit = plane_mean(None);
+    let shadow = plane_mean(Some((veil(1.0, Some(tint)), 5.0))) / lit;
+    assert!(
+        ((shadow - tint) / tint).abs().max_element() < 0.02,
+        "shadow ratio {shadow} vs {tint}"
+    );
+    // Twice through the veil is the spectrum squared, which is not the RGB squared (blue 0.025
+    // against 0.04 for this tint): the expectation is the squared spectrum's colour under D65.
+    let s = RgbAlbedoSpectrum::new(tint);
+    let twice = xyz_to_linear_srgb(integrate_xyz(
+        |l| s.eval(l) * s.eval(l) * d65_normalized(l),
+        4,
+    ));
+    let seen = plane_mean(Some((veil(1.0, Some(tint)), 1.5))) / lit;
+    assert!(
+        ((seen - twice) / twice).abs().max_element() < 0.03,
+        "seen through {seen} vs {twice}"
+    );
+    let mixed = plane_mean(Some((veil(0.5, Some(tint)), 5.0))) / lit;
+    assert!(
+        ((mixed - 0.5 * tint) / (0.5 * tint)).abs().max_element() < 0.03,
+        "mixed {mixed} vs {}",
+        0.5 * tint
+    );
+    let untinted = plane_mean(Some((veil(0.5, None), 1.5)));
+    let white = plane_mean(Some((veil(0.5, Some(Vec3::ONE)), 1.5)));
+    assert!(
+        ((white - untinted) / untinted).abs().max_element() < 0.02,
+        "white {white} vs untinted {untinted}"
+    );
 }

@@ -1015,11 +1015,9 @@ class Exporter:
             V = lambda sock, default: gb.value(sock, ()) if sock is not None else default  # noqa: E731
             inputs = None
             if t == "BSDF_TRANSPARENT":
-                col = S("Color")
-                if col is not None and (col.is_linked or any(abs(float(c) - 1.0) > 1e-6 for c in list(col.default_value)[:3])):
-                    self.warnings.append("material '%s': a tinted Transparent BSDF ('%s') is rendered untinted"
-                                         % (name, leaf.name))
-                closures.append({"kind": "transparent", "weight": weight})
+                # The colour multiplies what passes (per wavelength, upsampled as a reflectance).
+                closures.append({"kind": "transparent", "weight": weight,
+                                 "inputs": {"base_color": V(S("Color"), [1.0, 1.0, 1.0])}})
                 continue
             if t == "BSDF_TRANSLUCENT":
                 closures.append({"kind": "translucent", "weight": weight,

@@ -346,28 +346,37 @@ impl<'a> PathTracer<'a> {
         field.graph.volume_density(&inputs).unwrap_or(1.0)
     }
 
-    /// Stochastic transparency at `sp`: true with probability 1 - alpha (opaque materials:
-    /// never).
+    /// Stochastic transparency at `sp`: the ray passes with probability 1 - alpha (opaque
+    /// materials: never), and the path's throughput is then multiplied by the returned weight,
+    /// the transparent share's transmittance over that probability (1 unless a Transparent
+    /// BSDF is tinted).
     #[inline(never)]
     fn passes_through(
         &self,
         sp: &crate::geometry::SurfacePoint,
         dir: glam::Vec3,
         camera_ray: bool,
+        w: &SampledWavelengths,
         sampler: &mut Sampler,
-    ) -> bool {
+    ) -> Option<SampledSpectrum> {
         let scene = self.scene;
         let m = &scene.materials[sp.material as usize];
         if m.is_null_surface() {
-            return true;
+            return Some(SampledSpectrum::ONE);
         }
         if !m.has_alpha() {
-            return false;
+            return None;
         }
         let inputs = m
             .has_graph()
             .then(|| scene.geometry.shading_inputs(sp, -dir, camera_ray));
-        sampler.next_1d() >= m.alpha(&scene.textures, sp.uv, inputs.as_ref())
+        if !m.has_tinted_transparency() {
+            let alpha = m.alpha(&scene.textures, sp.uv, inputs.as_ref());
+            return (sampler.next_1d() >= alpha).then_some(SampledSpectrum::ONE);
+        }
+        let (alpha, pass) = m.transparency(&scene.textures, sp.uv, inputs.as_ref(), w);
+        // u >= alpha implies alpha < 1: the division is safe.
+        (sampler.next_1d() >= alpha).then(|| pass / (1.0 - alpha))
     }
 
     /// [`PathTracer::transmittance`] in a scene with alpha materials or volume boundaries
@@ -409,7 +418,9 @@ impl<'a> PathTracer<'a> {
                     let inputs = m
                         .has_graph()
                         .then(|| geometry.shading_inputs(&sp, -ray.dir, false));
-                    t *= 1.0 - m.alpha(&self.scene.textures, sp.uv, inputs.as_ref());
+                    t *= m
+                        .transparency(&self.scene.textures, sp.uv, inputs.as_ref(), w)
+                        .1;
                 }
                 if t.is_black() {
                     return SampledSpectrum::ZERO;
@@ -623,8 +634,11 @@ impl<'a> PathTracer<'a> {
                     break;
                 }
                 let sp = geometry.surface_point(&h);
-                if !hidden && !self.passes_through(&sp, ray.dir, depth == 0, sampler) {
-                    break;
+                if !hidden {
+                    match self.passes_through(&sp, ray.dir, depth == 0, &alive, sampler) {
+                        Some(weight) => beta *= weight,
+                        None => break,
+                    }
                 }
                 let crossed = &scene.materials[sp.material as usize];
                 if crossed.is_null_surface() {

@@ -150,6 +150,33 @@ impl Material {
             || self.gltf.alpha_mode != crate::scene::desc::AlphaMode::Opaque
     }
 
+    /// A Transparent BSDF of the graph is tinted: what passes depends on the wavelength.
+    pub fn has_tinted_transparency(&self) -> bool {
+        self.graph
+            .as_ref()
+            .is_some_and(|g| g.has_tinted_transparency())
+    }
+
+    /// Coverage (as [`Material::alpha`]) and the spectral transmittance of the transparent
+    /// share: `1 - alpha` at every wavelength unless a Transparent BSDF is tinted, then its
+    /// colour(s) upsampled as a reflectance.
+    pub fn transparency(
+        &self,
+        textures: &[TextureDesc],
+        uv: Vec2,
+        inputs: Option<&ShadingInputs>,
+        w: &SampledWavelengths,
+    ) -> (f32, SampledSpectrum) {
+        if let (Some(g), Some(inputs)) = (&self.graph, inputs) {
+            if g.has_tinted_transparency() {
+                let (alpha, pass) = g.transparency(inputs);
+                return (alpha, RgbAlbedoSpectrum::new(pass).sample(w));
+            }
+        }
+        let alpha = self.alpha(textures, uv, inputs);
+        (alpha, SampledSpectrum::splat(1.0 - alpha))
+    }
+
     /// Coverage in [0, 1] at a surface point (1 = opaque). A graph's alpha replaces glTF's.
     pub fn alpha(&self, textures: &[TextureDesc], uv: Vec2, inputs: Option<&ShadingInputs>) -> f32 {
         use crate::scene::desc::AlphaMode;

@@ -907,6 +907,49 @@ impl ShadingGraph {
         })
     }
 
+    /// Coverage and the light the transparent share lets through, in linear RGB:
+    /// `(alpha, (1 - a) + a sum_i w_i c_i)` with `a` the Alpha input, `w_i` the Transparent BSDF
+    /// leaves' weights and `c_i` their colours (white when not given). Untinted, the second is
+    /// `1 - alpha` in every channel (Cycles' transparent BSDF passes `c_i` times the light).
+    pub fn transparency(&self, ctx: &ShadingInputs) -> (f32, Vec3) {
+        let ctx = &self.local(ctx);
+        self.run(ctx, false, |slots| {
+            let mut a = 1.0f32;
+            for (m, s) in &self.bindings {
+                if *m == MaterialInput::Alpha {
+                    a = read(s, slots, ctx).x;
+                }
+            }
+            let a = a.clamp(0.0, 1.0);
+            let (mut share, mut tinted) = (0.0f32, Vec3::ZERO);
+            for c in self.closures.iter().filter(|c| c.transparent) {
+                let weight = read(&c.weight, slots, ctx).x.max(0.0);
+                let colour = c
+                    .bindings
+                    .iter()
+                    .find(|(m, _)| *m == MaterialInput::BaseColor)
+                    .map_or(Vec3::ONE, |(_, s)| {
+                        read(s, slots, ctx).xyz().max(Vec3::ZERO)
+                    });
+                share += weight;
+                tinted += weight * colour;
+            }
+            let alpha = (a * (1.0 - share)).clamp(0.0, 1.0);
+            let pass = (Vec3::splat(1.0 - a) + a * tinted).clamp(Vec3::ZERO, Vec3::ONE);
+            (alpha, pass)
+        })
+    }
+
+    /// Some Transparent BSDF leaf has a colour (see [`ShadingGraph::transparency`]).
+    pub fn has_tinted_transparency(&self) -> bool {
+        self.closures.iter().any(|c| {
+            c.transparent
+                && c.bindings
+                    .iter()
+                    .any(|(m, _)| *m == MaterialInput::BaseColor)
+        })
+    }
+
     /// Runs the scattering (`emission == false`) or emission program, then `f` reads the slots.
     fn run<T>(&self, ctx: &ShadingInputs, emission: bool, f: impl FnOnce(&[Vec4]) -> T) -> T {
         self.run_with(ctx, emission as usize, None, f)

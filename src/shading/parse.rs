@@ -62,7 +62,8 @@
 //!   inputs `strength`, `color`); `blackbody` (input `temperature` in kelvin).
 //! * `closures` (instead of or with `inputs`): a Mix / Add Shader tree flattened into its
 //!   leaves, `[{"kind": "bsdf" | "emission" | "transparent" | "translucent", "weight": <value or link>,
-//!   "inputs": {...}}]` (a transparent leaf's weight is the surface's transparency).
+//!   "inputs": {...}}]` (a transparent leaf's weight is the surface's transparency, and its
+//!   optional `base_color` the colour that multiplies what passes, per wavelength).
 //!   Each shading point picks one BSDF leaf with probability equal to its weight (the path is
 //!   absorbed with the remaining probability; weights summing above 1 are normalised) and
 //!   renders it with that leaf's inputs over the glTF defaults; emission leaves add

@@ -295,6 +295,9 @@ def setups():
     nt.nodes.clear()
     outn = nt.nodes.new("ShaderNodeOutputMaterial")
     tr = nt.nodes.new("ShaderNodeBsdfTransparent")
+    # Tinted: what passes (the floor behind the tile, and the tile's shadow on it) is
+    # multiplied by the colour.
+    tr.inputs["Color"].default_value = (0.95, 0.55, 0.2, 1.0)
     df = nt.nodes.new("ShaderNodeBsdfDiffuse")
     df.inputs["Color"].default_value = (0.2, 0.3, 0.9, 1.0)
     mx = nt.nodes.new("ShaderNodeMixShader")
