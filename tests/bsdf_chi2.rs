@@ -67,6 +67,7 @@ fn dielectric(eta: f32, roughness: f32) -> Bsdf {
         eta: SampledSpectrum::splat(eta),
         alpha: roughness * roughness,
         transmission_tint: SampledSpectrum::ONE,
+        refraction_only: false,
     })
 }
 
@@ -170,12 +171,31 @@ fn chi2_cases() -> Vec<Chi2Case> {
             }
         }
     }
+    // Blender's Refraction BSDF: the transmission lobe alone (no Fresnel split).
+    for (eta, roughness) in [(1.5, 0.3), (1.33, 0.7)] {
+        for side in [1.0f32, -1.0] {
+            let b = Bsdf::Dielectric(DielectricBsdf {
+                eta: SampledSpectrum::splat(eta),
+                alpha: roughness * roughness,
+                transmission_tint: SampledSpectrum::ONE,
+                refraction_only: true,
+            });
+            push(
+                "dielectric",
+                "rough refraction-only dielectric(eta, roughness, cos_o)",
+                Target::Bsdf(b),
+                wo_at(0.5) * Vec3::new(1.0, 1.0, side),
+                [eta, roughness, side * 0.5],
+            );
+        }
+    }
     // Dispersive glass: the hero wavelength's lobes.
     for side in [1.0f32, -1.0] {
         let b = Bsdf::Dielectric(DielectricBsdf {
             eta: SampledSpectrum([1.5, 1.52, 1.54, 1.56]),
             alpha: 0.09,
             transmission_tint: color(),
+            refraction_only: false,
         });
         push(
             "dielectric",
@@ -615,6 +635,56 @@ fn rough_dielectric_energy_is_bounded() {
     assert!(e > 0.99, "near-smooth albedo {e}");
 }
 
+/// Blender's Refraction BSDF (`refraction_only`): smooth, every sample refracts by Snell with
+/// probability 1 and unit weight (radiance's 1/etap^2 undone), and total internal reflection is
+/// absorbed; rough, the transmission lobe keeps what single scattering keeps (no energy
+/// gain, at least the Fresnel-split dielectric's transmitted share) and never reflects.
+#[test]
+fn refraction_only_transmits_everything_it_can() {
+    let refraction = |eta: f32, roughness: f32| {
+        Bsdf::Dielectric(DielectricBsdf {
+            eta: SampledSpectrum::splat(eta),
+            alpha: roughness * roughness,
+            transmission_tint: SampledSpectrum::ONE,
+            refraction_only: true,
+        })
+    };
+    let b = refraction(1.5, 0.0);
+    for c in [1.0f32, 0.6, 0.1] {
+        let wo = dir(c, 0.4);
+        for uc in [0.0f32, 0.5, 0.999] {
+            let t = b.sample(wo, uc, Vec2::new(0.3, 0.3)).unwrap();
+            assert!(t.specular && t.transmission && t.pdf == 1.0);
+            let weight = t.f[0] * t.wi.z.abs() / t.pdf * 1.5 * 1.5;
+            assert!((weight - 1.0).abs() < 1e-5, "weight {weight}");
+        }
+    }
+    // From inside beyond the critical angle (cos < sqrt(1 - 1/2.25) = 0.745): absorbed.
+    assert!(b.sample(-dir(0.5, 0.4), 0.5, Vec2::new(0.3, 0.3)).is_none());
+    for roughness in [0.3f32, 0.7] {
+        for c in [0.3f32, 0.8] {
+            let wo = wo_at(c);
+            let (e, max_w) = albedo(&refraction(1.5, roughness), wo, 100_000, 5, true);
+            let (full, _) = albedo(&dielectric(1.5, roughness), wo, 100_000, 5, true);
+            println!(
+                "refraction only: roughness {roughness} cos_o {c}: E = {e:.4} (glass {full:.4})"
+            );
+            assert!(
+                e <= 1.01 && max_w <= 1.0 + 1e-3,
+                "energy {e}, weight {max_w}"
+            );
+            assert!(e > 0.8 * full, "refraction-only {e} vs glass {full}");
+            let mut rng = Pcg32::new(9, 1);
+            for _ in 0..1000 {
+                let u = Vec2::new(rng.next_f32(), rng.next_f32());
+                if let Some(s) = refraction(1.5, roughness).sample(wo, rng.next_f32(), u) {
+                    assert!(s.transmission && s.wi.z < 0.0);
+                }
+            }
+        }
+    }
+}
+
 /// White furnace of the glTF BRDF with base colour 1 (specular colour 1, ior 1.5).
 ///
 /// The conductor (metallic = 1) and the specular = 0 cases conserve energy: E <= 1. The
@@ -754,11 +824,13 @@ fn dispersion_terminates_secondaries_on_smooth_refraction_only() {
             eta,
             alpha,
             transmission_tint: SampledSpectrum::ONE,
+            refraction_only: false,
         });
         let hero = Bsdf::Dielectric(DielectricBsdf {
             eta: SampledSpectrum::splat(1.5),
             alpha,
             transmission_tint: SampledSpectrum::ONE,
+            refraction_only: false,
         });
         let mut seen = [0usize; 2];
         for _ in 0..20_000 {
@@ -781,6 +853,7 @@ fn dispersion_terminates_secondaries_on_smooth_refraction_only() {
                         eta: SampledSpectrum::splat(eta[i]),
                         alpha,
                         transmission_tint: SampledSpectrum::ONE,
+                        refraction_only: false,
                     });
                     let (fi, pi) = own.eval_pdf(wo, s.wi);
                     assert!(
@@ -844,6 +917,7 @@ fn degenerate_inputs_are_finite() {
                 eta: SampledSpectrum::splat(eta),
                 alpha,
                 transmission_tint: SampledSpectrum::ONE,
+                refraction_only: false,
             }));
         }
     }
@@ -896,6 +970,7 @@ fn eval_pdf_matches_eval_and_pdf() {
             eta: SampledSpectrum([1.5, 1.52, 1.54, 1.56]),
             alpha: 0.2,
             transmission_tint: color(),
+            refraction_only: false,
         }),
     ];
     let mut rng = Pcg32::new(61, 7);

@@ -39,6 +39,7 @@ fn bsdf(w: &SampledWavelengths, alpha: f32) -> Bsdf {
         eta: SampledSpectrum::from_fn(|i| cauchy(w.lambda[i])),
         alpha,
         transmission_tint: SampledSpectrum::ONE,
+        refraction_only: false,
     })
 }
 
@@ -223,6 +224,7 @@ fn per_wavelength_evaluation_matches_each_ior_alone() {
             eta: etas,
             alpha,
             transmission_tint: tint,
+            refraction_only: false,
         };
         let (f, pdf) = all.eval_pdf_wavelengths(wo, wi);
         for i in 0..N_WAVELENGTHS {
@@ -230,6 +232,7 @@ fn per_wavelength_evaluation_matches_each_ior_alone() {
                 eta: SampledSpectrum::splat(etas[i]),
                 alpha,
                 transmission_tint: tint,
+                refraction_only: false,
             };
             let (f1, p1) = one.eval_pdf_wavelengths(wo, wi);
             let close = |a: f32, b: f32| (a - b).abs() <= 1e-4 * a.abs().max(b.abs()) + 1e-12;

@@ -1038,6 +1038,12 @@ class Exporter:
                 inputs = {"base_color": V(S("Color"), [1.0, 1.0, 1.0]), "metallic": 0.0,
                           "roughness": V(S("Roughness"), 0.0), "transmission": 1.0}
                 m["ior"] = float(_val(leaf, "IOR", default=1.5))
+            elif t == "BSDF_REFRACTION":
+                # The dielectric's refraction alone (Cycles' refraction closure has no Fresnel
+                # term); the IOR is the material's, as for Glass.
+                inputs = {"base_color": V(S("Color"), [1.0, 1.0, 1.0]), "metallic": 0.0,
+                          "roughness": V(S("Roughness"), 0.0), "transmission": 1.0, "refraction": 1.0}
+                m["ior"] = float(_val(leaf, "IOR", default=1.45))
             elif t == "BSDF_PRINCIPLED":
                 spec = S("Specular IOR Level", "Specular")
                 inputs = {"base_color": V(S("Base Color"), [0.8, 0.8, 0.8]), "metallic": V(S("Metallic"), 0.0),
@@ -1144,7 +1150,8 @@ class Exporter:
         holdout = surface is not None and surface.type == "HOLDOUT"
         if holdout:
             ok = True
-        elif surface is not None and surface.type in {"MIX_SHADER", "ADD_SHADER", "BSDF_TRANSPARENT", "BSDF_TRANSLUCENT"}:
+        elif surface is not None and surface.type in {"MIX_SHADER", "ADD_SHADER", "BSDF_TRANSPARENT", "BSDF_TRANSLUCENT",
+                                                      "BSDF_REFRACTION"}:
             mixed = self._mixed_graph(name, surface, m)
             ok = mixed is not None
         volume = self._volume(mat, name) if mat is not None else None

@@ -144,7 +144,7 @@ impl DielectricBsdf {
             // Reflection: the half vector, D, G and the visible-normal density do not depend
             // on the IOR; f and pdf both scale with each wavelength's Fresnel term.
             for i in 1..N_WAVELENGTHS {
-                let ratio = fresnel_dielectric(hero.dot_o, self.eta[i]) / hero.fresnel;
+                let ratio = self.fresnel(hero.dot_o, self.eta[i]) / hero.fresnel;
                 f[i] = hero.f * ratio;
                 pdf[i] = hero.pdf * ratio;
             }
@@ -160,6 +160,17 @@ impl DielectricBsdf {
             f *= self.transmission_tint;
         }
         (f, pdf)
+    }
+
+    /// The Fresnel reflectance that splits reflection from refraction: 0 for a Refraction
+    /// BSDF (`refraction_only`).
+    #[inline]
+    fn fresnel(&self, cos: f32, eta: f32) -> f32 {
+        if self.refraction_only {
+            0.0
+        } else {
+            fresnel_dielectric(cos, eta)
+        }
     }
 
     pub fn sample(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
@@ -187,14 +198,14 @@ impl DielectricBsdf {
             return None;
         }
         let eta = self.hero_eta();
-        let fr = fresnel_dielectric(cos_o, eta);
+        let fr = self.fresnel(cos_o, eta);
         if uc < fr {
             let wi = Vec3::new(-wo.x, -wo.y, wo.z);
             // The mirror direction is the same for every wavelength, so every slot stays
             // valid; each wavelength as the hero would have chosen this branch with its own
             // probability F(eta_i).
             let fr_all = if self.is_dispersive() {
-                SampledSpectrum::from_fn(|i| fresnel_dielectric(cos_o, self.eta[i]))
+                SampledSpectrum::from_fn(|i| self.fresnel(cos_o, self.eta[i]))
             } else {
                 SampledSpectrum::splat(fr)
             };
@@ -249,7 +260,7 @@ impl DielectricBsdf {
         }
         let eta = self.hero_eta();
         let wm = self.distribution().sample_visible(wo, u);
-        let fr = fresnel_dielectric(wo.dot(wm), eta);
+        let fr = self.fresnel(wo.dot(wm), eta);
         let wi = if uc < fr {
             let wi = reflect(wo, wm);
             if !(wi.z * wo.z > 0.0) {
@@ -339,7 +350,7 @@ impl DielectricBsdf {
             return zero;
         }
         let d = self.distribution().d(wm);
-        let fr = fresnel_dielectric(dot_o, eta);
+        let fr = self.fresnel(dot_o, eta);
         // Visible-normal density D_wo(wm) = G1(wo) |wo.wm| D(wm) / |cos_o| (Heitz 2014 eq. 38;
         // |wo.wm| since wo.wm has the sign of cos_o here), as `TrowbridgeReitz::d_visible`.
         let d_visible = pair.g1_o * dot_o.abs() * d / cos_o.abs();

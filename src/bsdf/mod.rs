@@ -93,6 +93,10 @@ pub struct DielectricBsdf {
     pub alpha: f32,
     /// Multiplies transmitted light (glTF transmission tinted by baseColor); ONE for clear glass.
     pub transmission_tint: SampledSpectrum,
+    /// Blender's Refraction BSDF: the refraction alone, as if the Fresnel reflectance were 0
+    /// (Cycles' refraction closure carries no Fresnel term; node setups mix in a reflection by
+    /// a Fresnel or Layer Weight factor). Total internal reflection is then absorbed.
+    pub refraction_only: bool,
 }
 
 impl Bsdf {

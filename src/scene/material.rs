@@ -430,6 +430,7 @@ impl Material {
                 eta: SampledSpectrum::from_fn(|i| eval_ior(ior, w.lambda[i])),
                 alpha: if *alpha < MIN_ALPHA { 0.0 } else { *alpha },
                 transmission_tint: SampledSpectrum::ONE,
+                refraction_only: false,
             }),
             // The boundary of a subsurface medium: a (rough) dielectric; a transmission sample
             // hands the path to the BSSRDF (see `integrator::path`).
@@ -441,6 +442,7 @@ impl Material {
                 eta: SampledSpectrum::from_fn(|i| eval_ior(boundary, w.lambda[i])),
                 alpha: if s.alpha < MIN_ALPHA { 0.0 } else { s.alpha },
                 transmission_tint: SampledSpectrum::ONE,
+                refraction_only: false,
             }),
             SurfaceModel::Gltf => self.gltf_bsdf(textures, uv, inputs, w, u_select),
         }
@@ -504,14 +506,16 @@ impl Material {
         let alpha = roughness_to_alpha(roughness);
         // glTF transmission replaces the diffuse part of the dielectric base: we pick the
         // transmissive component with probability `transmission` (metals do not transmit).
+        let refraction_only = get(MaterialInput::Refraction).is_some_and(|r| r.x > 0.5);
         let transmission = get(MaterialInput::Transmission)
             .map_or(g.transmission, |t| t.x.clamp(0.0, 1.0))
             * (1.0 - metallic);
-        if transmission > 0.0 && u_select < transmission {
+        if refraction_only || (transmission > 0.0 && u_select < transmission) {
             return Bsdf::Dielectric(DielectricBsdf {
                 eta: SampledSpectrum::from_fn(|i| self.gltf_ior.eval(w.lambda[i])),
                 alpha: if alpha < MIN_ALPHA { 0.0 } else { alpha },
                 transmission_tint: base,
+                refraction_only,
             });
         }
         if metallic <= 0.0 && specular <= 0.0 {

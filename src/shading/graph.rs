@@ -565,6 +565,9 @@ pub enum MaterialInput {
     /// A multiplier on the material's volume coefficients at a point inside it (a textured
     /// Density: heterogeneous volumes, `crate::media`).
     VolumeDensity,
+    /// 1: the closure is Blender's Refraction BSDF (the dielectric's refraction alone, tinted
+    /// by `base_color`, with the material's IOR and `roughness`).
+    Refraction,
 }
 
 pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
@@ -579,9 +582,10 @@ pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
     ("normal", MaterialInput::Normal, V),
     ("translucent", MaterialInput::Translucent, F),
     ("volume_density", MaterialInput::VolumeDensity, F),
+    ("refraction", MaterialInput::Refraction, F),
 ];
 
-pub const N_MATERIAL_INPUTS: usize = 11;
+pub const N_MATERIAL_INPUTS: usize = 12;
 
 impl MaterialInput {
     pub fn index(self) -> usize {

@@ -21,7 +21,8 @@
 //!   Coordinate > Reflection, world-space normal maps) and of the normal it returns.
 //! * `inputs` binds material inputs (`base_color`, `metallic`, `roughness`, `specular`,
 //!   `transmission`, `emission`, `emission_strength`, `alpha`, `normal`, `translucent`,
-//!   `volume_density`) to a node output or a constant; a bound input replaces the glTF
+//!   `volume_density`, `refraction`: 1 makes a closure Blender's Refraction BSDF, the
+//!   dielectric's refraction alone) to a node output or a constant; a bound input replaces the glTF
 //!   material's factor and texture, the others keep the glTF values. `volume_density` (a
 //!   non-negative float) multiplies the material's `volume` coefficients at each point inside
 //!   it, where the graph reads Position, Object and Generated coordinates (a heterogeneous
