@@ -895,12 +895,7 @@ impl ShadingGraph {
     pub fn alpha(&self, ctx: &ShadingInputs) -> f32 {
         let ctx = &self.local(ctx);
         self.run(ctx, false, |slots| {
-            let mut a = 1.0f32;
-            for (m, s) in &self.bindings {
-                if *m == MaterialInput::Alpha {
-                    a = read(s, slots, ctx).x;
-                }
-            }
+            let a = self.alpha_input(slots, ctx);
             let transparent: f32 = self
                 .closures
                 .iter()
@@ -918,13 +913,7 @@ impl ShadingGraph {
     pub fn transparency(&self, ctx: &ShadingInputs) -> (f32, Vec3) {
         let ctx = &self.local(ctx);
         self.run(ctx, false, |slots| {
-            let mut a = 1.0f32;
-            for (m, s) in &self.bindings {
-                if *m == MaterialInput::Alpha {
-                    a = read(s, slots, ctx).x;
-                }
-            }
-            let a = a.clamp(0.0, 1.0);
+            let a = self.alpha_input(slots, ctx);
             let (mut share, mut tinted) = (0.0f32, Vec3::ZERO);
             for c in self.closures.iter().filter(|c| c.transparent) {
                 let weight = read(&c.weight, slots, ctx).x.max(0.0);
@@ -938,10 +927,21 @@ impl ShadingGraph {
                 share += weight;
                 tinted += weight * colour;
             }
+            // As `alpha` computes it, so the coverage decisions agree.
             let alpha = (a * (1.0 - share)).clamp(0.0, 1.0);
+            let a = a.clamp(0.0, 1.0);
             let pass = (Vec3::splat(1.0 - a) + a * tinted).clamp(Vec3::ZERO, Vec3::ONE);
             (alpha, pass)
         })
+    }
+
+    /// The bound Alpha input (1 when unbound), unclamped.
+    fn alpha_input(&self, slots: &[Vec4], ctx: &ShadingInputs) -> f32 {
+        self.bindings
+            .iter()
+            .rev()
+            .find(|(m, _)| *m == MaterialInput::Alpha)
+            .map_or(1.0, |(_, s)| read(s, slots, ctx).x)
     }
 
     /// Some Transparent BSDF leaf has a colour (see [`ShadingGraph::transparency`]).
