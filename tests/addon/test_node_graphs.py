@@ -63,6 +63,23 @@ def image(name, w, h, fn, non_color=False):
     return img
 
 
+def mix_material(name, first, second, fac=0.5):
+    """A material whose surface is a Mix Shader of two new shader nodes (types `first`,
+    `second`): (material, node tree, first node, second node, mix node)."""
+    mat = bpy.data.materials.new(name)
+    mat.use_nodes = True
+    nt = mat.node_tree
+    nt.nodes.clear()
+    outn = nt.nodes.new("ShaderNodeOutputMaterial")
+    a, b = nt.nodes.new(first), nt.nodes.new(second)
+    mx = nt.nodes.new("ShaderNodeMixShader")
+    mx.inputs["Fac"].default_value = fac
+    nt.links.new(a.outputs[0], mx.inputs[1])
+    nt.links.new(b.outputs[0], mx.inputs[2])
+    nt.links.new(mx.outputs[0], outn.inputs["Surface"])
+    return mat, nt, a, b, mx
+
+
 def new_material(name, shader="ShaderNodeBsdfDiffuse"):
     mat = bpy.data.materials.new(name)
     mat.use_nodes = True
@@ -290,22 +307,11 @@ def setups():
     sh.inputs["Alpha"].default_value = 0.4
     out.append(("AlphaConst", mat))
 
-    mat = bpy.data.materials.new("MixTransparent")
-    mat.use_nodes = True
-    nt = mat.node_tree
-    nt.nodes.clear()
-    outn = nt.nodes.new("ShaderNodeOutputMaterial")
-    tr = nt.nodes.new("ShaderNodeBsdfTransparent")
+    mat, nt, tr, df, _ = mix_material("MixTransparent", "ShaderNodeBsdfTransparent", "ShaderNodeBsdfDiffuse", 0.6)
     # Tinted: what passes (the floor behind the tile, and the tile's shadow on it) is
     # multiplied by the colour.
     tr.inputs["Color"].default_value = (0.95, 0.55, 0.2, 1.0)
-    df = nt.nodes.new("ShaderNodeBsdfDiffuse")
     df.inputs["Color"].default_value = (0.2, 0.3, 0.9, 1.0)
-    mx = nt.nodes.new("ShaderNodeMixShader")
-    mx.inputs["Fac"].default_value = 0.6
-    nt.links.new(tr.outputs[0], mx.inputs[1])
-    nt.links.new(df.outputs[0], mx.inputs[2])
-    nt.links.new(mx.outputs[0], outn.inputs["Surface"])
     out.append(("MixTransparent", mat))
 
     mat, nt, sh = new_material("Translucent", "ShaderNodeBsdfTranslucent")
@@ -658,24 +664,14 @@ def refraction_scene():
     sphere in front of an emissive checker backdrop; world black, no other light."""
     C.reset()
     sc = bpy.context.scene
-    mat = bpy.data.materials.new("FresnelGlass")
-    mat.use_nodes = True
-    nt = mat.node_tree
-    nt.nodes.clear()
-    outn = nt.nodes.new("ShaderNodeOutputMaterial")
-    fr = nt.nodes.new("ShaderNodeFresnel")
-    fr.inputs["IOR"].default_value = 1.45
-    rf = nt.nodes.new("ShaderNodeBsdfRefraction")
+    mat, nt, rf, gl, mx = mix_material("FresnelGlass", "ShaderNodeBsdfRefraction", "ShaderNodeBsdfGlossy")
     rf.inputs["Color"].default_value = (0.7, 0.9, 0.8, 1.0)
     rf.inputs["Roughness"].default_value = 0.1
     rf.inputs["IOR"].default_value = 1.45
-    gl = nt.nodes.new("ShaderNodeBsdfGlossy")
     gl.inputs["Roughness"].default_value = 0.1
-    mx = nt.nodes.new("ShaderNodeMixShader")
+    fr = nt.nodes.new("ShaderNodeFresnel")
+    fr.inputs["IOR"].default_value = 1.45
     nt.links.new(fr.outputs["Fac"], mx.inputs["Fac"])
-    nt.links.new(rf.outputs[0], mx.inputs[1])
-    nt.links.new(gl.outputs[0], mx.inputs[2])
-    nt.links.new(mx.outputs[0], outn.inputs["Surface"])
     C.mesh_object("Glass", C.sphere(1.0), mat, smooth=True)
 
     back, bnt, em = new_material("Backdrop", "ShaderNodeEmission")
