@@ -40,6 +40,7 @@ fn bsdf(w: &SampledWavelengths, alpha: f32) -> Bsdf {
         alpha,
         transmission_tint: SampledSpectrum::ONE,
         refraction_only: false,
+        energy_compensation: true,
     })
 }
 
@@ -225,6 +226,7 @@ fn per_wavelength_evaluation_matches_each_ior_alone() {
             alpha,
             transmission_tint: tint,
             refraction_only: false,
+            energy_compensation: true,
         };
         let (f, pdf) = all.eval_pdf_wavelengths(wo, wi);
         for i in 0..N_WAVELENGTHS {
@@ -233,6 +235,7 @@ fn per_wavelength_evaluation_matches_each_ior_alone() {
                 alpha,
                 transmission_tint: tint,
                 refraction_only: false,
+                energy_compensation: true,
             };
             let (f1, p1) = one.eval_pdf_wavelengths(wo, wi);
             let close = |a: f32, b: f32| (a - b).abs() <= 1e-4 * a.abs().max(b.abs()) + 1e-12;

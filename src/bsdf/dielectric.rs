@@ -15,7 +15,12 @@
 //! all stay alive; a smooth refraction is a different Dirac direction per wavelength, so the
 //! secondaries get f = 0 and density 0 there (they terminate, and the MIS weights make the
 //! hero alone an unbiased estimate).
+//!
+//! With `energy_compensation` a rough interface's value is divided by its single-scattering
+//! albedo `E_T(mu_o, eta)` (each wavelength by its own), so that it reflects and transmits all
+//! the energy it receives (`energy.rs`); densities are unchanged.
 
+use super::energy::ggx_dielectric_albedo;
 use super::fresnel::{fresnel_dielectric, reflect, refract};
 use super::microfacet::TrowbridgeReitz;
 use super::{BsdfSample, DielectricBsdf};
@@ -33,6 +38,8 @@ struct RoughEval {
     transmission: bool,
     dot_o: f32,
     fresnel: f32,
+    /// The energy-compensation factor already in `f` (1 without).
+    compensation: f32,
 }
 
 /// What a rough-interface evaluation at (wo, wi) shares between wavelengths: the directions,
@@ -145,7 +152,8 @@ impl DielectricBsdf {
             // on the IOR; f and pdf both scale with each wavelength's Fresnel term.
             for i in 1..N_WAVELENGTHS {
                 let ratio = self.fresnel(hero.dot_o, self.eta[i]) / hero.fresnel;
-                f[i] = hero.f * ratio;
+                let compensation = self.compensation(pair.wo.z, self.eta[i]) / hero.compensation;
+                f[i] = hero.f * ratio * compensation;
                 pdf[i] = hero.pdf * ratio;
             }
             return (f, pdf);
@@ -170,6 +178,21 @@ impl DielectricBsdf {
             0.0
         } else {
             fresnel_dielectric(cos, eta)
+        }
+    }
+
+    /// The factor restoring the energy a rough interface loses to single scattering,
+    /// `1 / E_T(mu_o, eta)` (`energy.rs`); 1 for smooth interfaces and Refraction BSDFs.
+    #[inline]
+    fn compensation(&self, cos_o: f32, eta: f32) -> f32 {
+        if !self.energy_compensation || self.refraction_only || self.is_specular() {
+            return 1.0;
+        }
+        let e = ggx_dielectric_albedo(self.alpha, cos_o, eta);
+        if e > 1e-3 {
+            1.0 / e
+        } else {
+            1.0
         }
     }
 
@@ -370,6 +393,8 @@ impl DielectricBsdf {
             let pdf = d_visible * t * dwm_dwi;
             (f, pdf)
         };
+        let compensation = self.compensation(cos_o, eta);
+        let f = f * compensation;
         if !(f.is_finite() && pdf.is_finite()) {
             return zero;
         }
@@ -379,6 +404,7 @@ impl DielectricBsdf {
             transmission: !pair.reflection,
             dot_o,
             fresnel: fr,
+            compensation,
         }
     }
 }

@@ -18,12 +18,35 @@
 //! An effectively smooth GGX (alpha < 1e-3) becomes a Dirac mirror lobe carrying the limit
 //! albedo `(1 - metallic) F_d(cos_o) + metallic F_c(cos_o)`; `eval`/`pdf` then cover the diffuse
 //! lobe only and mirror samples come back with `specular: true`.
+//!
+//! With `energy_compensation` (the default for every material but `"model": "gltf"`) the layers
+//! conserve energy as Cycles' Principled BSDF (4.x) does, written reciprocally:
+//!
+//! ```text
+//! ms(wo, wi)  = (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg))       (Kulla & Conty 2017)
+//! conductor   = F_c S + F_ms(F_c,avg) ms
+//! specular    = F_d S + F_ms(F_d,avg) ms
+//! A_d(mu)     = f0_d E(mu) + (f90_d - f0_d) B(mu) + F_ms(F_d,avg) (1 - E(mu))  (its albedo)
+//! dielectric  = specular + base/pi (1 - A_d(mu_o)) (1 - A_d(mu_i)) / (1 - A_d,avg)
+//! ```
+//!
+//! (`crate::bsdf::energy` for E, B and F_ms). The diffuse base receives exactly what the
+//! specular layer does not reflect, so a white base reflects 1 at every angle and roughness
+//! (Kelemen & Szirmay-Kalos 2001, "A Microfacet Based Coupled Specular-Matte BRDF Model with
+//! Importance Sampling", eq. 10, with the layer's tabulated albedo in place of their
+//! approximation); Cycles scales its diffuse by `1 - A_d(mu_o)` alone, which has the same
+//! albedo but is not reciprocal. The multiple-scattering lobes are sampled together with the
+//! diffuse one (all cosine-weighted).
 
+use super::energy::{
+    ggx_reflection_albedo, ggx_reflection_average, multiscatter_fresnel, ReflectionAlbedo,
+    SCHLICK_WEIGHT_AVERAGE,
+};
 use super::fresnel::{reflect, schlick_weight};
 use super::microfacet::TrowbridgeReitz;
 use super::{BsdfSample, MetallicRoughnessBsdf};
 use crate::math::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
-use crate::math::{sqr, INV_PI};
+use crate::math::{sqr, INV_PI, PI};
 use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
 
@@ -62,12 +85,20 @@ impl MetallicRoughnessBsdf {
 
     /// Probability of sampling the GGX lobe: its estimated albedo over the total, using the
     /// Fresnel terms at the macro-surface angle. Exactly 0 when the specular lobe vanishes
-    /// (specular = 0, metallic = 0) and exactly 1 when the diffuse lobe does.
+    /// (specular = 0, metallic = 0) and exactly 1 when the diffuse lobe does. The
+    /// cosine-weighted branch samples the diffuse and the multiple-scattering lobes.
     fn specular_probability(&self, cos_o: f32) -> f32 {
         let m = self.metallic();
         let (fd, fc) = self.fresnels(schlick_weight(cos_o));
         let w_spec = (1.0 - m) * fd.average() + m * fc.average();
-        let w_diff = (1.0 - m) * ((SampledSpectrum::ONE - fd) * self.base_color).average();
+        let w_diff = match self.layers(cos_o) {
+            Some(l) => {
+                let ms = l.ms_scale_o;
+                (1.0 - m) * (l.diffuse_o * self.base_color + l.fms_d * ms).average()
+                    + m * l.fms_c.average() * ms
+            }
+            None => (1.0 - m) * ((SampledSpectrum::ONE - fd) * self.base_color).average(),
+        };
         if !(w_spec > 0.0) {
             0.0
         } else if !(w_diff > 0.0) {
@@ -79,6 +110,61 @@ impl MetallicRoughnessBsdf {
 
     pub fn is_specular(&self) -> bool {
         self.distribution().effectively_smooth() && self.metallic() >= 1.0
+    }
+
+    /// The energy-compensation terms at `cos_o` (None for the glTF model).
+    fn layers(&self, cos_o: f32) -> Option<Layers> {
+        if !self.energy_compensation {
+            return None;
+        }
+        let smooth = self.distribution().effectively_smooth();
+        // A Dirac mirror reflects its Fresnel exactly: E = 1, B = (1 - mu)^5.
+        let (albedo, average) = if smooth {
+            (
+                ReflectionAlbedo {
+                    e: 1.0,
+                    b: schlick_weight(cos_o),
+                },
+                ReflectionAlbedo {
+                    e: 1.0,
+                    b: SCHLICK_WEIGHT_AVERAGE,
+                },
+            )
+        } else {
+            (
+                ggx_reflection_albedo(self.alpha, cos_o),
+                ggx_reflection_average(self.alpha),
+            )
+        };
+        let f0_d = self.dielectric_f0();
+        let f90_d = self.specular;
+        let fms = |f_avg: SampledSpectrum| f_avg.map(|f| multiscatter_fresnel(f, average.e));
+        let fms_d = fms(f0_d.map(|f| f + (f90_d - f) * SCHLICK_WEIGHT_AVERAGE));
+        let fms_c = fms(self
+            .base_color
+            .map(|b| b + (1.0 - b) * SCHLICK_WEIGHT_AVERAGE));
+        let ms_norm = if average.e < 1.0 - 1e-6 {
+            1.0 / (PI * (1.0 - average.e))
+        } else {
+            0.0
+        };
+        let mut layers = Layers {
+            ms_scale_o: (1.0 - albedo.e).max(0.0),
+            ms_norm,
+            fms_d,
+            fms_c,
+            f0_d,
+            f90_d,
+            diffuse_o: SampledSpectrum::ZERO,
+            diffuse_norm: SampledSpectrum::ZERO,
+        };
+        layers.diffuse_o = layers.left_to_diffuse(albedo);
+        // The diffuse lobe's 1 / (1 - A_d,avg) normalisation (0 when the layer reflects all).
+        layers.diffuse_norm =
+            layers
+                .left_to_diffuse(average)
+                .map(|v| if v > 1e-6 { 1.0 / v } else { 0.0 });
+        Some(layers)
     }
 
     /// f(wo, wi) and the mixture pdf of `wi`, shared by `eval`, `pdf` and `sample`.
@@ -95,29 +181,38 @@ impl MetallicRoughnessBsdf {
         let smooth = distrib.effectively_smooth();
         let vdoth = wo.dot(h).clamp(0.0, 1.0);
         let (fd, fc) = self.fresnels(schlick_weight(vdoth));
+        let layers = self.layers(wo.z);
 
-        let diffuse = self.base_color * INV_PI;
-        let mut f = diffuse * (SampledSpectrum::ONE - fd);
         let p_spec = self.specular_probability(wo.z);
         let mut pdf = (1.0 - p_spec) * cosine_hemisphere_pdf(wi.z);
+        let (mut dielectric, mut conductor) = match &layers {
+            Some(l) => {
+                let at_i = l.at(wi.z, self.alpha, smooth);
+                let diffuse =
+                    self.base_color * INV_PI * l.diffuse_o * at_i.diffuse * l.diffuse_norm;
+                let ms = l.ms_scale_o * at_i.ms_scale * l.ms_norm;
+                (diffuse + l.fms_d * ms, l.fms_c * ms)
+            }
+            None => (
+                self.base_color * INV_PI * (SampledSpectrum::ONE - fd),
+                SampledSpectrum::ZERO,
+            ),
+        };
         if !smooth {
             let s = distrib.d(h) * distrib.g(wo, wi) / (4.0 * wo.z * wi.z);
             if s.is_finite() && s > 0.0 {
-                f += fd * s;
-                f = f * (1.0 - m) + fc * (m * s);
-                // Mirror reflection about h: dwi = 4 |wo.h| dwh (Walter et al. 2007, eq. 14).
+                dielectric += fd * s;
+                conductor += fc * s;
+                // Mirror reflection about h: dwi = 4 |wo.wm| dwm (Walter et al. 2007, eq. 14).
                 if vdoth > 0.0 {
                     let p = distrib.d_visible(wo, h) / (4.0 * vdoth);
                     if p.is_finite() {
                         pdf += p_spec * p;
                     }
                 }
-            } else {
-                f *= 1.0 - m;
             }
-        } else {
-            f *= 1.0 - m;
         }
+        let f = dielectric * (1.0 - m) + conductor * m;
         if !f.is_finite() || !pdf.is_finite() {
             return (SampledSpectrum::ZERO, 0.0);
         }
@@ -128,17 +223,26 @@ impl MetallicRoughnessBsdf {
         self.eval_pdf(wo, wi).0
     }
 
-    /// The diffuse term of `eval`: (1 - metallic) (1 - F_d(wo.h)) base / pi.
+    /// The diffuse term of `eval`: (1 - metallic) times the base's share (see the module doc).
     pub fn diffuse_part(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
         if !(wo.z > 0.0 && wi.z > 0.0) {
             return SampledSpectrum::ZERO;
         }
-        let h = (wo + wi).normalize_or_zero();
-        if h == Vec3::ZERO {
-            return SampledSpectrum::ZERO;
-        }
-        let (fd, _) = self.fresnels(schlick_weight(wo.dot(h).clamp(0.0, 1.0)));
-        self.base_color * INV_PI * (SampledSpectrum::ONE - fd) * (1.0 - self.metallic())
+        let share = match self.layers(wo.z) {
+            Some(l) => {
+                let smooth = self.distribution().effectively_smooth();
+                l.diffuse_o * l.at(wi.z, self.alpha, smooth).diffuse * l.diffuse_norm
+            }
+            None => {
+                let h = (wo + wi).normalize_or_zero();
+                if h == Vec3::ZERO {
+                    return SampledSpectrum::ZERO;
+                }
+                let (fd, _) = self.fresnels(schlick_weight(wo.dot(h).clamp(0.0, 1.0)));
+                SampledSpectrum::ONE - fd
+            }
+        };
+        self.base_color * INV_PI * share * (1.0 - self.metallic())
     }
 
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -193,6 +297,55 @@ impl MetallicRoughnessBsdf {
     }
 }
 
+/// The energy-compensation terms of one evaluation that depend on `wo` only.
+struct Layers {
+    /// 1 - E(mu_o): the multiple-scattering lobe's factor at `wo`.
+    ms_scale_o: f32,
+    /// 1 / (pi (1 - E_avg)).
+    ms_norm: f32,
+    fms_d: SampledSpectrum,
+    fms_c: SampledSpectrum,
+    f0_d: SampledSpectrum,
+    f90_d: f32,
+    /// 1 - A_d(mu_o): what the specular layer leaves to the diffuse base at `wo`.
+    diffuse_o: SampledSpectrum,
+    /// 1 / (1 - A_d,avg).
+    diffuse_norm: SampledSpectrum,
+}
+
+/// The same factors at `wi`.
+struct LayersAt {
+    ms_scale: f32,
+    diffuse: SampledSpectrum,
+}
+
+impl Layers {
+    fn at(&self, cos_i: f32, alpha: f32, smooth: bool) -> LayersAt {
+        let a = if smooth {
+            ReflectionAlbedo {
+                e: 1.0,
+                b: schlick_weight(cos_i),
+            }
+        } else {
+            ggx_reflection_albedo(alpha, cos_i)
+        };
+        LayersAt {
+            ms_scale: (1.0 - a.e).max(0.0),
+            diffuse: self.left_to_diffuse(a),
+        }
+    }
+
+    /// `1 - A_d`: what the specular layer (single and multiple scattering) with albedos `a`
+    /// leaves to the diffuse base.
+    fn left_to_diffuse(&self, a: ReflectionAlbedo) -> SampledSpectrum {
+        SampledSpectrum::from_fn(|k| {
+            let f0 = self.f0_d[k];
+            let albedo = f0 * a.e + (self.f90_d - f0) * a.b + self.fms_d[k] * (1.0 - a.e);
+            (1.0 - albedo).max(0.0)
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -208,6 +361,7 @@ mod tests {
             specular: 1.0,
             specular_color: SampledSpectrum::ONE,
             ior: 0.0,
+            energy_compensation: false,
         };
         assert_eq!(b.dielectric_f0(), SampledSpectrum::ONE);
         let (fd, _) = b.fresnels(0.3);

@@ -8,6 +8,7 @@
 
 pub mod dielectric;
 pub mod diffuse;
+pub mod energy;
 pub mod fresnel;
 pub mod metallic_roughness;
 pub mod microfacet;
@@ -81,6 +82,9 @@ pub struct MetallicRoughnessBsdf {
     pub specular: f32,
     pub specular_color: SampledSpectrum,
     pub ior: f32,
+    /// Energy-conserving layers with multiple-scattering GGX (Cycles' Principled; see
+    /// `metallic_roughness.rs`); false: the glTF 2.0 spec's BRDF as written.
+    pub energy_compensation: bool,
 }
 
 /// Dielectric interface: smooth (alpha < 1e-3, or eta == 1: exact Fresnel, specular reflection
@@ -97,6 +101,9 @@ pub struct DielectricBsdf {
     /// (Cycles' refraction closure carries no Fresnel term; node setups mix in a reflection by
     /// a Fresnel or Layer Weight factor). Total internal reflection is then absorbed.
     pub refraction_only: bool,
+    /// A rough interface gets back the energy single scattering loses (Turquin 2019, see
+    /// `energy.rs`). Not for `refraction_only`, whose missing reflection is meant to be lost.
+    pub energy_compensation: bool,
 }
 
 impl Bsdf {

@@ -224,6 +224,9 @@ pub struct MaterialDesc {
     /// The surface does not scatter: rays pass through it and only cross into or out of its
     /// volume (material JSON `"surface": "none"`; Blender: a material with only a Volume output).
     pub null_surface: bool,
+    /// The glTF 2.0 spec's single-scattering BRDF as written, without energy compensation
+    /// (material JSON `"model": "gltf"`); else Cycles' energy-conserving layering.
+    pub gltf_brdf: bool,
 }
 
 /// A homogeneous volume (`crate::media::Medium`): coefficients per scene unit in

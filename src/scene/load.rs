@@ -97,6 +97,13 @@ fn load_scene_inner(
                 }
             }
         }
+        for name in &mf.gltf_models {
+            for (i, n) in imported.material_names.iter().enumerate() {
+                if n.as_deref() == Some(name.as_str()) {
+                    scene.materials[i].gltf_brdf = true;
+                }
+            }
+        }
         for (name, graph) in &mf.graphs {
             for (i, n) in imported.material_names.iter().enumerate() {
                 if n.as_deref() == Some(name.as_str()) {

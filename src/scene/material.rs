@@ -46,6 +46,8 @@ pub struct Material {
     gltf_ior: IorDesc,
     /// Precomputed spectra for the untextured case (the common one).
     base_albedo: RgbAlbedoSpectrum,
+    /// Multiple-scattering GGX and energy-conserving layers (not `"model": "gltf"`).
+    energy_compensation: bool,
     /// KHR_materials_specular colour, upsampled once (not per shading point).
     specular_color: RgbAlbedoSpectrum,
     emission: Option<RgbIlluminantSpectrum>,
@@ -127,6 +129,7 @@ impl Material {
             emission,
             interior,
             null_surface: desc.null_surface && desc.volume.is_some(),
+            energy_compensation: !desc.gltf_brdf,
             graph: desc.graph.clone(),
             uses_uv_sets: [
                 g.base_color_texture,
@@ -431,6 +434,7 @@ impl Material {
                 alpha: if *alpha < MIN_ALPHA { 0.0 } else { *alpha },
                 transmission_tint: SampledSpectrum::ONE,
                 refraction_only: false,
+                energy_compensation: self.energy_compensation,
             }),
             // The boundary of a subsurface medium: a (rough) dielectric; a transmission sample
             // hands the path to the BSSRDF (see `integrator::path`).
@@ -443,6 +447,7 @@ impl Material {
                 alpha: if s.alpha < MIN_ALPHA { 0.0 } else { s.alpha },
                 transmission_tint: SampledSpectrum::ONE,
                 refraction_only: false,
+                energy_compensation: self.energy_compensation,
             }),
             SurfaceModel::Gltf => self.gltf_bsdf(textures, uv, inputs, w, u_select),
         }
@@ -516,6 +521,7 @@ impl Material {
                 alpha: if alpha < MIN_ALPHA { 0.0 } else { alpha },
                 transmission_tint: base,
                 refraction_only,
+                energy_compensation: self.energy_compensation,
             });
         }
         if metallic <= 0.0 && specular <= 0.0 {
@@ -528,6 +534,7 @@ impl Material {
             specular,
             specular_color: self.specular_color.sample(w),
             ior: g.ior,
+            energy_compensation: self.energy_compensation,
         })
     }
 }

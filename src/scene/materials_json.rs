@@ -31,7 +31,10 @@
 //!   surface does not scatter: rays pass through it into and out of the volume, as Blender's
 //!   material with only a Volume output) or `"shaded"` (the default). Example, Blender's
 //!   Principled Volume at density 0.5: `"Fog": {"volume": {"sigma_s": [0.25, 0.25, 0.25],
-//!   "sigma_a": [0.25, 0.25, 0.25]}, "surface": "none"}`.
+//!   "sigma_a": [0.25, 0.25, 0.25]}, "surface": "none"}`. `model`: `"cycles"` (the default:
+//!   energy-conserving layers and multiple-scattering GGX as Cycles' Principled BSDF, see
+//!   `crate::bsdf::metallic_roughness`) | `"gltf"` (the glTF 2.0 spec's BRDF as written, single
+//!   scattering, for glTF viewer conformance).
 //! * `subsurface`: exactly one of `preset` | `sigma_a` + `sigma_s` | `reflectance` + `mfp`;
 //!   optional `scale` (> 0, default 1), `eta` (> 0, default 1.33) or `ior` (a number >= 1 or an
 //!   object with exactly one of the dielectric IOR forms below; the BSSRDF then uses its n_d as
@@ -157,6 +160,8 @@ pub struct MaterialsFile {
     /// Volumes by glTF material name (`materials.<name>.volume`), and whether the material's
     /// surface is `"none"`.
     pub volumes: Vec<(String, VolumeDesc, bool)>,
+    /// Materials rendered with the glTF 2.0 spec's BRDF as written (`"model": "gltf"`).
+    pub gltf_models: Vec<String>,
     /// Problems the user should see that do not stop the render (an unreadable texture).
     pub warnings: Vec<String>,
     /// `None` when the file has no `world` block. Its `texture` is decoded by
@@ -598,6 +603,12 @@ impl Validator<'_> {
                     Some(v) => Some(self.volume(v, &p.key("volume"))?),
                     None => None,
                 };
+                if let Some(v) = def_map.get("model") {
+                    let mp = p.key("model");
+                    if self.string(v, &mp, &["gltf", "cycles"], "model")? == "gltf" {
+                        out.gltf_models.push(name.clone());
+                    }
+                }
                 let null_surface = match def_map.get("surface") {
                     Some(v) => {
                         let sp = p.key("surface");
@@ -648,6 +659,7 @@ impl Validator<'_> {
                 "holdout",
                 "volume",
                 "surface",
+                "model",
             ],
             path,
         )?;
@@ -682,11 +694,12 @@ impl Validator<'_> {
                 ))
             }
             (None, None)
-                if graph.is_none() && !m.contains_key("holdout") && !m.contains_key("volume") =>
+                if graph.is_none()
+                    && !["holdout", "volume", "model"].iter().any(|k| m.contains_key(*k)) =>
             {
                 return Err(self.err(
                     path,
-                    "empty material: give 'subsurface', 'dielectric', 'graph', 'volume' or 'holdout'",
+                    "empty material: give 'subsurface', 'dielectric', 'graph', 'volume', 'model' or 'holdout'",
                 ))
             }
             (None, None) => None,
