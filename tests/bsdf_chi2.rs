@@ -318,8 +318,8 @@ fn draw_chunk(case: &Chi2Case, seed: u64, stream: u64, n: usize) -> SampleStats 
         let wi = match case.target {
             Target::Vndf(m) => Some(m.sample_visible(case.wo, u)),
             Target::Bsdf(b) => match b.sample(case.wo, uc, u) {
-                Some(s) if !s.specular && k % CHECK_EVERY != 0 => Some(s.wi),
-                Some(s) if !s.specular => {
+                Some(s) if !s.is_specular() && k % CHECK_EVERY != 0 => Some(s.wi),
+                Some(s) if !s.is_specular() => {
                     let f = b.eval(case.wo, s.wi);
                     let pdf = b.pdf(case.wo, s.wi);
                     let (_, pdfs) = b.eval_pdf_wavelengths(case.wo, s.wi);
@@ -504,7 +504,7 @@ fn smooth_dielectric_fresnel_snell_and_energy() {
                 let mut energy = 0.0f64;
                 if fr > 0.0 {
                     let r = b.sample(wo, fr * 0.5, Vec2::new(0.3, 0.3)).unwrap();
-                    assert!(r.specular && !r.transmission && !r.hero_only());
+                    assert!(r.is_specular() && !r.is_transmission() && !r.hero_only());
                     assert_eq!(r.wi, Vec3::new(-wo.x, -wo.y, wo.z));
                     assert!(relative_eq(r.pdf, fr, 1e-6), "{} vs {fr}", r.pdf);
                     // Weight f |cos| / pdf of the reflected branch is exactly 1.
@@ -516,7 +516,7 @@ fn smooth_dielectric_fresnel_snell_and_energy() {
                     let t = b
                         .sample(wo, fr + (1.0 - fr) * 0.5, Vec2::new(0.3, 0.3))
                         .unwrap();
-                    assert!(t.specular && t.transmission && !t.hero_only());
+                    assert!(t.is_specular() && t.is_transmission() && !t.hero_only());
                     assert!(relative_eq(t.pdf, 1.0 - fr, 1e-6));
                     assert!(t.wi.z * wo.z < 0.0);
                     assert!((t.wi.length() - 1.0).abs() < 1e-5);
@@ -532,7 +532,7 @@ fn smooth_dielectric_fresnel_snell_and_energy() {
                 } else {
                     // Total internal reflection: every sample reflects.
                     let r = b.sample(wo, 0.999_999, Vec2::ZERO).unwrap();
-                    assert!(!r.transmission && r.pdf == 1.0);
+                    assert!(!r.is_transmission() && r.pdf == 1.0);
                 }
                 assert!((energy - 1.0).abs() < 1e-5, "R + T = {energy}");
             }
@@ -547,7 +547,7 @@ fn smooth_dielectric_fresnel_snell_and_energy() {
     let reflected = (0..n)
         .filter(|_| {
             let u = Vec2::new(rng.next_f32(), rng.next_f32());
-            !b.sample(wo, rng.next_f32(), u).unwrap().transmission
+            !b.sample(wo, rng.next_f32(), u).unwrap().is_transmission()
         })
         .count() as f64;
     let sigma = (fr * (1.0 - fr) / n as f64).sqrt();
@@ -595,7 +595,7 @@ fn albedo(b: &Bsdf, wo: Vec3, n: usize, seed: u64, undo_eta2: bool) -> (f64, f32
         let u = Vec2::new(rng.next_f32(), rng.next_f32());
         if let Some(s) = b.sample(wo, rng.next_f32(), u) {
             let mut w = s.f[0] * s.wi.z.abs() / s.pdf;
-            if s.transmission && undo_eta2 {
+            if s.is_transmission() && undo_eta2 {
                 let etap = if wo.z > 0.0 { eta } else { 1.0 / eta };
                 w *= etap * etap;
             }
@@ -832,7 +832,7 @@ fn refraction_only_transmits_everything_it_can() {
         let wo = dir(c, 0.4);
         for uc in [0.0f32, 0.5, 0.999] {
             let t = b.sample(wo, uc, Vec2::new(0.3, 0.3)).unwrap();
-            assert!(t.specular && t.transmission && t.pdf == 1.0);
+            assert!(t.is_specular() && t.is_transmission() && t.pdf == 1.0);
             let weight = t.f[0] * t.wi.z.abs() / t.pdf * 1.5 * 1.5;
             assert!((weight - 1.0).abs() < 1e-5, "weight {weight}");
         }
@@ -856,7 +856,7 @@ fn refraction_only_transmits_everything_it_can() {
             for _ in 0..1000 {
                 let u = Vec2::new(rng.next_f32(), rng.next_f32());
                 if let Some(s) = refraction(1.5, roughness).sample(wo, rng.next_f32(), u) {
-                    assert!(s.transmission && s.wi.z < 0.0);
+                    assert!(s.is_transmission() && s.wi.z < 0.0);
                 }
             }
         }
@@ -1088,7 +1088,7 @@ fn dispersion_terminates_secondaries_on_smooth_refraction_only() {
             };
             // Only a smooth refraction leaves the hero alone; a rough one keeps every
             // wavelength with its own density (hero MIS).
-            assert_eq!(s.hero_only(), s.transmission && alpha == 0.0);
+            assert_eq!(s.hero_only(), s.is_transmission() && alpha == 0.0);
             assert!(!h.hero_only());
             if alpha > 0.0 {
                 let (f, pdfs) = disp.eval_pdf_wavelengths(wo, s.wi);
@@ -1117,13 +1117,13 @@ fn dispersion_terminates_secondaries_on_smooth_refraction_only() {
                     // Wherever a wavelength carries light its density is positive (MIS support).
                     assert!(f[i] == 0.0 || pdfs[i] > 0.0, "{f:?} {pdfs:?}");
                 }
-            } else if s.transmission {
+            } else if s.is_transmission() {
                 assert_eq!(&s.f.0[1..], &[0.0; 3]);
             }
             // Directions and the hero slot follow eta[0] exactly.
             assert_eq!(s.wi, h.wi);
             assert!(relative_eq(s.f[0], h.f[0], 1e-5) && relative_eq(s.pdf, h.pdf, 1e-5));
-            if !s.transmission {
+            if !s.is_transmission() {
                 // Reflection keeps every wavelength, each with its own Fresnel.
                 let expect = if alpha == 0.0 {
                     SampledSpectrum::from_fn(|i| fresnel_dielectric(wo.z, eta[i]) / wo.z.abs())
@@ -1142,7 +1142,7 @@ fn dispersion_terminates_secondaries_on_smooth_refraction_only() {
                     assert!(s.f[3] > s.f[0], "{:?}", s.f);
                 }
             }
-            seen[s.transmission as usize] += 1;
+            seen[s.is_transmission() as usize] += 1;
         }
         assert!(seen[0] > 100 && seen[1] > 100, "{seen:?}");
     }

@@ -23,7 +23,7 @@
 use super::energy::ggx_dielectric_albedo;
 use super::fresnel::{fresnel_dielectric, reflect, refract};
 use super::microfacet::TrowbridgeReitz;
-use super::{BsdfSample, DielectricBsdf};
+use super::{BsdfSample, DielectricBsdf, LobeFlags};
 use crate::math::sqr;
 use crate::spectrum::{SampledSpectrum, N_WAVELENGTHS};
 use glam::{Vec2, Vec3};
@@ -181,6 +181,16 @@ impl DielectricBsdf {
         }
     }
 
+    /// `n(other side) / n(wo side)` per wavelength, for `wo` with cosine `cos_o`.
+    #[inline]
+    fn oriented_eta(&self, cos_o: f32) -> SampledSpectrum {
+        if cos_o > 0.0 {
+            self.eta
+        } else {
+            self.eta.map(|e| 1.0 / e)
+        }
+    }
+
     /// The factor restoring the energy a rough interface loses to single scattering,
     /// `1 / E_T(mu_o, eta)` (`energy.rs`); 1 for smooth interfaces and Refraction BSDFs.
     #[inline]
@@ -240,8 +250,8 @@ impl DielectricBsdf {
                 wi,
                 f,
                 pdf: fr,
-                specular: true,
-                transmission: false,
+                flags: LobeFlags::sample(false, true),
+                eta: SampledSpectrum::ONE,
                 pdf_wavelengths: fr_all,
             })
         } else {
@@ -268,8 +278,8 @@ impl DielectricBsdf {
                 wi,
                 f,
                 pdf: t,
-                specular: true,
-                transmission: true,
+                flags: LobeFlags::sample(true, true),
+                eta: self.oriented_eta(cos_o),
                 pdf_wavelengths,
             })
         }
@@ -315,8 +325,12 @@ impl DielectricBsdf {
             wi,
             f,
             pdf: hero.pdf,
-            specular: false,
-            transmission: hero.transmission,
+            flags: LobeFlags::sample(hero.transmission, false),
+            eta: if hero.transmission {
+                self.oriented_eta(wo.z)
+            } else {
+                SampledSpectrum::ONE
+            },
             pdf_wavelengths,
         })
     }

@@ -1,7 +1,7 @@
 //! Lambertian reflection: f = R / pi, sampled with the cosine-weighted hemisphere warp; and
 //! Lambertian transmission (Blender's Translucent BSDF): f = T / pi towards the other side.
 
-use super::{BsdfSample, DiffuseBsdf, TranslucentBsdf};
+use super::{BsdfSample, DiffuseBsdf, LobeFlags, TranslucentBsdf};
 use crate::math::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
 use crate::math::INV_PI;
 use crate::spectrum::SampledSpectrum;
@@ -39,8 +39,8 @@ impl DiffuseBsdf {
             wi,
             f: self.reflectance * INV_PI,
             pdf,
-            specular: false,
-            transmission: false,
+            flags: LobeFlags::REFLECTION.with(LobeFlags::DIFFUSE),
+            eta: SampledSpectrum::ONE,
             pdf_wavelengths: SampledSpectrum::splat(pdf),
         })
     }
@@ -82,8 +82,8 @@ impl TranslucentBsdf {
             wi,
             f: self.transmittance * INV_PI,
             pdf,
-            specular: false,
-            transmission: true,
+            flags: LobeFlags::TRANSMISSION.with(LobeFlags::DIFFUSE),
+            eta: SampledSpectrum::ONE,
             pdf_wavelengths: SampledSpectrum::splat(pdf),
         })
     }

@@ -44,7 +44,7 @@ use super::energy::{
 };
 use super::fresnel::{reflect, schlick_weight};
 use super::microfacet::TrowbridgeReitz;
-use super::{BsdfSample, MetallicRoughnessBsdf};
+use super::{BsdfSample, LobeFlags, MetallicRoughnessBsdf};
 use crate::math::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
 use crate::math::{sqr, INV_PI, PI};
 use crate::spectrum::SampledSpectrum;
@@ -52,7 +52,7 @@ use glam::{Vec2, Vec3};
 
 impl MetallicRoughnessBsdf {
     #[inline]
-    fn distribution(&self) -> TrowbridgeReitz {
+    pub(super) fn distribution(&self) -> TrowbridgeReitz {
         TrowbridgeReitz::isotropic(self.alpha)
     }
 
@@ -108,8 +108,9 @@ impl MetallicRoughnessBsdf {
         }
     }
 
-    pub fn is_specular(&self) -> bool {
-        self.distribution().effectively_smooth() && self.metallic() >= 1.0
+    /// Has a Lambertian base (not a pure conductor).
+    pub fn has_diffuse_base(&self) -> bool {
+        self.metallic() < 1.0
     }
 
     /// The energy-compensation terms at `cos_o` (None for the glTF model).
@@ -269,8 +270,8 @@ impl MetallicRoughnessBsdf {
                     wi,
                     f,
                     pdf: p_spec,
-                    specular: true,
-                    transmission: false,
+                    flags: LobeFlags::sample(false, true),
+                    eta: SampledSpectrum::ONE,
                     pdf_wavelengths: SampledSpectrum::splat(p_spec),
                 });
             }
@@ -290,8 +291,12 @@ impl MetallicRoughnessBsdf {
             wi,
             f,
             pdf,
-            specular: false,
-            transmission: false,
+            flags: if uc < p_spec {
+                LobeFlags::sample(false, false)
+            } else {
+                LobeFlags::REFLECTION.with(LobeFlags::DIFFUSE)
+            },
+            eta: SampledSpectrum::ONE,
             pdf_wavelengths: SampledSpectrum::splat(pdf),
         })
     }

@@ -19,6 +19,48 @@ pub use microfacet::TrowbridgeReitz;
 use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
 
+/// What kind of scattering a lobe does (pbrt-v4's `BxDFFlags`): the side (reflection,
+/// transmission) and the kind of lobe (diffuse, glossy, or specular, i.e. Dirac). A sample has
+/// one side and one kind; `Bsdf::flags` is the union over the lobes a BSDF may sample.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct LobeFlags(u8);
+
+impl LobeFlags {
+    pub const REFLECTION: LobeFlags = LobeFlags(1);
+    pub const TRANSMISSION: LobeFlags = LobeFlags(2);
+    pub const DIFFUSE: LobeFlags = LobeFlags(4);
+    pub const GLOSSY: LobeFlags = LobeFlags(8);
+    /// A Dirac lobe: `f / pdf` is the weight, light sampling cannot reach its directions.
+    pub const SPECULAR: LobeFlags = LobeFlags(16);
+
+    /// The union.
+    #[inline]
+    pub const fn with(self, other: LobeFlags) -> LobeFlags {
+        LobeFlags(self.0 | other.0)
+    }
+
+    /// Every flag of `other` is set.
+    #[inline]
+    pub const fn contains(self, other: LobeFlags) -> bool {
+        self.0 & other.0 == other.0
+    }
+
+    /// The side and kind of a sample.
+    #[inline]
+    pub const fn sample(transmission: bool, specular: bool) -> LobeFlags {
+        let side = if transmission {
+            LobeFlags::TRANSMISSION
+        } else {
+            LobeFlags::REFLECTION
+        };
+        side.with(if specular {
+            LobeFlags::SPECULAR
+        } else {
+            LobeFlags::GLOSSY
+        })
+    }
+}
+
 /// Result of sampling a direction from a BSDF.
 #[derive(Clone, Copy, Debug)]
 pub struct BsdfSample {
@@ -27,10 +69,13 @@ pub struct BsdfSample {
     pub f: SampledSpectrum,
     /// Solid-angle density of `wi` (for a specular lobe: the discrete probability of choosing it).
     pub pdf: f32,
-    /// A Dirac lobe was chosen: `f / pdf` is the weight, light sampling cannot reach this direction.
-    pub specular: bool,
-    /// `wi` is on the other side of the surface from `wo`.
-    pub transmission: bool,
+    /// The lobe that produced `wi`: reflection or transmission (`wi` on the other side of the
+    /// surface from `wo`), and diffuse, glossy or specular.
+    pub flags: LobeFlags,
+    /// Per wavelength, the relative IOR `n(wi side) / n(wo side)` of the interface crossed by
+    /// a transmission (1 for reflection and for interfaces without refraction): what the path
+    /// tracer needs for the radiance scale of refraction (Veach 1997, sec. 5.2).
+    pub eta: SampledSpectrum,
     /// The density with which each wavelength, had it been the hero, would have produced `wi`
     /// (slot 0 equals `pdf`). All slots are equal unless the BSDF is dispersive. A slot is 0
     /// where `wi` is unreachable for that wavelength (smooth dispersive refraction), and `f`
@@ -40,6 +85,18 @@ pub struct BsdfSample {
 }
 
 impl BsdfSample {
+    /// A Dirac lobe was chosen.
+    #[inline]
+    pub fn is_specular(&self) -> bool {
+        self.flags.contains(LobeFlags::SPECULAR)
+    }
+
+    /// `wi` is on the other side of the surface from `wo`.
+    #[inline]
+    pub fn is_transmission(&self) -> bool {
+        self.flags.contains(LobeFlags::TRANSMISSION)
+    }
+
     /// Only the hero wavelength can follow `wi` (the secondaries' path density is zero).
     pub fn hero_only(&self) -> bool {
         self.pdf_wavelengths.0[1..].iter().all(|&p| p == 0.0)
@@ -179,16 +236,46 @@ impl Bsdf {
         }
     }
 
+    /// The lobes this BSDF may sample (union of their flags).
+    pub fn flags(&self) -> LobeFlags {
+        let (r, t) = (LobeFlags::REFLECTION, LobeFlags::TRANSMISSION);
+        let kind = |specular: bool| {
+            if specular {
+                LobeFlags::SPECULAR
+            } else {
+                LobeFlags::GLOSSY
+            }
+        };
+        match self {
+            Bsdf::Diffuse(_) => r.with(LobeFlags::DIFFUSE),
+            Bsdf::Translucent(_) => t.with(LobeFlags::DIFFUSE),
+            Bsdf::MetallicRoughness(b) => {
+                let specular = r.with(kind(b.distribution().effectively_smooth()));
+                if b.has_diffuse_base() {
+                    specular.with(LobeFlags::DIFFUSE)
+                } else {
+                    specular
+                }
+            }
+            Bsdf::Dielectric(b) => r.with(t).with(kind(b.is_specular())),
+        }
+    }
+
     /// Purely Dirac: every sample is specular and `eval`/`pdf` are identically zero, so light
     /// sampling is pointless. (A BSDF may still return some specular samples while this is
     /// false, e.g. a smooth metallic-roughness surface with a diffuse part: check
-    /// `BsdfSample::specular`.)
+    /// `BsdfSample::is_specular`.)
     pub fn is_specular(&self) -> bool {
-        match self {
-            Bsdf::Diffuse(_) | Bsdf::Translucent(_) => false,
-            Bsdf::MetallicRoughness(b) => b.is_specular(),
-            Bsdf::Dielectric(b) => b.is_specular(),
-        }
+        let f = self.flags();
+        f.contains(LobeFlags::SPECULAR)
+            && !f.contains(LobeFlags::DIFFUSE)
+            && !f.contains(LobeFlags::GLOSSY)
+    }
+
+    /// Reflects through a Lambertian lobe (which normal-mapped surfaces shade differently).
+    pub fn has_diffuse_reflection(&self) -> bool {
+        self.flags()
+            .contains(LobeFlags::DIFFUSE.with(LobeFlags::REFLECTION))
     }
 
     /// The surface colour a denoiser's albedo guide expects (Cycles' "Denoising Albedo"):
@@ -219,6 +306,6 @@ impl Bsdf {
     /// True if the BSDF can scatter to the other side of the surface (the integrator must not
     /// flip the frame to face `wo` for these).
     pub fn has_transmission(&self) -> bool {
-        matches!(self, Bsdf::Dielectric(_) | Bsdf::Translucent(_))
+        self.flags().contains(LobeFlags::TRANSMISSION)
     }
 }

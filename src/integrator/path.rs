@@ -3,8 +3,7 @@
 //! hero-wavelength MIS over the path's wavelengths (`spectral_mis`).
 
 use super::spectral_mis::SpectralMis;
-use crate::bsdf::Bsdf;
-use crate::bsdf::BsdfSample;
+use crate::bsdf::{BsdfSample, LobeFlags};
 use crate::bssrdf::{active_wavelengths, random_walk, SubsurfaceMethod, WalkBoundary};
 use crate::geometry::{bump_terminator_shadowing, offset_ray_origin, Ray};
 use crate::lights::{LightSelection, ShadingContext};
@@ -842,12 +841,7 @@ impl<'a> PathTracer<'a> {
             // A normal-mapped surface with a diffuse base shades with the mapped normal even
             // where it faces away from the viewer, as Cycles' diffuse closures do (their value
             // does not depend on wo), instead of going black there (`Material::apply_normal_map`).
-            let bumped_diffuse = sp.ns != sp.ns_smooth
-                && match &bsdf {
-                    Bsdf::Diffuse(_) => true,
-                    Bsdf::MetallicRoughness(b) => b.metallic < 1.0,
-                    Bsdf::Dielectric(_) | Bsdf::Translucent(_) => false,
-                };
+            let bumped_diffuse = sp.ns != sp.ns_smooth && bsdf.has_diffuse_reflection();
             let wo = if bumped_diffuse {
                 glam::Vec3::new(wo.x, wo.y, wo.z.abs())
             } else {
@@ -961,8 +955,8 @@ impl<'a> PathTracer<'a> {
                     wi: glam::Vec3::Z,
                     f: SampledSpectrum::ONE,
                     pdf: 1.0,
-                    specular: true,
-                    transmission: true,
+                    flags: LobeFlags::sample(true, true),
+                    eta: SampledSpectrum::ONE,
                     pdf_wavelengths: SampledSpectrum::ONE,
                 },
                 _ => {
@@ -978,11 +972,11 @@ impl<'a> PathTracer<'a> {
             }
             let wi_world = frame.to_world(bs.wi);
             let crosses = wi_world.dot(ng) * wo_world.dot(ng) < 0.0;
-            if crosses != bs.transmission {
+            if crosses != bs.is_transmission() {
                 // Shading normal disagrees with the geometry: the sample would leak light.
                 break;
             }
-            let f = if bumped && !bs.specular {
+            let f = if bumped && !bs.is_specular() {
                 (bs.f - bump_loss(bs.wi, wi_world)).clamp_zero()
             } else {
                 bs.f
@@ -992,7 +986,7 @@ impl<'a> PathTracer<'a> {
                 // Only a Dirac BSDF gets here (see above): glass tint or mirror colour.
                 guide_tint *= bsdf.albedo();
             }
-            specular_bounce = bs.specular;
+            specular_bounce = bs.is_specular();
             prev_denominator = mis.denominator();
             prev_bsdf_density = mis.bsdf_density(bs.pdf_wavelengths);
             prev_ctx = ctx;
@@ -1003,7 +997,7 @@ impl<'a> PathTracer<'a> {
             // Where the path continues: point, normal for the ray offset, direction.
             let mut next = (sp.p, ng, wi_world);
             let entering = wi_world.dot(sp.ng) < 0.0;
-            let sss_table = bs.transmission
+            let sss_table = bs.is_transmission()
                 && entering
                 && subsurface.is_some_and(|s| s.method == SubsurfaceMethod::Table);
             // Where light leaves a subsurface medium, if it does here: point, outward geometric
@@ -1015,9 +1009,7 @@ impl<'a> PathTracer<'a> {
                 // in at the exit point and out here), find the exit point and shade it with Sw.
                 let Some(ss) = subsurface else { break };
                 // Per wavelength: the boundary may be dispersive.
-                if let Bsdf::Dielectric(d) = &bsdf {
-                    beta *= d.eta * d.eta;
-                }
+                beta *= bs.eta * bs.eta;
                 let bssrdf = ss.bssrdf(&alive);
                 let (u_axis, u_disk, u_hit) = sampler.subsurface_probe();
                 rays += 1;
@@ -1035,25 +1027,19 @@ impl<'a> PathTracer<'a> {
                 let ns_i = if pi.ns.dot(ng_i) < 0.0 { -pi.ns } else { pi.ns };
                 let frame_i = Frame::from_normal_tangent(ns_i, pi.dpdu);
                 exit = Some((pi.p, ng_i, frame_i, ss.exit_lobe()));
-            } else if let (true, Some(ss)) = (bs.transmission, walk_exit) {
+            } else if let (true, Some(ss)) = (bs.is_transmission(), walk_exit) {
                 // A random walk leaves its medium here. A dielectric boundary's transmission
                 // sample kept its weight (transmittance for the walk's direction, times eta^2);
                 // only its direction is replaced by the exit lobe's (`WalkBoundary`).
-                if let (Bsdf::Dielectric(d), WalkBoundary::Dielectric) = (&bsdf, ss.boundary) {
-                    let eta = d.eta[0];
-                    eta_scale /= eta * eta;
+                if ss.boundary == WalkBoundary::Dielectric {
+                    eta_scale *= bs.eta[0] * bs.eta[0];
                 }
                 walk_medium = None;
                 exit = Some((sp.p, sp.ng, frame, ss.exit_lobe()));
-            } else if bs.transmission {
-                if let Bsdf::Dielectric(d) = &bsdf {
-                    let eta = d.eta[0];
-                    eta_scale *= if entering {
-                        eta * eta
-                    } else {
-                        1.0 / (eta * eta)
-                    };
-                }
+            } else if bs.is_transmission() {
+                // Radiance scales by 1/eta^2 across a refraction; Russian roulette works on the
+                // throughput without it (pbrt-v4's etaScale).
+                eta_scale *= bs.eta[0] * bs.eta[0];
                 if material.interior().is_some() {
                     let entry = MediumEntry {
                         instance: hit.instance,
@@ -1073,11 +1059,8 @@ impl<'a> PathTracer<'a> {
                     // Lambertian walk boundary: the light enters along the refracted direction
                     // but without the refraction's 1/eta^2 radiance factor (the Lambertian exit
                     // has no eta^2 either).
-                    if let Bsdf::Dielectric(d) = &bsdf {
-                        beta *= d.eta * d.eta;
-                        let eta = d.eta[0];
-                        eta_scale /= eta * eta;
-                    }
+                    beta *= bs.eta * bs.eta;
+                    eta_scale /= bs.eta[0] * bs.eta[0];
                 }
             }
             if let Some((p_exit, ng_i, frame_i, lobe)) = exit {
