@@ -91,6 +91,9 @@ if [ "$WHICH" = all ] || [ "$WHICH" = bpy ]; then
     echo "== Principled subsurface parity with Cycles in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_sss_parity.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== energy-conserving rough glass, metal and Principled parity with Cycles in the bpy wheel"
+    .venv-bpy/bin/python tests/addon/test_energy_parity.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
     echo "== the standalone binary on glTF from Blender's bundled exporter, vs Cycles"
     .venv-bpy/bin/python tests/addon/test_bundled_gltf.py 2>&1 | filter | grep -v ' INFO: '
     [ "${PIPESTATUS[0]}" = 0 ]

@@ -1,0 +1,110 @@
+"""Energy-conserving rough materials against Cycles in the bpy wheel (Blender 5.0.1), issue 14:
+rough glass spheres (Glass BSDF, IOR 1.5, roughness 0.2 / 0.5 / 0.8), a rough metal sphere
+(Principled, metallic 1, roughness 0.6) and a dark rough Principled floor (base 0.05, roughness
+0.8), under an area light and a grey world. Cycles' Glass and Principled BSDFs use
+multiple-scattering GGX by default (energy compensation since 4.0) and its Principled layers the
+specular over the diffuse base by albedo scaling; Prism compensates with tabulated albedos
+(src/bsdf/energy.rs). Cycles unbiased (no clamping, Filter Glossy 0, 16 bounces), 512 spp;
+Prism 256 spp, max depth 16. Run by run_addon_tests.sh:
+
+    .venv-bpy/bin/python tests/addon/test_energy_parity.py [TEST_NAME ...]
+
+Tolerances on the per-channel mean over a box inside each object (Prism / Cycles): glass 0.2
+and 0.5: 3%, metal and floor 2% (the issue's bounds); glass 0.8: 5%. Measured (Cycles 2048 spp,
+Prism 1024): glass 0.997 / 0.993 / 0.964, metal 0.993 / 1.002 / 0.992, floor 0.986-0.989.
+
+Why 5% for the roughest glass: Cycles' rough-refraction eval (bsdf_microfacet.h, "TODO: check if
+the refraction configuration is valid") keeps microfacets that face away from one of the two
+directions, which pbrt-v4, Mitsuba and Prism discard as physically impossible. It matters where
+light leaves rough glass obliquely: single-scattering GGX, light through a flat rough (0.5) slab
+seen from below, Prism / Cycles = 0.999 at normal exit, 0.97 at 45 degrees, 0.905 at 70; Prism
+with that check removed gives 1.02 at 70 degrees. A rough sphere is lit mostly through such
+exits. The white furnace (uniform world, 128 bounces) says Prism conserves energy there
+(0.999-1.000 at roughness 0.5-1) where Cycles returns 0.987.
+
+Without energy compensation (`"model": "gltf"`, single scattering) the roughness-0.8 sphere is
+at 0.33 of Cycles and the metal at 0.81 (the scene lit by the area light alone), so the test
+fails when compensation breaks.
+"""
+
+import os
+import sys
+import tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bpy  # noqa: E402
+
+import common as C  # noqa: E402
+
+OUT = tempfile.mkdtemp(prefix="prism_addon_test_energy_")
+CYCLES_SPP = 512
+PRISM_SPP = 256
+W, H = 200, 80
+RADIUS = 0.6
+# (object name, x position); glass roughnesses then the metal.
+SPHERES = [("Glass02", -2.1), ("Glass05", -0.7), ("Glass08", 0.7), ("Metal06", 2.1)]
+
+
+def scene():
+    C.reset()
+    sc = bpy.context.scene
+    floor = C.material("Floor", "ShaderNodeBsdfPrincipled", (0.05, 0.05, 0.05), Roughness=0.8)
+    C.mesh_object("Floor", C.plane(30.0), floor)
+    for (name, x), rough in zip(SPHERES[:3], (0.2, 0.5, 0.8)):
+        glass = C.material(name, "ShaderNodeBsdfGlass", (1.0, 1.0, 1.0), Roughness=rough, IOR=1.5)
+        C.mesh_object(name, C.sphere(RADIUS, 64, 32), glass, location=(x, 0, RADIUS), smooth=True)
+    metal = C.material("Metal06", "ShaderNodeBsdfPrincipled", (0.9, 0.6, 0.3), Metallic=1.0, Roughness=0.6)
+    C.mesh_object("Metal06", C.sphere(RADIUS, 64, 32), metal, location=(SPHERES[3][1], 0, RADIUS), smooth=True)
+    C.light("Area", "AREA", 300.0, (-1.0, -2.0, 4.0), rotation=(0.45, 0.0, -0.2), shape="SQUARE", size=2.0)
+    C.world((0.3, 0.3, 0.3), 1.0)
+    C.camera((0.0, -6.5, 1.6), (0.0, 0.0, 0.55), lens=40.0)
+    sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = W, H, 100
+    return sc
+
+
+def pixel_box(sc, name, fraction=0.6):
+    """Rows and columns of a box inside object `name`'s silhouette (its centre +- fraction of
+    its projected radius)."""
+    from bpy_extras.object_utils import world_to_camera_view
+    from mathutils import Vector
+
+    bpy.context.view_layer.update()  # the camera's matrix_world
+    ob = bpy.data.objects[name]
+    c = world_to_camera_view(sc, sc.camera, ob.location)
+    edge = world_to_camera_view(sc, sc.camera, ob.location + Vector((RADIUS, 0, 0)))
+    r = abs(edge.x - c.x) * W * fraction
+    cx, cy = c.x * W, c.y * H  # the EXR's rows run bottom-up, as camera-view y
+    return slice(int(cy - r), int(cy + r) + 1), slice(int(cx - r), int(cx + r) + 1)
+
+
+def means(px, boxes):
+    out = {}
+    for name, (rows, cols) in boxes.items():
+        out[name] = px[rows, cols].mean(axis=(0, 1))
+    # The floor in front of the spheres (the image's bottom rows, first in Blender's order).
+    out["Floor"] = px[:int(H * 0.12), :].mean(axis=(0, 1))
+    return out
+
+
+def test_rough_glass_metal_and_floor_match_cycles():
+    sc = scene()
+    boxes = {name: pixel_box(sc, name) for name, _ in SPHERES}
+    C.check(all(8 <= r.stop - r.start <= 40 and H * 0.12 <= r.start and r.stop <= H and 0 <= c.start and c.stop <= W
+                for r, c in boxes.values()),
+            "object boxes of 8-40 px inside the image, above the floor strip: %s"
+            % {k: (r.start, r.stop, c.start, c.stop) for k, (r, c) in boxes.items()})
+    c = means(C.render_engine(sc, "cycles", CYCLES_SPP, OUT, "energy", bounces=16), boxes)
+    p = means(C.render_engine(sc, "prism", PRISM_SPP, OUT, "energy", bounces=16), boxes)
+    for name, tol in (("Glass02", 0.03), ("Glass05", 0.03), ("Glass08", 0.05), ("Metal06", 0.02), ("Floor", 0.02)):
+        ratio = p[name] / c[name]
+        C.check(all(abs(r - 1) < tol for r in ratio),
+                "%s: mean Prism / Cycles %s within %d%% (Cycles %s)"
+                % (name, ratio.round(3), round(tol * 100), c[name].round(4)))
+
+
+if __name__ == "__main__":
+    from runner_util import run_tests
+
+    C.enable_addon()
+    C.prefs().binary_path = C.BINARY
+    run_tests("bpy energy-conservation parity tests", globals())
