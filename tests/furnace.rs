@@ -93,3 +93,43 @@ fn white_furnace_smooth_dispersive_dielectric() {
     let glass = glass_material("flint", flint, 0.0);
     assert_furnace(furnace_scene(glass, Vec3::ONE), 256, 0.01);
 }
+
+/// Energy-conserving rough materials (the default model): a rough white conductor, a white
+/// Principled (dielectric specular over a white base) and rough glass are invisible in the
+/// white furnace through the whole renderer; the glTF spec's single-scattering BRDF
+/// (`"model": "gltf"`) is visibly darker for the rough metal.
+#[test]
+fn white_furnace_energy_conserving_rough_materials() {
+    use prism::scene::GltfMaterialDesc;
+    let principled = |metallic: f32, roughness: f32, gltf_brdf: bool| {
+        let mut m = common::scenes::material_with(
+            GltfMaterialDesc {
+                name: "principled".into(),
+                base_color: glam::Vec4::ONE,
+                metallic,
+                roughness,
+                ..Default::default()
+            },
+            None,
+        );
+        m.gltf_brdf = gltf_brdf;
+        m
+    };
+    for (metallic, roughness) in [(1.0, 0.6), (1.0, 1.0), (0.0, 0.5), (0.0, 1.0)] {
+        assert_furnace(
+            furnace_scene(principled(metallic, roughness, false), Vec3::ONE),
+            64,
+            0.015,
+        );
+    }
+    for roughness in [0.5, 1.0] {
+        let glass = glass_material("glass", IorDesc::Constant(1.5), roughness);
+        assert_furnace(furnace_scene(glass, Vec3::ONE), 64, 0.015);
+    }
+    let (_, rgba) = render_mean(furnace_scene(principled(1.0, 1.0, true), Vec3::ONE), 64);
+    let centre = region_mean(&rgba, 12..20, 12..20);
+    assert!(
+        centre.max_element() < 0.9,
+        "single-scattering rough metal {centre}"
+    );
+}

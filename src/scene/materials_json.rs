@@ -1385,6 +1385,18 @@ mod tests {
     }
 
     #[test]
+    fn model_chooses_the_gltf_spec_brdf() {
+        let m = parse(r#"{"version": 1, "materials": {"Wax": {"model": "gltf"}, "Skin": {"model": "cycles"}}}"#)
+            .unwrap();
+        assert_eq!(m.gltf_models, vec!["Wax".to_string()]);
+        let e = parse(r#"{"version": 1, "materials": {"Wax": {"model": "pbr"}}}"#).unwrap_err();
+        assert!(
+            e.contains("materials.Wax.model") && e.contains("unknown model 'pbr'"),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn render_filter_parses_and_rejects_bad_values() {
         let f =
             parse(r#"{"version":1,"render":{"filter":{"type":"gaussian","width":2}}}"#).unwrap();
