@@ -54,6 +54,7 @@ fn bench_bsdf(c: &mut Criterion) {
                 specular_color: SampledSpectrum::ONE,
                 ior: 1.5,
                 energy_compensation: true,
+                coat: prism::bsdf::Coat::NONE,
             }),
             false,
         ),

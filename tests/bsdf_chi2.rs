@@ -60,6 +60,7 @@ fn metallic_roughness(base: SampledSpectrum, metallic: f32, roughness: f32, spec
         specular_color: SampledSpectrum([1.0, 0.9, 0.8, 1.0]),
         ior: 1.5,
         energy_compensation: true,
+        coat: prism::bsdf::Coat::NONE,
     })
 }
 
@@ -80,6 +81,22 @@ fn single_scattering_dielectric(eta: f32, roughness: f32) -> Bsdf {
         Bsdf::Dielectric(d) => Bsdf::Dielectric(DielectricBsdf {
             energy_compensation: false,
             ..d
+        }),
+        _ => unreachable!(),
+    }
+}
+
+/// A metallic-roughness material under a clear coat (`prism::bsdf::coat`).
+fn coated(base: Bsdf, weight: f32, roughness: f32, tint: SampledSpectrum) -> Bsdf {
+    match base {
+        Bsdf::MetallicRoughness(b) => Bsdf::MetallicRoughness(MetallicRoughnessBsdf {
+            coat: prism::bsdf::Coat {
+                weight,
+                alpha: roughness * roughness,
+                ior: 1.5,
+                tint,
+            },
+            ..b
         }),
         _ => unreachable!(),
     }
@@ -179,6 +196,25 @@ fn chi2_cases() -> Vec<Chi2Case> {
             wo_at(0.4),
             [metallic, roughness, 1.0],
         );
+    }
+    // Clear coats: rough over a rough base (both models), and rough over a smooth metal (the
+    // coat's multiple scattering is then sampled by the cosine branch alone).
+    for (metallic, roughness, coat_roughness) in [(0.0, 0.5, 0.3), (1.0, 0.7, 0.6), (1.0, 0.0, 0.8)]
+    {
+        for gltf in [false, true] {
+            let base = if gltf {
+                gltf_metallic_roughness(color(), metallic, roughness)
+            } else {
+                metallic_roughness(color(), metallic, roughness, 1.0)
+            };
+            push(
+                "metallic_roughness",
+                "coated metallic_roughness(metallic, roughness, coat roughness)",
+                Target::Bsdf(coated(base, 0.8, coat_roughness, color())),
+                wo_at(0.45),
+                [metallic, roughness, coat_roughness],
+            );
+        }
     }
     // Smooth GGX limit: Dirac mirror lobe + diffuse; only the diffuse part has a density.
     for c in [0.3, 0.9] {
@@ -885,6 +921,7 @@ fn metallic_roughness_energy_is_bounded() {
                     specular_color: white,
                     ior: 1.5,
                     energy_compensation: false,
+                    coat: prism::bsdf::Coat::NONE,
                 });
                 for c in [0.1f32, 0.3, 0.6, 1.0] {
                     let (e, _) = albedo(&b, wo_at(c), 200_000, 23, false);
@@ -963,6 +1000,42 @@ fn principled_white_furnace() {
     }
 }
 
+/// A clear coat over a white base (Principled Coat): with a white tint the energy-conserving
+/// layering reflects all the light (the coat's albedo plus the base's share of the rest); a
+/// coloured tint absorbs, never adds (the bound: <= 1); the glTF spec's layering
+/// (`KHR_materials_clearcoat`) stays within the same bound plus its own base's excess.
+#[test]
+fn coat_over_white_base_conserves_energy() {
+    let white = SampledSpectrum::ONE;
+    let mut worst = 0.0f64;
+    for metallic in [0.0f32, 1.0] {
+        for roughness in [0.2f32, 0.8] {
+            for (weight, coat_roughness) in [(1.0f32, 0.0f32), (1.0, 0.1), (0.5, 0.5), (1.0, 1.0)] {
+                for c in [0.1f32, 0.5, 0.9] {
+                    let base = metallic_roughness(white, metallic, roughness, 1.0);
+                    let b = coated(base, weight, coat_roughness, white);
+                    let (e, _) = albedo(&b, wo_at(c), 200_000, 37, false);
+                    worst = worst.max((e - 1.0).abs());
+                    let msg = format!("E = {e}: metallic {metallic} roughness {roughness} coat {weight} coat roughness {coat_roughness} cos_o {c}");
+                    assert!((0.985..=1.007).contains(&e), "{msg}");
+                    let tinted = coated(
+                        base,
+                        weight,
+                        coat_roughness,
+                        SampledSpectrum([0.5, 0.7, 0.9, 1.0]),
+                    );
+                    let (et, _) = albedo(&tinted, wo_at(c), 200_000, 37, false);
+                    assert!(
+                        et <= e + 1e-3 && et < 0.995,
+                        "tinted E = {et} vs {e}: {msg}"
+                    );
+                }
+            }
+        }
+    }
+    println!("coated white base: worst |E - 1| = {worst:.4}");
+}
+
 // ---------------------------------------------------------------------------------------------
 // Exact special cases, reciprocity, dispersion flags, robustness
 // ---------------------------------------------------------------------------------------------
@@ -993,6 +1066,9 @@ fn reflection_lobes_are_reciprocal() {
         }
         // Smooth specular layer: the diffuse base's coupling is reciprocal too.
         bsdfs.push(metallic_roughness(color(), metallic, 0.0, 1.0));
+        // The glTF spec's clear coat (1 - F(wo.h) on the base) is reciprocal.
+        let base = gltf_metallic_roughness(color(), metallic, 0.5);
+        bsdfs.push(coated(base, 0.7, 0.4, SampledSpectrum::ONE));
     }
     for b in &bsdfs {
         for _ in 0..20_000 {

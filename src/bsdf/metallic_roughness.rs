@@ -83,28 +83,62 @@ impl MetallicRoughnessBsdf {
         (fd, fc)
     }
 
-    /// Probability of sampling the GGX lobe: its estimated albedo over the total, using the
-    /// Fresnel terms at the macro-surface angle. Exactly 0 when the specular lobe vanishes
-    /// (specular = 0, metallic = 0) and exactly 1 when the diffuse lobe does. The
-    /// cosine-weighted branch samples the diffuse and the multiple-scattering lobes.
-    fn specular_probability(&self, cos_o: f32) -> f32 {
+    /// Probabilities of sampling the coat lobe and the base's GGX lobe at `cos_o` (the
+    /// cosine-weighted branch, which samples the diffuse and every multiple-scattering lobe,
+    /// has the rest): each lobe's estimated albedo over the total, with the Fresnel terms at
+    /// the macro-surface angle. A lobe that vanishes gets exactly 0.
+    fn lobe_probabilities(&self, cos_o: f32) -> (f32, f32) {
         let m = self.metallic();
         let (fd, fc) = self.fresnels(schlick_weight(cos_o));
-        let w_spec = (1.0 - m) * fd.average() + m * fc.average();
-        let w_diff = match self.layers(cos_o) {
-            Some(l) => {
-                let ms = l.ms_scale_o;
-                (1.0 - m) * (l.diffuse_o * self.base_color + l.fms_d * ms).average()
-                    + m * l.fms_c.average() * ms
+        let coat = &self.coat;
+        let (w_coat, below, coat_ms) = if coat.is_present() {
+            let single = coat.weight() * coat.fresnel(cos_o);
+            if self.energy_compensation {
+                let albedo = coat.albedo(cos_o);
+                let below = coat.transmittance(cos_o).average();
+                (single, below, (albedo - single).max(0.0))
+            } else {
+                (single, 1.0 - single, 0.0)
             }
-            None => (1.0 - m) * ((SampledSpectrum::ONE - fd) * self.base_color).average(),
-        };
-        if !(w_spec > 0.0) {
-            0.0
-        } else if !(w_diff > 0.0) {
-            1.0
         } else {
-            (w_spec / (w_spec + w_diff)).clamp(0.0, 1.0)
+            (0.0, 1.0, 0.0)
+        };
+        let w_spec = below * ((1.0 - m) * fd.average() + m * fc.average());
+        let w_cos = coat_ms
+            + below
+                * match self.layers(cos_o) {
+                    Some(l) => {
+                        let ms = l.ms_scale_o;
+                        (1.0 - m) * (l.diffuse_o * self.base_color + l.fms_d * ms).average()
+                            + m * l.fms_c.average() * ms
+                    }
+                    None => (1.0 - m) * ((SampledSpectrum::ONE - fd) * self.base_color).average(),
+                };
+        let total = w_coat.max(0.0) + w_spec.max(0.0) + w_cos.max(0.0);
+        if !(total > 0.0) || !total.is_finite() {
+            return (0.0, 0.0);
+        }
+        let p_coat = if w_coat > 0.0 { w_coat / total } else { 0.0 };
+        let p_spec = if w_spec > 0.0 { w_spec / total } else { 0.0 };
+        if w_cos > 0.0 {
+            (p_coat, p_spec)
+        } else {
+            // No cosine-weighted lobe: the two others share everything.
+            let s = p_coat + p_spec;
+            (p_coat / s, p_spec / s)
+        }
+    }
+
+    /// The factor on the base below the coat (1 without a coat): what the coat lets through
+    /// at `wo` (energy-conserving model) or at `wo.h` (glTF model). See `coat.rs`.
+    fn below_coat(&self, cos_o: f32, cos_h: f32) -> SampledSpectrum {
+        let coat = &self.coat;
+        if !coat.is_present() {
+            SampledSpectrum::ONE
+        } else if self.energy_compensation {
+            coat.transmittance(cos_o)
+        } else {
+            SampledSpectrum::splat(1.0 - coat.weight() * coat.fresnel(cos_h))
         }
     }
 
@@ -184,8 +218,8 @@ impl MetallicRoughnessBsdf {
         let (fd, fc) = self.fresnels(schlick_weight(vdoth));
         let layers = self.layers(wo.z);
 
-        let p_spec = self.specular_probability(wo.z);
-        let mut pdf = (1.0 - p_spec) * cosine_hemisphere_pdf(wi.z);
+        let (p_coat, p_spec) = self.lobe_probabilities(wo.z);
+        let mut pdf = (1.0 - p_coat - p_spec).max(0.0) * cosine_hemisphere_pdf(wi.z);
         let (mut dielectric, mut conductor) = match &layers {
             Some(l) => {
                 let at_i = l.at(wi.z, self.alpha, smooth);
@@ -213,7 +247,11 @@ impl MetallicRoughnessBsdf {
                 }
             }
         }
-        let f = dielectric * (1.0 - m) + conductor * m;
+        let mut f = (dielectric * (1.0 - m) + conductor * m) * self.below_coat(wo.z, vdoth);
+        if self.coat.is_present() {
+            f += SampledSpectrum::splat(self.coat.eval(wo, wi, h, self.energy_compensation));
+            pdf += p_coat * self.coat.pdf(wo, h);
+        }
         if !f.is_finite() || !pdf.is_finite() {
             return (SampledSpectrum::ZERO, 0.0);
         }
@@ -243,7 +281,12 @@ impl MetallicRoughnessBsdf {
                 SampledSpectrum::ONE - fd
             }
         };
-        self.base_color * INV_PI * share * (1.0 - self.metallic())
+        let h = (wo + wi).normalize_or(Vec3::Z);
+        self.base_color
+            * INV_PI
+            * share
+            * (1.0 - self.metallic())
+            * self.below_coat(wo.z, wo.dot(h).clamp(0.0, 1.0))
     }
 
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -255,30 +298,42 @@ impl MetallicRoughnessBsdf {
             return None;
         }
         let distrib = self.distribution();
-        let p_spec = self.specular_probability(wo.z);
-        let wi = if uc < p_spec {
+        let (p_coat, p_spec) = self.lobe_probabilities(wo.z);
+        let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
+        // A Dirac lobe's sample: weight albedo / (cos pdf).
+        let dirac = |albedo: SampledSpectrum, p: f32| {
+            let f = albedo / wo.z;
+            f.is_finite().then_some(BsdfSample {
+                wi: mirror,
+                f,
+                pdf: p,
+                flags: LobeFlags::sample(false, true),
+                eta: SampledSpectrum::ONE,
+                pdf_wavelengths: SampledSpectrum::splat(p),
+            })
+        };
+        let (wi, flags) = if uc < p_coat {
+            if self.coat.is_smooth() {
+                // The smooth coat's albedo is its weighted Fresnel at cos_o.
+                let albedo = self.coat.weight() * self.coat.fresnel(wo.z);
+                return dirac(SampledSpectrum::splat(albedo), p_coat);
+            }
+            (self.coat.sample(wo, u), LobeFlags::sample(false, false))
+        } else if uc < p_coat + p_spec {
             if distrib.effectively_smooth() {
                 // Dirac mirror: the limit of the GGX lobe's albedo is the Fresnel at cos_o.
-                let wi = Vec3::new(-wo.x, -wo.y, wo.z);
                 let m = self.metallic();
                 let (fd, fc) = self.fresnels(schlick_weight(wo.z));
-                let f = (fd * (1.0 - m) + fc * m) / wo.z;
-                if !f.is_finite() {
-                    return None;
-                }
-                return Some(BsdfSample {
-                    wi,
-                    f,
-                    pdf: p_spec,
-                    flags: LobeFlags::sample(false, true),
-                    eta: SampledSpectrum::ONE,
-                    pdf_wavelengths: SampledSpectrum::splat(p_spec),
-                });
+                let albedo = (fd * (1.0 - m) + fc * m) * self.below_coat(wo.z, wo.z);
+                return dirac(albedo, p_spec);
             }
             let wm = distrib.sample_visible(wo, u);
-            reflect(wo, wm)
+            (reflect(wo, wm), LobeFlags::sample(false, false))
         } else {
-            sample_cosine_hemisphere(u)
+            (
+                sample_cosine_hemisphere(u),
+                LobeFlags::REFLECTION.with(LobeFlags::DIFFUSE),
+            )
         };
         if !(wi.z > 0.0) {
             return None;
@@ -291,11 +346,7 @@ impl MetallicRoughnessBsdf {
             wi,
             f,
             pdf,
-            flags: if uc < p_spec {
-                LobeFlags::sample(false, false)
-            } else {
-                LobeFlags::REFLECTION.with(LobeFlags::DIFFUSE)
-            },
+            flags,
             eta: SampledSpectrum::ONE,
             pdf_wavelengths: SampledSpectrum::splat(pdf),
         })
@@ -354,6 +405,7 @@ impl Layers {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bsdf::Coat;
 
     /// KHR_materials_ior's `ior = 0` is F0 = ((0 - 1) / (0 + 1))^2 = 1: the dielectric layer
     /// reflects everything at every angle (F0 = F90 = specular), nothing reaches the diffuse.
@@ -367,11 +419,12 @@ mod tests {
             specular_color: SampledSpectrum::ONE,
             ior: 0.0,
             energy_compensation: false,
+            coat: Coat::NONE,
         };
         assert_eq!(b.dielectric_f0(), SampledSpectrum::ONE);
         let (fd, _) = b.fresnels(0.3);
         assert_eq!(fd, SampledSpectrum::ONE);
         // The diffuse lobe gets (1 - F) = 0 of the light, so only the GGX lobe is sampled.
-        assert_eq!(b.specular_probability(0.7), 1.0);
+        assert_eq!(b.lobe_probabilities(0.7), (0.0, 1.0));
     }
 }

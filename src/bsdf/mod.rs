@@ -6,6 +6,7 @@
 //! factor; `sample` returns f and the solid-angle pdf of `wi`. Radiance transport only (the
 //! 1/eta^2 factor for refraction is included).
 
+pub mod coat;
 pub mod dielectric;
 pub mod diffuse;
 pub mod energy;
@@ -13,6 +14,7 @@ pub mod fresnel;
 pub mod metallic_roughness;
 pub mod microfacet;
 
+pub use coat::Coat;
 pub use fresnel::{fresnel_dielectric, fresnel_schlick, refract};
 pub use microfacet::TrowbridgeReitz;
 
@@ -142,6 +144,8 @@ pub struct MetallicRoughnessBsdf {
     /// Energy-conserving layers with multiple-scattering GGX (Cycles' Principled; see
     /// `metallic_roughness.rs`); false: the glTF 2.0 spec's BRDF as written.
     pub energy_compensation: bool,
+    /// A clear coat over all of it (`coat.rs`; `Coat::NONE` for none).
+    pub coat: Coat,
 }
 
 /// Dielectric interface: smooth (alpha < 1e-3, or eta == 1: exact Fresnel, specular reflection
@@ -250,12 +254,14 @@ impl Bsdf {
             Bsdf::Diffuse(_) => r.with(LobeFlags::DIFFUSE),
             Bsdf::Translucent(_) => t.with(LobeFlags::DIFFUSE),
             Bsdf::MetallicRoughness(b) => {
-                let specular = r.with(kind(b.distribution().effectively_smooth()));
-                if b.has_diffuse_base() {
-                    specular.with(LobeFlags::DIFFUSE)
-                } else {
-                    specular
+                let mut flags = r.with(kind(b.distribution().effectively_smooth()));
+                if b.coat.is_present() {
+                    flags = flags.with(kind(b.coat.is_smooth()));
                 }
+                if b.has_diffuse_base() {
+                    flags = flags.with(LobeFlags::DIFFUSE);
+                }
+                flags
             }
             Bsdf::Dielectric(b) => r.with(t).with(kind(b.is_specular())),
         }

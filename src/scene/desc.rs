@@ -102,6 +102,16 @@ pub struct GltfMaterialDesc {
     /// (coverage = alpha); alpha = baseColorFactor.a x the base colour texture's alpha.
     pub alpha_mode: AlphaMode,
     pub alpha_cutoff: f32,
+    /// KHR_materials_clearcoat `clearcoatFactor` (0 = no coat; Blender's Coat Weight).
+    pub coat: f32,
+    /// `clearcoatRoughnessFactor` (perceptual).
+    pub coat_roughness: f32,
+    /// The coat's IOR (material extras `prism_coat_ior`, Blender's Coat IOR; the extension's
+    /// fixed 1.5 otherwise).
+    pub coat_ior: f32,
+    /// Colour after one vertical pass through the coat (extras `prism_coat_tint`, Blender's
+    /// Coat Tint; white otherwise).
+    pub coat_tint: Vec3,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -132,6 +142,10 @@ impl Default for GltfMaterialDesc {
             attenuation_color: Vec3::ONE,
             attenuation_distance: f32::INFINITY,
             double_sided: false,
+            coat: 0.0,
+            coat_roughness: 0.0,
+            coat_ior: 1.5,
+            coat_tint: Vec3::ONE,
             alpha_mode: AlphaMode::Opaque,
             alpha_cutoff: 0.5,
         }

@@ -226,6 +226,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "EXT_mesh_gpu_instancing",
     "EXT_texture_webp",
     "KHR_lights_punctual",
+    "KHR_materials_clearcoat",
     "KHR_materials_dispersion",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
@@ -1849,6 +1850,68 @@ impl<'d> Importer<'d> {
                 }
             }
         }
+        // KHR_materials_clearcoat (not parsed by the gltf crate): factor and roughness; the
+        // add-on adds Blender's Coat IOR and Tint as material extras.
+        let (mut coat, mut coat_roughness) = (0.0f32, 0.0f32);
+        let mut coat_textures = false;
+        if let Some(c) = m
+            .extensions()
+            .and_then(|ext| ext.get("KHR_materials_clearcoat"))
+        {
+            let number = |key: &str, default: f32| -> Result<f32, String> {
+                match c.get(key) {
+                    None => Ok(default),
+                    Some(v) => v
+                        .as_f64()
+                        .map(|x| x as f32)
+                        .filter(|x| (0.0..=1.0).contains(x))
+                        .ok_or_else(|| {
+                            format!("{label}: KHR_materials_clearcoat.{key} must be a number in [0, 1], got {v}")
+                        }),
+                }
+            };
+            coat = number("clearcoatFactor", 0.0)?;
+            coat_roughness = number("clearcoatRoughnessFactor", 0.0)?;
+            coat_textures = [
+                "clearcoatTexture",
+                "clearcoatRoughnessTexture",
+                "clearcoatNormalTexture",
+            ]
+            .iter()
+            .any(|k| c.get(*k).is_some());
+        }
+        let extras = m
+            .extras()
+            .as_ref()
+            .and_then(|raw| serde_json::from_str::<serde_json::Value>(raw.get()).ok());
+        let coat_ior = extras
+            .as_ref()
+            .and_then(|e| e.get("prism_coat_ior")?.as_f64())
+            .map_or(1.5, |x| x as f32);
+        if !(coat_ior.is_finite() && coat_ior >= 1.0) {
+            return Err(format!(
+                "{label}: extras.prism_coat_ior must be a number >= 1, got {coat_ior}"
+            ));
+        }
+        let coat_tint = match extras.as_ref().and_then(|e| e.get("prism_coat_tint")) {
+            None => [1.0f32; 3],
+            Some(v) => {
+                let t: Option<Vec<f32>> = v.as_array().map(|a| {
+                    a.iter()
+                        .filter_map(|x| x.as_f64().map(|x| x as f32))
+                        .collect()
+                });
+                match t {
+                    Some(t) if t.len() == 3 => [t[0], t[1], t[2]],
+                    _ => {
+                        return Err(format!(
+                            "{label}: extras.prism_coat_tint must be an RGB array, got {v}"
+                        ))
+                    }
+                }
+            }
+        };
+        check("extras.prism_coat_tint", &coat_tint, 0.0)?;
         // Inputs the renderer does not model yet: reported once, never fatal.
         // Read from the JSON: the crate's accessors would resolve (and unwrap) the texture
         // indices, which are not checked for slots the renderer does not read.
@@ -1884,6 +1947,9 @@ impl<'d> Importer<'d> {
                 ),
             ];
             ignored.extend(slots.iter().filter(|s| s.1).map(|s| s.0));
+        }
+        if coat_textures {
+            ignored.push("clearcoat textures");
         }
         if !ignored.is_empty() {
             self.warn_once(format!(
@@ -1959,6 +2025,10 @@ impl<'d> Importer<'d> {
             attenuation_color: Vec3::from_array(attenuation_color),
             attenuation_distance,
             double_sided: m.double_sided(),
+            coat,
+            coat_roughness,
+            coat_ior,
+            coat_tint: Vec3::from_array(coat_tint),
             alpha_mode,
             alpha_cutoff: if alpha_cutoff.is_finite() {
                 alpha_cutoff

@@ -5,7 +5,9 @@ use super::desc::{
     GltfMaterialDesc, IorDesc, MaterialDesc, MaterialOverride, TextureDesc, TextureRef,
 };
 use super::texture::sample_texture;
-use crate::bsdf::{Bsdf, DielectricBsdf, DiffuseBsdf, MetallicRoughnessBsdf, TranslucentBsdf};
+use crate::bsdf::{
+    Bsdf, Coat, DielectricBsdf, DiffuseBsdf, MetallicRoughnessBsdf, TranslucentBsdf,
+};
 use crate::bssrdf::SubsurfaceMaterial;
 use crate::geometry::{Geometry, SurfacePoint};
 use crate::media::{DensityField, Medium};
@@ -48,6 +50,8 @@ pub struct Material {
     base_albedo: RgbAlbedoSpectrum,
     /// Multiple-scattering GGX and energy-conserving layers (not `"model": "gltf"`).
     energy_compensation: bool,
+    /// The clear coat (weight 0: none).
+    coat: MaterialCoat,
     /// KHR_materials_specular colour, upsampled once (not per shading point).
     specular_color: RgbAlbedoSpectrum,
     emission: Option<RgbIlluminantSpectrum>,
@@ -126,6 +130,12 @@ impl Material {
             model,
             base_albedo: RgbAlbedoSpectrum::new(g.base_color.xyz()),
             specular_color: RgbAlbedoSpectrum::new(g.specular_color),
+            coat: MaterialCoat {
+                weight: g.coat.clamp(0.0, 1.0),
+                alpha: roughness_to_alpha(g.coat_roughness),
+                ior: g.coat_ior,
+                tint: RgbAlbedoSpectrum::new(g.coat_tint),
+            },
             emission,
             interior,
             null_surface: desc.null_surface && desc.volume.is_some(),
@@ -524,7 +534,7 @@ impl Material {
                 energy_compensation: self.energy_compensation,
             });
         }
-        if metallic <= 0.0 && specular <= 0.0 {
+        if metallic <= 0.0 && specular <= 0.0 && !(self.coat.weight > 0.0) {
             return Bsdf::Diffuse(DiffuseBsdf { reflectance: base });
         }
         Bsdf::MetallicRoughness(MetallicRoughnessBsdf {
@@ -535,7 +545,35 @@ impl Material {
             specular_color: self.specular_color.sample(w),
             ior: g.ior,
             energy_compensation: self.energy_compensation,
+            coat: self.coat.sample(w),
         })
+    }
+}
+
+/// A material's clear coat, its tint upsampled once.
+#[derive(Clone, Debug)]
+struct MaterialCoat {
+    weight: f32,
+    alpha: f32,
+    ior: f32,
+    tint: RgbAlbedoSpectrum,
+}
+
+impl MaterialCoat {
+    fn sample(&self, w: &SampledWavelengths) -> Coat {
+        if !(self.weight > 0.0) {
+            return Coat::NONE;
+        }
+        Coat {
+            weight: self.weight,
+            alpha: if self.alpha < MIN_ALPHA {
+                0.0
+            } else {
+                self.alpha
+            },
+            ior: self.ior,
+            tint: self.tint.sample(w),
+        }
     }
 }
 

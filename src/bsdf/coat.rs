@@ -1,0 +1,175 @@
+//! A clear coat: a dielectric GGX reflection layer over a material (Blender's Principled Coat,
+//! `KHR_materials_clearcoat`).
+//!
+//! The coat reflects `weight x` its lobe (Schlick Fresnel with `f0 = ((ior - 1) / (ior + 1))^2`,
+//! `f90 = 1`) and lets through what it does not reflect. Two layerings:
+//!
+//! - energy-conserving (Cycles' Principled BSDF, 4.x): the lobe carries Kulla & Conty's
+//!   multiple-scattering term (`energy.rs`), and the material below is scaled by
+//!   `1 - weight A_c(mu_o)`, `A_c` the coat lobe's albedo, then by the coat's absorption
+//!   `mix(1, tint^(1 / cos_t), weight)` with `cos_t` the cosine of the view direction refracted
+//!   into the coat (the tint is the colour after one vertical pass). Scaling by the albedo at
+//!   `wo` keeps the whole at most 1 for every `wo` (layer + rest <= A_c + (1 - A_c) = 1) but is
+//!   not reciprocal, as in Cycles;
+//! - the glTF spec's (`KHR_materials_clearcoat`): single scattering, the layer below scaled by
+//!   `1 - weight F(wo.h)` per direction pair, no tint.
+
+use super::energy::{
+    ggx_reflection_albedo, ggx_reflection_average, multiscatter_fresnel, ReflectionAlbedo,
+    SCHLICK_WEIGHT_AVERAGE,
+};
+use super::fresnel::{reflect, schlick_weight};
+use super::microfacet::TrowbridgeReitz;
+use crate::math::{safe_sqrt, sqr, PI};
+use crate::spectrum::SampledSpectrum;
+use glam::{Vec2, Vec3};
+
+/// Coat parameters; `weight` 0 is no coat.
+#[derive(Clone, Copy, Debug)]
+pub struct Coat {
+    pub weight: f32,
+    /// GGX alpha (roughness^2).
+    pub alpha: f32,
+    pub ior: f32,
+    /// Colour after one vertical pass through the coat.
+    pub tint: SampledSpectrum,
+}
+
+impl Coat {
+    pub const NONE: Coat = Coat {
+        weight: 0.0,
+        alpha: 0.0,
+        ior: 1.5,
+        tint: SampledSpectrum::ONE,
+    };
+
+    #[inline]
+    pub fn is_present(&self) -> bool {
+        self.weight > 0.0
+    }
+
+    #[inline]
+    pub(super) fn weight(&self) -> f32 {
+        if self.weight.is_nan() {
+            0.0
+        } else {
+            self.weight.clamp(0.0, 1.0)
+        }
+    }
+
+    #[inline]
+    pub(super) fn distribution(&self) -> TrowbridgeReitz {
+        TrowbridgeReitz::isotropic(self.alpha)
+    }
+
+    #[inline]
+    pub(super) fn is_smooth(&self) -> bool {
+        self.distribution().effectively_smooth()
+    }
+
+    /// Normal-incidence reflectance of the coat's interface.
+    #[inline]
+    fn f0(&self) -> f32 {
+        let r = sqr((self.ior - 1.0) / (self.ior + 1.0));
+        if r.is_finite() {
+            r.min(1.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// Schlick Fresnel for a cosine with the microfacet normal.
+    #[inline]
+    pub(super) fn fresnel(&self, cos: f32) -> f32 {
+        let f0 = self.f0();
+        f0 + (1.0 - f0) * schlick_weight(cos)
+    }
+
+    fn albedos(&self, mu: f32) -> (ReflectionAlbedo, ReflectionAlbedo) {
+        if self.is_smooth() {
+            let one = |b| ReflectionAlbedo { e: 1.0, b };
+            (one(schlick_weight(mu)), one(SCHLICK_WEIGHT_AVERAGE))
+        } else {
+            (
+                ggx_reflection_albedo(self.alpha, mu),
+                ggx_reflection_average(self.alpha),
+            )
+        }
+    }
+
+    /// Kulla & Conty's Fresnel colour of the coat's multiple scattering.
+    fn multiscatter(&self, average: ReflectionAlbedo) -> f32 {
+        let f0 = self.f0();
+        multiscatter_fresnel(f0 + (1.0 - f0) * SCHLICK_WEIGHT_AVERAGE, average.e)
+    }
+
+    /// The weighted coat lobe's albedo at `mu` (energy-conserving model): single scattering
+    /// `f0 E + (1 - f0) B` plus the multiple scattering `F_ms (1 - E)`.
+    pub fn albedo(&self, mu: f32) -> f32 {
+        let (a, average) = self.albedos(mu);
+        let f0 = self.f0();
+        let single = f0 * a.e + (1.0 - f0) * a.b;
+        self.weight() * (single + self.multiscatter(average) * (1.0 - a.e)).clamp(0.0, 1.0)
+    }
+
+    /// What reaches the layer below and comes back, as a factor on it (energy-conserving
+    /// model): `(1 - weight A_c(mu_o)) mix(1, tint^(1/cos_t), weight)`.
+    pub fn transmittance(&self, cos_o: f32) -> SampledSpectrum {
+        let w = self.weight();
+        let left = (1.0 - self.albedo(cos_o)).max(0.0);
+        let cos_t = safe_sqrt(1.0 - (1.0 - sqr(cos_o)) / sqr(self.ior.max(1.0)));
+        let depth = if cos_t > 1e-4 { 1.0 / cos_t } else { 1e4 };
+        self.tint
+            .map(|t| left * (1.0 + w * (t.max(0.0).powf(depth) - 1.0)))
+    }
+
+    /// The weighted coat lobe f(wo, wi) (no cosine) for `wo`, `wi` above the surface and their
+    /// half vector `h`; `multiscatter` adds the energy-compensation lobe. Zero for a smooth
+    /// coat except for its multiple scattering (which is zero too).
+    pub fn eval(&self, wo: Vec3, wi: Vec3, h: Vec3, multiscatter: bool) -> f32 {
+        let w = self.weight();
+        let mut f = 0.0;
+        if !self.is_smooth() {
+            let distrib = self.distribution();
+            let s = distrib.d(h) * distrib.g(wo, wi) / (4.0 * wo.z * wi.z);
+            if s.is_finite() && s > 0.0 {
+                f += self.fresnel(wo.dot(h)) * s;
+            }
+            if multiscatter {
+                let (a_o, average) = self.albedos(wo.z);
+                let (a_i, _) = self.albedos(wi.z);
+                if average.e < 1.0 - 1e-6 {
+                    f += self.multiscatter(average) * (1.0 - a_o.e) * (1.0 - a_i.e)
+                        / (PI * (1.0 - average.e));
+                }
+            }
+        }
+        w * f
+    }
+
+    /// Density of `wi` under the coat's visible-normal sampling (0 for a smooth coat).
+    pub fn pdf(&self, wo: Vec3, h: Vec3) -> f32 {
+        if self.is_smooth() {
+            return 0.0;
+        }
+        let vdoth = wo.dot(h);
+        if !(vdoth > 0.0) {
+            return 0.0;
+        }
+        let p = self.distribution().d_visible(wo, h) / (4.0 * vdoth);
+        if p.is_finite() {
+            p
+        } else {
+            0.0
+        }
+    }
+
+    /// A direction from the coat lobe: a visible normal's mirror direction (the mirror
+    /// direction itself for a smooth coat).
+    pub fn sample(&self, wo: Vec3, u: Vec2) -> Vec3 {
+        if self.is_smooth() {
+            return Vec3::new(-wo.x, -wo.y, wo.z);
+        }
+        reflect(wo, self.distribution().sample_visible(wo, u))
+    }
+}
