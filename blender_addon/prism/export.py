@@ -329,6 +329,7 @@ def convert_material(mat):
         elif node.inputs.get("Specular") is not None:
             m["specular"] = 2.0 * _val(node, "Specular")  # 3.x: 0.5 = F0 0.04
         sss = _principled_subsurface(node, m)
+        _principled_coat(node, m)
     elif t == "BSDF_DIFFUSE":
         sock = _socket(node, "Color")
         m["image"] = _linked_image(sock)
@@ -366,6 +367,26 @@ def convert_material(mat):
     if not normal_ok:
         m["normal_unsupported"] = True
     return m, sss, True
+
+
+def _principled_coat(node, m):
+    """Principled Coat (4.x: Coat Weight, Roughness, IOR, Tint) or Clearcoat (3.x: Clearcoat,
+    Clearcoat Roughness; IOR 1.5, no tint) into m["coat"] = (weight, roughness, ior, tint rgb)
+    or None. Written as KHR_materials_clearcoat plus extras prism_coat_ior / prism_coat_tint."""
+    if node.inputs.get("Coat Weight") is not None:
+        weight = _val(node, "Coat Weight")
+        roughness = _val(node, "Coat Roughness", default=0.03)
+        ior = _val(node, "Coat IOR", default=1.5)
+        tint = _rgb(_val(node, "Coat Tint", default=(1, 1, 1, 1)))
+    elif node.inputs.get("Clearcoat") is not None:
+        weight = _val(node, "Clearcoat")
+        roughness = _val(node, "Clearcoat Roughness", default=0.03)
+        ior, tint = 1.5, [1.0, 1.0, 1.0]
+    else:
+        return
+    if weight > 0.0:
+        m["coat"] = (min(float(weight), 1.0), min(max(float(roughness), 0.0), 1.0), max(float(ior), 1.0),
+                     [max(float(c), 0.0) for c in tint])
 
 
 def _normal_map(node):
@@ -961,7 +982,7 @@ class Exporter:
                 gb.bind_const("alpha", float(alpha.default_value))
                 handled.add(alpha.identifier)
             self._graph_normal(gb, node, m, handled)
-            self._principled_warnings(name, node, handled)
+            self._principled_warnings(name, node, handled, coat=True)
         elif t in {"BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_ANISOTROPIC", "BSDF_GLASS"}:
             if bind("base_color", S("Color")):
                 m["image"] = None
@@ -1145,15 +1166,17 @@ class Exporter:
                     % (name, src.name, sock.name, node.name)
                 )
 
-    def _principled_warnings(self, name, node, handled):
+    def _principled_warnings(self, name, node, handled, coat=False):
         """Names the Principled inputs Prism does not render yet (linked or set away from their
-        neutral value): never a silent drop."""
+        neutral value): never a silent drop. `coat`: the node's coat values are exported."""
         handled = set(handled)
         # Inputs the exporter translates from their values (subsurface, IOR) are handled when unlinked.
         self._linked_warnings(name, node, handled)
-        checks = [
-            ("Coat Weight", lambda v: v > 0.0, "Coat"),
-            ("Clearcoat", lambda v: v > 0.0, "Clearcoat"),
+        checks = [] if coat else [
+            ("Coat Weight", lambda v: v > 0.0, "Coat (inside a Mix/Add Shader)"),
+            ("Clearcoat", lambda v: v > 0.0, "Clearcoat (inside a Mix/Add Shader)"),
+        ]
+        checks += [
             ("Sheen Weight", lambda v: v > 0.0, "Sheen"),
             ("Sheen", lambda v: v > 0.0, "Sheen"),
             ("Anisotropic", lambda v: v > 0.0, "Anisotropic"),
@@ -1249,6 +1272,11 @@ class Exporter:
             ext["KHR_materials_ior"] = {"ior": max(m["ior"], 1.0)}
         if m["specular"] is not None and abs(m["specular"] - 1.0) > 1e-6:
             ext["KHR_materials_specular"] = {"specularFactor": max(m["specular"], 0.0)}
+        coat = m.get("coat")
+        if coat is not None:
+            weight, roughness, ior, tint = coat
+            ext["KHR_materials_clearcoat"] = {"clearcoatFactor": weight, "clearcoatRoughnessFactor": roughness}
+            g["extras"] = {"prism_coat_ior": ior, "prism_coat_tint": tint}
         if ext:
             g["extensions"] = ext
         self.materials.append(g)
