@@ -330,6 +330,7 @@ def convert_material(mat):
             m["specular"] = 2.0 * _val(node, "Specular")  # 3.x: 0.5 = F0 0.04
         sss = _principled_subsurface(node, m)
         _principled_coat(node, m)
+        m["specular_tint"] = _principled_specular_tint(node, m["base"])
     elif t == "BSDF_DIFFUSE":
         sock = _socket(node, "Color")
         m["image"] = _linked_image(sock)
@@ -367,6 +368,23 @@ def convert_material(mat):
     if not normal_ok:
         m["normal_unsupported"] = True
     return m, sss, True
+
+
+def _principled_specular_tint(node, base):
+    """Specular Tint as an RGB colour: 4.x's colour (the dielectric F0's tint and the metal's
+    F82 edge tint, exported as KHR_materials_specular.specularColorFactor), or 3.x's factor
+    towards the base colour's hue (Cycles 3.x: mix(1, base / luminance(base), tint))."""
+    sock = node.inputs.get("Specular Tint")
+    if sock is None:
+        return None
+    v = sock.default_value
+    try:
+        return [max(float(c), 0.0) for c in list(v)[:3]]
+    except TypeError:
+        t = min(max(float(v), 0.0), 1.0)
+        lum = 0.2126 * base[0] + 0.7152 * base[1] + 0.0722 * base[2]
+        hue = [c / lum for c in base] if lum > 0.0 else [1.0, 1.0, 1.0]
+        return [(1.0 - t) + t * c for c in hue]
 
 
 def _principled_coat(node, m):
@@ -982,7 +1000,7 @@ class Exporter:
                 gb.bind_const("alpha", float(alpha.default_value))
                 handled.add(alpha.identifier)
             self._graph_normal(gb, node, m, handled)
-            self._principled_warnings(name, node, handled, coat=True)
+            self._principled_warnings(name, node, handled, own_material=True)
         elif t in {"BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_ANISOTROPIC", "BSDF_GLASS"}:
             if bind("base_color", S("Color")):
                 m["image"] = None
@@ -1166,13 +1184,14 @@ class Exporter:
                     % (name, src.name, sock.name, node.name)
                 )
 
-    def _principled_warnings(self, name, node, handled, coat=False):
+    def _principled_warnings(self, name, node, handled, own_material=False):
         """Names the Principled inputs Prism does not render yet (linked or set away from their
-        neutral value): never a silent drop. `coat`: the node's coat values are exported."""
+        neutral value): never a silent drop. `own_material`: the node is the material's surface
+        (not a Mix/Add Shader leaf), whose Coat and Specular Tint values are exported."""
         handled = set(handled)
         # Inputs the exporter translates from their values (subsurface, IOR) are handled when unlinked.
         self._linked_warnings(name, node, handled)
-        checks = [] if coat else [
+        checks = [] if own_material else [
             ("Coat Weight", lambda v: v > 0.0, "Coat (inside a Mix/Add Shader)"),
             ("Clearcoat", lambda v: v > 0.0, "Clearcoat (inside a Mix/Add Shader)"),
         ]
@@ -1192,14 +1211,14 @@ class Exporter:
             except TypeError:
                 pass
         tint = node.inputs.get("Specular Tint")
-        if tint is not None and not tint.is_linked:
+        if tint is not None and not tint.is_linked and not own_material:
             v = tint.default_value
             try:
                 coloured = any(abs(float(c) - 1.0) > 1e-6 for c in list(v)[:3])
             except TypeError:
                 coloured = float(v) > 0.0  # 3.x: a 0..1 factor towards the base colour
             if coloured:
-                self.warnings.append("material '%s': Specular Tint is not supported yet and is ignored" % name)
+                self.warnings.append("material '%s': Specular Tint inside a Mix/Add Shader is not supported yet and is ignored" % name)
 
     def _material(self, mat):
         key = mat.name if mat is not None else None
@@ -1270,8 +1289,13 @@ class Exporter:
             ext["KHR_materials_transmission"] = {"transmissionFactor": min(m["transmission"], 1.0)}
         if abs(m["ior"] - 1.5) > 1e-6:
             ext["KHR_materials_ior"] = {"ior": max(m["ior"], 1.0)}
-        if m["specular"] is not None and abs(m["specular"] - 1.0) > 1e-6:
-            ext["KHR_materials_specular"] = {"specularFactor": max(m["specular"], 0.0)}
+        tint = m.get("specular_tint")
+        tinted = tint is not None and any(abs(c - 1.0) > 1e-6 for c in tint)
+        if (m["specular"] is not None and abs(m["specular"] - 1.0) > 1e-6) or tinted:
+            spec = m["specular"] if m["specular"] is not None else 1.0
+            ext["KHR_materials_specular"] = {"specularFactor": max(spec, 0.0)}
+            if tinted:
+                ext["KHR_materials_specular"]["specularColorFactor"] = tint
         coat = m.get("coat")
         if coat is not None:
             weight, roughness, ior, tint = coat

@@ -73,14 +73,53 @@ impl MetallicRoughnessBsdf {
         (self.specular_color * r0).map(|v| v.min(1.0)) * self.specular
     }
 
-    /// Dielectric and conductor Schlick Fresnel for a given `(1 - cos)^5`.
+    /// Dielectric grazing reflectance: the specular factor in the glTF model (the spec scales
+    /// F90 with it); at most 1 in the energy-conserving model, where (as in Cycles, whose
+    /// Specular IOR Level changes the IOR, and a dielectric's Fresnel reaches 1 at grazing
+    /// whatever its IOR) the factor tints F0 only.
     #[inline]
-    fn fresnels(&self, w5: f32) -> (SampledSpectrum, SampledSpectrum) {
+    fn dielectric_f90(&self) -> f32 {
+        if self.energy_compensation {
+            self.specular.min(1.0)
+        } else {
+            self.specular
+        }
+    }
+
+    /// Dielectric and conductor Fresnel at a cosine with the microfacet normal: Schlick for
+    /// the dielectric; for the conductor Schlick with F0 = base colour, in the
+    /// energy-conserving model minus the F82-tint term (`f82_tint_scale`).
+    #[inline]
+    fn fresnels(&self, cos: f32) -> (SampledSpectrum, SampledSpectrum) {
+        let w5 = schlick_weight(cos);
         let f0 = self.dielectric_f0();
-        let f90 = self.specular;
+        let f90 = self.dielectric_f90();
         let fd = f0.map(|f| f + (f90 - f) * w5);
-        let fc = self.base_color.map(|b| b + (1.0 - b) * w5);
+        let mut fc = self.base_color.map(|b| b + (1.0 - b) * w5);
+        if let Some(a) = self.f82_tint_scale() {
+            let c = cos.clamp(0.0, 1.0);
+            let edge = c * w5 * (1.0 - c);
+            fc = (fc - a * edge).clamp_zero();
+        }
         (fd, fc)
+    }
+
+    /// The F82-tint model of Cycles' metallic Principled (Hoffman 2023, "Generalization of
+    /// Adobe's Fresnel Model", after Kutz et al. 2021): `F(mu) = Schlick(F0, mu) - a mu (1 -
+    /// mu)^6`, with `a` chosen so that `F(1/7) = tint x Schlick(F0, 1/7)` (1/7 is where the
+    /// term peaks, about 82 degrees); the tint is the specular colour. None for a white tint
+    /// or the glTF model (whose conductor ignores the specular colour).
+    #[inline]
+    fn f82_tint_scale(&self) -> Option<SampledSpectrum> {
+        if !self.energy_compensation || self.specular_color == SampledSpectrum::ONE {
+            return None;
+        }
+        const MU: f32 = 1.0 / 7.0;
+        let w5 = schlick_weight(MU);
+        // 1 / (mu (1 - mu)^6) at mu = 1/7.
+        let norm = 1.0 / (MU * w5 * (1.0 - MU));
+        let schlick = self.base_color.map(|b| b + (1.0 - b) * w5);
+        Some(schlick * (SampledSpectrum::ONE - self.specular_color.clamp_zero()) * norm)
     }
 
     /// Probabilities of sampling the coat lobe and the base's GGX lobe at `cos_o` (the
@@ -89,7 +128,7 @@ impl MetallicRoughnessBsdf {
     /// the macro-surface angle. A lobe that vanishes gets exactly 0.
     fn lobe_probabilities(&self, cos_o: f32) -> (f32, f32) {
         let m = self.metallic();
-        let (fd, fc) = self.fresnels(schlick_weight(cos_o));
+        let (fd, fc) = self.fresnels(cos_o);
         let coat = &self.coat;
         let (w_coat, below, coat_ms) = if coat.is_present() {
             let single = coat.weight() * coat.fresnel(cos_o);
@@ -172,12 +211,18 @@ impl MetallicRoughnessBsdf {
             )
         };
         let f0_d = self.dielectric_f0();
-        let f90_d = self.specular;
+        let f90_d = self.dielectric_f90();
         let fms = |f_avg: SampledSpectrum| f_avg.map(|f| multiscatter_fresnel(f, average.e));
         let fms_d = fms(f0_d.map(|f| f + (f90_d - f) * SCHLICK_WEIGHT_AVERAGE));
-        let fms_c = fms(self
+        // Hemispherical average of the conductor's Fresnel: Schlick's, minus the F82 term's
+        // 2 int a mu^2 (1 - mu)^6 dmu = a / 126.
+        let mut fc_avg = self
             .base_color
-            .map(|b| b + (1.0 - b) * SCHLICK_WEIGHT_AVERAGE));
+            .map(|b| b + (1.0 - b) * SCHLICK_WEIGHT_AVERAGE);
+        if let Some(a) = self.f82_tint_scale() {
+            fc_avg = (fc_avg - a * (1.0 / 126.0)).clamp_zero();
+        }
+        let fms_c = fms(fc_avg);
         let ms_norm = if average.e < 1.0 - 1e-6 {
             1.0 / (PI * (1.0 - average.e))
         } else {
@@ -215,7 +260,7 @@ impl MetallicRoughnessBsdf {
         let distrib = self.distribution();
         let smooth = distrib.effectively_smooth();
         let vdoth = wo.dot(h).clamp(0.0, 1.0);
-        let (fd, fc) = self.fresnels(schlick_weight(vdoth));
+        let (fd, fc) = self.fresnels(vdoth);
         let layers = self.layers(wo.z);
 
         let (p_coat, p_spec) = self.lobe_probabilities(wo.z);
@@ -277,7 +322,7 @@ impl MetallicRoughnessBsdf {
                 if h == Vec3::ZERO {
                     return SampledSpectrum::ZERO;
                 }
-                let (fd, _) = self.fresnels(schlick_weight(wo.dot(h).clamp(0.0, 1.0)));
+                let (fd, _) = self.fresnels(wo.dot(h).clamp(0.0, 1.0));
                 SampledSpectrum::ONE - fd
             }
         };
@@ -323,7 +368,7 @@ impl MetallicRoughnessBsdf {
             if distrib.effectively_smooth() {
                 // Dirac mirror: the limit of the GGX lobe's albedo is the Fresnel at cos_o.
                 let m = self.metallic();
-                let (fd, fc) = self.fresnels(schlick_weight(wo.z));
+                let (fd, fc) = self.fresnels(wo.z);
                 let albedo = (fd * (1.0 - m) + fc * m) * self.below_coat(wo.z, wo.z);
                 return dirac(albedo, p_spec);
             }
@@ -422,9 +467,40 @@ mod tests {
             coat: Coat::NONE,
         };
         assert_eq!(b.dielectric_f0(), SampledSpectrum::ONE);
-        let (fd, _) = b.fresnels(0.3);
+        let (fd, _) = b.fresnels(0.7);
         assert_eq!(fd, SampledSpectrum::ONE);
         // The diffuse lobe gets (1 - F) = 0 of the light, so only the GGX lobe is sampled.
         assert_eq!(b.lobe_probabilities(0.7), (0.0, 1.0));
+    }
+
+    /// F82 tint: at cos = 1/7 the metal's Fresnel is the tint times Schlick's; at normal
+    /// incidence and grazing it is Schlick's; a white tint (and the glTF model) leaves it alone.
+    #[test]
+    fn f82_tint_reaches_the_tint_at_82_degrees() {
+        let base = SampledSpectrum([0.9, 0.6, 0.3, 0.5]);
+        let tint = SampledSpectrum([1.0, 0.5, 0.2, 0.8]);
+        let mut b = MetallicRoughnessBsdf {
+            base_color: base,
+            metallic: 1.0,
+            alpha: 0.25,
+            specular: 1.0,
+            specular_color: tint,
+            ior: 1.5,
+            energy_compensation: true,
+            coat: Coat::NONE,
+        };
+        let schlick = |c: f32| base.map(|f| f + (1.0 - f) * schlick_weight(c));
+        let (_, fc) = b.fresnels(1.0 / 7.0);
+        for k in 0..4 {
+            let want = tint[k] * schlick(1.0 / 7.0)[k];
+            assert!((fc[k] - want).abs() < 1e-5, "{k}: {} vs {want}", fc[k]);
+        }
+        assert_eq!(b.fresnels(1.0).1, schlick(1.0));
+        assert_eq!(b.fresnels(0.0).1, schlick(0.0));
+        b.energy_compensation = false;
+        assert_eq!(b.fresnels(1.0 / 7.0).1, schlick(1.0 / 7.0));
+        b.energy_compensation = true;
+        b.specular_color = SampledSpectrum::ONE;
+        assert_eq!(b.fresnels(1.0 / 7.0).1, schlick(1.0 / 7.0));
     }
 }

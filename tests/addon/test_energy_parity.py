@@ -26,6 +26,12 @@ Coat (test_coat_matches_cycles): Principled Coat smooth over a rough red base, r
 tint (0.9, 0.6, 0.3) over grey, weight 0.7 over a rough metal, and a plain Principled: within 5%
 (measured 0.985-1.001).
 
+Specular Tint (test_specular_tint_matches_cycles, 3%): F82-tinted metals 1.00 / 0.977-1.01,
+tinted dielectrics 0.98-1.00 and 1.00-1.028 (Specular IOR Level 0.8). The last one's blue: Cycles
+scales the base under a tinted specular layer by one minus the largest channel of the layer's
+albedo (closure_layering_weight's reduce_max), Prism per wavelength by what the layer lets
+through, which conserves energy in every channel.
+
 Without energy compensation (`"model": "gltf"`, single scattering) the roughness-0.8 sphere is
 at 0.33 of Cycles and the metal at 0.81 (the scene lit by the area light alone), so the test
 fails when compensation breaks.
@@ -59,13 +65,22 @@ COATED = [
 ]
 
 
-def scene(coated=False):
+# Specular Tint (4.x colour): the metal's F82 edge tint, the dielectric's F0 tint.
+TINTED = [
+    ("TintMetal", (0.9, 0.9, 0.9), {"Metallic": 1.0, "Roughness": 0.3, "Specular Tint": (1.0, 0.4, 0.1, 1.0)}),
+    ("TintMetalRough", (0.95, 0.7, 0.5), {"Metallic": 1.0, "Roughness": 0.7, "Specular Tint": (0.3, 0.6, 1.0, 1.0)}),
+    ("TintDielectric", (0.05, 0.05, 0.05), {"Roughness": 0.2, "Specular Tint": (0.2, 0.6, 1.0, 1.0)}),
+    ("TintLevel", (0.3, 0.3, 0.3), {"Roughness": 0.4, "Specular IOR Level": 0.8, "Specular Tint": (1.0, 0.8, 0.5, 1.0)}),
+]
+
+
+def scene(principled=None):
     C.reset()
     sc = bpy.context.scene
     floor = C.material("Floor", "ShaderNodeBsdfPrincipled", (0.05, 0.05, 0.05), Roughness=0.8)
     C.mesh_object("Floor", C.plane(30.0), floor)
-    if coated:
-        for (name, x), (mname, color, inputs) in zip(SPHERES, COATED):
+    if principled:
+        for (name, x), (mname, color, inputs) in zip(SPHERES, principled):
             mat = C.material(mname, "ShaderNodeBsdfPrincipled", color, **inputs)
             C.mesh_object(name, C.sphere(RADIUS, 64, 32), mat, location=(x, 0, RADIUS), smooth=True)
     else:
@@ -127,17 +142,29 @@ def test_coat_matches_cycles():
     glass test's slots."""
     if bpy.app.version < (4, 0, 0):
         return  # Coat Weight / Tint are Blender 4.x inputs
-    sc = scene(coated=True)
+    compare_principled("coat", COATED, 0.05)
+
+
+def test_specular_tint_matches_cycles():
+    """Specular Tint: the F82-tinted edges of two metals and the tinted F0 of two dielectrics
+    (one with Specular IOR Level 0.8), within 3%."""
+    if bpy.app.version < (4, 0, 0):
+        return  # a colour from 4.0 on
+    compare_principled("tint", TINTED, 0.03)
+
+
+def compare_principled(label, spheres, tol):
+    sc = scene(spheres)
     boxes = {name: pixel_box(sc, name) for name, _ in SPHERES}
-    c = means(C.render_engine(sc, "cycles", CYCLES_SPP, OUT, "coat", bounces=16), boxes)
-    p = means(C.render_engine(sc, "prism", PRISM_SPP, OUT, "coat", bounces=16), boxes)
+    c = means(C.render_engine(sc, "cycles", CYCLES_SPP, OUT, label, bounces=16), boxes)
+    p = means(C.render_engine(sc, "prism", PRISM_SPP, OUT, label, bounces=16), boxes)
     prism = __import__("sys").modules["prism"]
-    C.check(not [w for w in prism.engine.LAST["warnings"] if "Coat" in w],
-            "no Coat warnings: %s" % prism.engine.LAST["warnings"])
-    for (slot, _), (mname, _, _) in zip(SPHERES, COATED):
+    C.check(not prism.engine.LAST["warnings"], "no warnings: %s" % prism.engine.LAST["warnings"])
+    for (slot, _), (mname, _, _) in zip(SPHERES, spheres):
         ratio = p[slot] / c[slot]
-        C.check(all(abs(r - 1) < 0.05 for r in ratio),
-                "%s: mean Prism / Cycles %s within 5%% (Cycles %s)" % (mname, ratio.round(3), c[slot].round(4)))
+        C.check(all(abs(r - 1) < tol for r in ratio),
+                "%s: mean Prism / Cycles %s within %d%% (Cycles %s)"
+                % (mname, ratio.round(3), round(tol * 100), c[slot].round(4)))
 
 
 if __name__ == "__main__":
