@@ -70,6 +70,7 @@ fn dielectric(eta: f32, roughness: f32) -> Bsdf {
         eta: SampledSpectrum::splat(eta),
         alpha: roughness * roughness,
         transmission_tint: SampledSpectrum::ONE,
+        iridescence: None,
         refraction_only: false,
         energy_compensation: true,
     })
@@ -100,6 +101,24 @@ fn coated(base: Bsdf, weight: f32, roughness: f32, tint: SampledSpectrum) -> Bsd
         }),
         _ => unreachable!(),
     }
+}
+
+/// Glass (IOR 1.5) under a 350 nm soap film (IOR 1.33), at four visible wavelengths.
+fn thin_film_glass(roughness: f32) -> Bsdf {
+    Bsdf::Dielectric(DielectricBsdf {
+        iridescence: Some(prism::bsdf::Iridescence {
+            film: prism::bsdf::ThinFilm {
+                thickness_nm: 350.0,
+                ior: 1.33,
+            },
+            weight: 1.0,
+            lambda: SampledSpectrum([420.0, 500.0, 580.0, 660.0]),
+        }),
+        ..match dielectric(1.5, roughness) {
+            Bsdf::Dielectric(d) => d,
+            _ => unreachable!(),
+        }
+    })
 }
 
 /// The glTF 2.0 spec's BRDF as written (`"model": "gltf"`), single scattering.
@@ -249,6 +268,7 @@ fn chi2_cases() -> Vec<Chi2Case> {
                 eta: SampledSpectrum::splat(eta),
                 alpha: roughness * roughness,
                 transmission_tint: SampledSpectrum::ONE,
+                iridescence: None,
                 refraction_only: true,
                 energy_compensation: true,
             });
@@ -267,6 +287,7 @@ fn chi2_cases() -> Vec<Chi2Case> {
             eta: SampledSpectrum([1.5, 1.52, 1.54, 1.56]),
             alpha: 0.09,
             transmission_tint: color(),
+            iridescence: None,
             refraction_only: false,
             energy_compensation: true,
         });
@@ -276,6 +297,16 @@ fn chi2_cases() -> Vec<Chi2Case> {
             Target::Bsdf(b),
             wo_at(0.6) * Vec3::new(1.0, 1.0, side),
             [1.5, 0.09, side * 0.6],
+        );
+    }
+    // A thin film (soap film on glass): each wavelength's own Fresnel split.
+    for (roughness, side) in [(0.3f32, 1.0f32), (0.3, -1.0)] {
+        push(
+            "dielectric",
+            "thin-film rough dielectric(eta, roughness, cos_o)",
+            Target::Bsdf(thin_film_glass(roughness)),
+            wo_at(0.6) * Vec3::new(1.0, 1.0, side),
+            [1.5, roughness, side * 0.6],
         );
     }
     for (ax, ay) in [(0.5, 0.1), (0.05, 0.4), (1.0, 0.3)] {
@@ -743,6 +774,7 @@ fn rough_dielectric_white_furnace() {
         eta: SampledSpectrum([1.45, 1.5, 1.6, 1.75]),
         alpha: 0.36,
         transmission_tint: SampledSpectrum::ONE,
+        iridescence: None,
         refraction_only: false,
         energy_compensation: true,
     };
@@ -859,6 +891,7 @@ fn refraction_only_transmits_everything_it_can() {
             eta: SampledSpectrum::splat(eta),
             alpha: roughness * roughness,
             transmission_tint: SampledSpectrum::ONE,
+            iridescence: None,
             refraction_only: true,
             energy_compensation: true,
         })
@@ -1143,6 +1176,7 @@ fn dispersion_terminates_secondaries_on_smooth_refraction_only() {
             eta,
             alpha,
             transmission_tint: SampledSpectrum::ONE,
+            iridescence: None,
             refraction_only: false,
             energy_compensation: true,
         });
@@ -1150,6 +1184,7 @@ fn dispersion_terminates_secondaries_on_smooth_refraction_only() {
             eta: SampledSpectrum::splat(1.5),
             alpha,
             transmission_tint: SampledSpectrum::ONE,
+            iridescence: None,
             refraction_only: false,
             energy_compensation: true,
         });
@@ -1174,6 +1209,7 @@ fn dispersion_terminates_secondaries_on_smooth_refraction_only() {
                         eta: SampledSpectrum::splat(eta[i]),
                         alpha,
                         transmission_tint: SampledSpectrum::ONE,
+                        iridescence: None,
                         refraction_only: false,
                         energy_compensation: true,
                     });
@@ -1239,6 +1275,7 @@ fn degenerate_inputs_are_finite() {
                 eta: SampledSpectrum::splat(eta),
                 alpha,
                 transmission_tint: SampledSpectrum::ONE,
+                iridescence: None,
                 refraction_only: false,
                 energy_compensation: true,
             }));
@@ -1293,6 +1330,7 @@ fn eval_pdf_matches_eval_and_pdf() {
             eta: SampledSpectrum([1.5, 1.52, 1.54, 1.56]),
             alpha: 0.2,
             transmission_tint: color(),
+            iridescence: None,
             refraction_only: false,
             energy_compensation: true,
         }),
@@ -1309,5 +1347,57 @@ fn eval_pdf_matches_eval_and_pdf() {
             nonzero += (pdf > 0.0) as usize;
         }
         assert!(nonzero > 1_000, "{b:?}");
+    }
+}
+
+/// A thin film on smooth glass: the mirror sample's per-wavelength weights are the Airy
+/// reflectance of each wavelength (`prism::bsdf::ThinFilm`, itself checked against the
+/// closed form), the refraction's are 1 - R (radiance's 1/eta^2 undone), both directions
+/// shared by every wavelength; rough, the white furnace holds per wavelength.
+#[test]
+fn thin_film_splits_each_wavelength_by_its_airy_reflectance() {
+    let film = prism::bsdf::ThinFilm {
+        thickness_nm: 350.0,
+        ior: 1.33,
+    };
+    let lambda = [420.0f32, 500.0, 580.0, 660.0];
+    let b = thin_film_glass(0.0);
+    for c in [1.0f32, 0.7, 0.3, -0.9, -0.5] {
+        let wo = wo_at(c.abs()) * Vec3::new(1.0, 1.0, c.signum());
+        let r = b.sample(wo, 0.0, Vec2::new(0.5, 0.5)).unwrap();
+        let t = b.sample(wo, 0.9999, Vec2::new(0.5, 0.5));
+        for k in 0..4 {
+            let want = film.reflectance(wo.z, 1.5, lambda[k]);
+            let got = r.f[k] * wo.z.abs();
+            assert!(
+                (got - want).abs() < 1e-3,
+                "cos {c} k {k}: R {got} vs {want}"
+            );
+            assert!((r.pdf_wavelengths[k] - want).abs() < 1e-5);
+            // (Under total internal reflection the last branch reflects too.)
+            if let Some(t) = t.filter(|t| t.is_transmission()) {
+                assert!(!t.hero_only(), "a film does not split directions");
+                let etap = t.eta[k];
+                let got_t = t.f[k] * t.wi.z.abs() * etap * etap;
+                assert!(
+                    (got_t - (1.0 - want)).abs() < 1e-3,
+                    "cos {c} k {k}: T {got_t}"
+                );
+            }
+        }
+    }
+    // Rough: every wavelength keeps its energy (its own Fresnel split, same directions).
+    for i in 0..4 {
+        let Bsdf::Dielectric(d) = thin_film_glass(0.5) else {
+            unreachable!()
+        };
+        let mut ir = d.iridescence.unwrap();
+        ir.lambda.0.swap(0, i);
+        let b = Bsdf::Dielectric(DielectricBsdf {
+            iridescence: Some(ir),
+            ..d
+        });
+        let (e, _) = albedo(&b, wo_at(0.5), 200_000, 41, true);
+        assert!((e - 1.0).abs() < 0.012, "wavelength {i}: E = {e}");
     }
 }

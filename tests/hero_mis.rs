@@ -39,6 +39,7 @@ fn bsdf(w: &SampledWavelengths, alpha: f32) -> Bsdf {
         eta: SampledSpectrum::from_fn(|i| cauchy(w.lambda[i])),
         alpha,
         transmission_tint: SampledSpectrum::ONE,
+        iridescence: None,
         refraction_only: false,
         energy_compensation: true,
     })
@@ -225,6 +226,7 @@ fn per_wavelength_evaluation_matches_each_ior_alone() {
             eta: etas,
             alpha,
             transmission_tint: tint,
+            iridescence: None,
             refraction_only: false,
             energy_compensation: true,
         };
@@ -234,6 +236,7 @@ fn per_wavelength_evaluation_matches_each_ior_alone() {
                 eta: SampledSpectrum::splat(etas[i]),
                 alpha,
                 transmission_tint: tint,
+                iridescence: None,
                 refraction_only: false,
                 energy_compensation: true,
             };

@@ -93,7 +93,7 @@ impl DielectricBsdf {
             return 0.0;
         }
         self.rough_pair(wo, wi)
-            .map_or(0.0, |p| self.eval_eta(&p, self.hero_eta()).pdf)
+            .map_or(0.0, |p| self.eval_at(&p, 0).pdf)
     }
 
     /// The hero wavelength's f(wo, wi) (tinted for transmission), one evaluation.
@@ -104,7 +104,7 @@ impl DielectricBsdf {
         let Some(pair) = self.rough_pair(wo, wi) else {
             return 0.0;
         };
-        let hero = self.eval_eta(&pair, self.hero_eta());
+        let hero = self.eval_at(&pair, 0);
         if hero.transmission {
             hero.f * self.transmission_tint[0]
         } else {
@@ -126,8 +126,8 @@ impl DielectricBsdf {
         let Some(pair) = self.rough_pair(wo, wi) else {
             return (SampledSpectrum::ZERO, SampledSpectrum::ZERO);
         };
-        let hero = self.eval_eta(&pair, self.hero_eta());
-        if !self.is_dispersive() {
+        let hero = self.eval_at(&pair, 0);
+        if !self.varies_per_wavelength() {
             return (
                 self.spectral(hero.f, hero.transmission),
                 SampledSpectrum::splat(hero.pdf),
@@ -151,7 +151,7 @@ impl DielectricBsdf {
             // Reflection: the half vector, D, G and the visible-normal density do not depend
             // on the IOR; f and pdf both scale with each wavelength's Fresnel term.
             for i in 1..N_WAVELENGTHS {
-                let ratio = self.fresnel(hero.dot_o, self.eta[i]) / hero.fresnel;
+                let ratio = self.fresnel(hero.dot_o, i) / hero.fresnel;
                 let compensation = self.compensation(pair.wo.z, self.eta[i]) / hero.compensation;
                 f[i] = hero.f * ratio * compensation;
                 pdf[i] = hero.pdf * ratio;
@@ -159,7 +159,7 @@ impl DielectricBsdf {
             return (f, pdf);
         }
         for i in 1..N_WAVELENGTHS {
-            let e = self.eval_eta(pair, self.eta[i]);
+            let e = self.eval_at(pair, i);
             f[i] = e.f;
             pdf[i] = e.pdf;
         }
@@ -170,15 +170,28 @@ impl DielectricBsdf {
         (f, pdf)
     }
 
-    /// The Fresnel reflectance that splits reflection from refraction: 0 for a Refraction
-    /// BSDF (`refraction_only`).
+    /// The Fresnel reflectance of wavelength `k` that splits reflection from refraction: the
+    /// plain interface's, or mixed with the thin film's by its weight; 0 for a Refraction BSDF
+    /// (`refraction_only`).
     #[inline]
-    fn fresnel(&self, cos: f32, eta: f32) -> f32 {
+    fn fresnel(&self, cos: f32, k: usize) -> f32 {
         if self.refraction_only {
-            0.0
-        } else {
-            fresnel_dielectric(cos, eta)
+            return 0.0;
         }
+        let plain = fresnel_dielectric(cos, self.eta[k]);
+        match &self.iridescence {
+            Some(i) if i.weight > 0.0 => {
+                let film = i.film.reflectance(cos, self.eta[k], i.lambda[k]);
+                plain + i.weight.min(1.0) * (film - plain)
+            }
+            _ => plain,
+        }
+    }
+
+    /// Values or densities differ between the wavelengths: dispersion, or a thin film.
+    #[inline]
+    pub fn varies_per_wavelength(&self) -> bool {
+        self.is_dispersive() || self.iridescence.is_some_and(|i| i.weight > 0.0)
     }
 
     /// `n(other side) / n(wo side)` per wavelength, for `wo` with cosine `cos_o`.
@@ -231,14 +244,14 @@ impl DielectricBsdf {
             return None;
         }
         let eta = self.hero_eta();
-        let fr = self.fresnel(cos_o, eta);
+        let fr = self.fresnel(cos_o, 0);
         if uc < fr {
             let wi = Vec3::new(-wo.x, -wo.y, wo.z);
             // The mirror direction is the same for every wavelength, so every slot stays
             // valid; each wavelength as the hero would have chosen this branch with its own
             // probability F(eta_i).
-            let fr_all = if self.is_dispersive() {
-                SampledSpectrum::from_fn(|i| self.fresnel(cos_o, self.eta[i]))
+            let fr_all = if self.varies_per_wavelength() {
+                SampledSpectrum::from_fn(|i| self.fresnel(cos_o, i))
             } else {
                 SampledSpectrum::splat(fr)
             };
@@ -266,7 +279,12 @@ impl DielectricBsdf {
                 return None;
             }
             let mut pdf_wavelengths = SampledSpectrum::splat(t);
-            if self.is_dispersive() {
+            if !self.is_dispersive() && self.varies_per_wavelength() {
+                // A thin film: one direction for all, each wavelength transmits its own 1 - R.
+                let t_all = SampledSpectrum::from_fn(|i| 1.0 - self.fresnel(cos_o, i));
+                f = self.transmission_tint * t_all / (cos_i * sqr(etap));
+                pdf_wavelengths = t_all;
+            } else if self.is_dispersive() {
                 // Each other wavelength refracts into its own Dirac direction: along `wi` its
                 // BSDF and its density are both zero.
                 for i in 1..N_WAVELENGTHS {
@@ -293,7 +311,7 @@ impl DielectricBsdf {
         }
         let eta = self.hero_eta();
         let wm = self.distribution().sample_visible(wo, u);
-        let fr = self.fresnel(wo.dot(wm), eta);
+        let fr = self.fresnel(wo.dot(wm), 0);
         let wi = if uc < fr {
             let wi = reflect(wo, wm);
             if !(wi.z * wo.z > 0.0) {
@@ -309,11 +327,11 @@ impl DielectricBsdf {
         };
         // Re-derive f and pdf from (wo, wi) so that they agree exactly with eval/pdf (MIS).
         let pair = self.rough_pair(wo, wi)?;
-        let hero = self.eval_eta(&pair, eta);
+        let hero = self.eval_at(&pair, 0);
         if !(hero.pdf > 0.0) {
             return None;
         }
-        let (f, pdf_wavelengths) = if self.is_dispersive() {
+        let (f, pdf_wavelengths) = if self.varies_per_wavelength() {
             self.per_wavelength(&pair, hero)
         } else {
             (
@@ -354,10 +372,11 @@ impl DielectricBsdf {
         })
     }
 
-    /// Walter et al. 2007 BSDF for a single relative IOR `eta` (without the tint) and the pdf of
-    /// `sample_rough` run with that `eta`. Zero for the degenerate configurations (vanishing
-    /// half vector, back-facing microfacets).
-    fn eval_eta(&self, pair: &RoughPair, eta: f32) -> RoughEval {
+    /// Walter et al. 2007 BSDF for wavelength `k` alone (its IOR `eta[k]`, its thin-film
+    /// reflectance; without the tint) and the pdf of `sample_rough` run with `k` as the hero.
+    /// Zero for the degenerate configurations (vanishing half vector, back-facing microfacets).
+    fn eval_at(&self, pair: &RoughPair, k: usize) -> RoughEval {
+        let eta = self.eta[k];
         let zero = RoughEval::default();
         if !(eta > 0.0) || !eta.is_finite() {
             return zero;
@@ -387,7 +406,7 @@ impl DielectricBsdf {
             return zero;
         }
         let d = self.distribution().d(wm);
-        let fr = self.fresnel(dot_o, eta);
+        let fr = self.fresnel(dot_o, k);
         // Visible-normal density D_wo(wm) = G1(wo) |wo.wm| D(wm) / |cos_o| (Heitz 2014 eq. 38;
         // |wo.wm| since wo.wm has the sign of cos_o here), as `TrowbridgeReitz::d_visible`.
         let d_visible = pair.g1_o * dot_o.abs() * d / cos_o.abs();

@@ -13,10 +13,12 @@ pub mod energy;
 pub mod fresnel;
 pub mod metallic_roughness;
 pub mod microfacet;
+pub mod thin_film;
 
 pub use coat::Coat;
 pub use fresnel::{fresnel_dielectric, fresnel_schlick, refract};
 pub use microfacet::TrowbridgeReitz;
+pub use thin_film::ThinFilm;
 
 use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
@@ -158,6 +160,8 @@ pub struct DielectricBsdf {
     pub alpha: f32,
     /// Multiplies transmitted light (glTF transmission tinted by baseColor); ONE for clear glass.
     pub transmission_tint: SampledSpectrum,
+    /// A thin film on the interface (`thin_film.rs`), with the path's wavelengths.
+    pub iridescence: Option<Iridescence>,
     /// Blender's Refraction BSDF: the refraction alone, as if the Fresnel reflectance were 0
     /// (Cycles' refraction closure carries no Fresnel term; node setups mix in a reflection by
     /// a Fresnel or Layer Weight factor). Total internal reflection is then absorbed.
@@ -165,6 +169,16 @@ pub struct DielectricBsdf {
     /// A rough interface gets back the energy single scattering loses (Turquin 2019, see
     /// `energy.rs`). Not for `refraction_only`, whose missing reflection is meant to be lost.
     pub energy_compensation: bool,
+}
+
+/// A thin film on a dielectric interface at the path's wavelengths: its Fresnel becomes
+/// `mix(plain, film, weight)` (`KHR_materials_iridescence`'s factor; Blender's Thin Film is 1).
+#[derive(Clone, Copy, Debug)]
+pub struct Iridescence {
+    pub film: ThinFilm,
+    pub weight: f32,
+    /// The wavelengths (nm) of the spectrum's slots.
+    pub lambda: SampledSpectrum,
 }
 
 impl Bsdf {
@@ -295,10 +309,10 @@ impl Bsdf {
         }
     }
 
-    /// Its value or density differ between the path's wavelengths' (a dispersive dielectric):
-    /// `eval_pdf_wavelengths` then costs one evaluation per wavelength.
+    /// Its value or density differ between the path's wavelengths (a dispersive dielectric, a thin
+    /// film): `eval_pdf_wavelengths` then costs one evaluation per wavelength.
     pub fn is_dispersive(&self) -> bool {
-        matches!(self, Bsdf::Dielectric(d) if d.is_dispersive())
+        matches!(self, Bsdf::Dielectric(d) if d.varies_per_wavelength())
     }
 
     /// f(wo, wi) of the hero wavelength alone (one evaluation even when dispersive).

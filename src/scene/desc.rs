@@ -112,6 +112,13 @@ pub struct GltfMaterialDesc {
     /// Colour after one vertical pass through the coat (extras `prism_coat_tint`, Blender's
     /// Coat Tint; white otherwise).
     pub coat_tint: Vec3,
+    /// KHR_materials_iridescence `iridescenceFactor` (0 = none; Blender's Thin Film: 1).
+    pub iridescence: f32,
+    /// `iridescenceIor` (default 1.3; Blender's Thin Film IOR).
+    pub iridescence_ior: f32,
+    /// The film's thickness in nm: `iridescenceThicknessMaximum` (default 400; Blender's Thin
+    /// Film Thickness), the extension's thickness without a thickness texture.
+    pub iridescence_thickness: f32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -146,6 +153,9 @@ impl Default for GltfMaterialDesc {
             coat_roughness: 0.0,
             coat_ior: 1.5,
             coat_tint: Vec3::ONE,
+            iridescence: 0.0,
+            iridescence_ior: 1.3,
+            iridescence_thickness: 400.0,
             alpha_mode: AlphaMode::Opaque,
             alpha_cutoff: 0.5,
         }

@@ -230,6 +230,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_dispersion",
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
+    "KHR_materials_iridescence",
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_volume",
@@ -1880,6 +1881,50 @@ impl<'d> Importer<'d> {
             .iter()
             .any(|k| c.get(*k).is_some());
         }
+        // KHR_materials_iridescence (not parsed by the gltf crate): a thin film of one thickness
+        // (the maximum: the extension's thickness where no texture varies it).
+        let (mut iridescence, mut iridescence_ior, mut iridescence_thickness) =
+            (0.0f32, 1.3f32, 400.0f32);
+        let mut iridescence_texture = false;
+        if let Some(c) = m
+            .extensions()
+            .and_then(|ext| ext.get("KHR_materials_iridescence"))
+        {
+            let number = |key: &str,
+                          default: f32,
+                          ok: &dyn Fn(f32) -> bool,
+                          what: &str|
+             -> Result<f32, String> {
+                match c.get(key) {
+                    None => Ok(default),
+                    Some(v) => v
+                        .as_f64()
+                        .map(|x| x as f32)
+                        .filter(|x| x.is_finite() && ok(*x))
+                        .ok_or_else(|| {
+                            format!(
+                                "{label}: KHR_materials_iridescence.{key} must be {what}, got {v}"
+                            )
+                        }),
+                }
+            };
+            iridescence = number(
+                "iridescenceFactor",
+                0.0,
+                &|x| (0.0..=1.0).contains(&x),
+                "a number in [0, 1]",
+            )?;
+            iridescence_ior = number("iridescenceIor", 1.3, &|x| x >= 1.0, "a number >= 1")?;
+            iridescence_thickness = number(
+                "iridescenceThicknessMaximum",
+                400.0,
+                &|x| x >= 0.0,
+                "a non-negative number",
+            )?;
+            iridescence_texture = ["iridescenceTexture", "iridescenceThicknessTexture"]
+                .iter()
+                .any(|k| c.get(*k).is_some());
+        }
         let extras = m
             .extras()
             .as_ref()
@@ -1950,6 +1995,12 @@ impl<'d> Importer<'d> {
         }
         if coat_textures {
             ignored.push("clearcoat textures");
+        }
+        if iridescence_texture {
+            ignored.push("iridescence textures (the maximum thickness is used)");
+        }
+        if iridescence > 0.0 && transmission <= 0.0 {
+            ignored.push("KHR_materials_iridescence on an opaque material (thin films are rendered on transmissive surfaces only)");
         }
         if !ignored.is_empty() {
             self.warn_once(format!(
@@ -2029,6 +2080,9 @@ impl<'d> Importer<'d> {
             coat_roughness,
             coat_ior,
             coat_tint: Vec3::from_array(coat_tint),
+            iridescence,
+            iridescence_ior,
+            iridescence_thickness,
             alpha_mode,
             alpha_cutoff: if alpha_cutoff.is_finite() {
                 alpha_cutoff

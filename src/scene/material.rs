@@ -6,7 +6,8 @@ use super::desc::{
 };
 use super::texture::sample_texture;
 use crate::bsdf::{
-    Bsdf, Coat, DielectricBsdf, DiffuseBsdf, MetallicRoughnessBsdf, TranslucentBsdf,
+    Bsdf, Coat, DielectricBsdf, DiffuseBsdf, Iridescence, MetallicRoughnessBsdf, ThinFilm,
+    TranslucentBsdf,
 };
 use crate::bssrdf::SubsurfaceMaterial;
 use crate::geometry::{Geometry, SurfacePoint};
@@ -52,6 +53,8 @@ pub struct Material {
     energy_compensation: bool,
     /// The clear coat (weight 0: none).
     coat: MaterialCoat,
+    /// A thin film on transmissive surfaces and its weight (KHR_materials_iridescence).
+    thin_film: Option<(ThinFilm, f32)>,
     /// KHR_materials_specular colour, upsampled once (not per shading point).
     specular_color: RgbAlbedoSpectrum,
     emission: Option<RgbIlluminantSpectrum>,
@@ -130,6 +133,13 @@ impl Material {
             model,
             base_albedo: RgbAlbedoSpectrum::new(g.base_color.xyz()),
             specular_color: RgbAlbedoSpectrum::new(g.specular_color),
+            thin_film: (g.iridescence > 0.0).then_some((
+                ThinFilm {
+                    thickness_nm: g.iridescence_thickness,
+                    ior: g.iridescence_ior,
+                },
+                g.iridescence,
+            )),
             coat: MaterialCoat {
                 weight: g.coat.clamp(0.0, 1.0),
                 alpha: roughness_to_alpha(g.coat_roughness),
@@ -443,6 +453,7 @@ impl Material {
                 eta: SampledSpectrum::from_fn(|i| eval_ior(ior, w.lambda[i])),
                 alpha: if *alpha < MIN_ALPHA { 0.0 } else { *alpha },
                 transmission_tint: SampledSpectrum::ONE,
+                iridescence: None,
                 refraction_only: false,
                 energy_compensation: self.energy_compensation,
             }),
@@ -456,6 +467,7 @@ impl Material {
                 eta: SampledSpectrum::from_fn(|i| eval_ior(boundary, w.lambda[i])),
                 alpha: if s.alpha < MIN_ALPHA { 0.0 } else { s.alpha },
                 transmission_tint: SampledSpectrum::ONE,
+                iridescence: None,
                 refraction_only: false,
                 energy_compensation: self.energy_compensation,
             }),
@@ -530,6 +542,11 @@ impl Material {
                 eta: SampledSpectrum::from_fn(|i| self.gltf_ior.eval(w.lambda[i])),
                 alpha: if alpha < MIN_ALPHA { 0.0 } else { alpha },
                 transmission_tint: base,
+                iridescence: self.thin_film.map(|(film, weight)| Iridescence {
+                    film,
+                    weight,
+                    lambda: SampledSpectrum::from_fn(|i| w.lambda[i]),
+                }),
                 refraction_only,
                 energy_compensation: self.energy_compensation,
             });
