@@ -1366,8 +1366,8 @@ fn thin_film_splits_each_wavelength_by_its_airy_reflectance() {
         let wo = wo_at(c.abs()) * Vec3::new(1.0, 1.0, c.signum());
         let r = b.sample(wo, 0.0, Vec2::new(0.5, 0.5)).unwrap();
         let t = b.sample(wo, 0.9999, Vec2::new(0.5, 0.5));
-        for k in 0..4 {
-            let want = film.reflectance(wo.z, 1.5, lambda[k]);
+        for (k, &lambda_k) in lambda.iter().enumerate() {
+            let want = film.reflectance(wo.z, 1.5, lambda_k);
             let got = r.f[k] * wo.z.abs();
             assert!(
                 (got - want).abs() < 1e-3,
