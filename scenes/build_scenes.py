@@ -20,6 +20,9 @@ Scenes (1 unit = 1 m; the subsurface presets are in mm^-1, so their scale is 100
                     table method) and one random walk (noise-per-second benchmark)
   many_lights       a 10 m x 10 m hall lit by 400 small coloured emissive panels and 4 point lights
                     (light-selection benchmark)
+  soap_bubble       three soap bubbles (Principled Thin Film 250 / 420 / 700 nm, IOR 1.33, on thin shells
+                    of IOR 1) before a dark wall, under two soft lights: thin-film interference computed
+                    exactly per wavelength
 """
 
 import math
@@ -272,8 +275,28 @@ def many_lights():
     settings(sc, 256, 256, 64, max_depth=16)
 
 
+def soap_bubble():
+    sc = reset()
+    # A dark backdrop and two soft lights: bubbles show their iridescence in what they reflect.
+    floor = material("Floor", color=(0.03, 0.03, 0.035))
+    obj("Floor", grid(6, 6), floor)
+    obj("Wall", grid(6, 3), floor, location=(0, 1.2, 1.5), rotation=(math.pi / 2, 0, 0))
+    light("Key", "AREA", 60.0, (-1.0, -1.5, 2.0), rotation=(0.7, -0.4, 0.0), shape="RECTANGLE", size=1.5, size_y=0.6)
+    light("Rim", "AREA", 25.0, (1.4, 0.2, 1.4), rotation=(0.5, 0.9, 0.0), shape="SQUARE", size=0.8)
+    world((0.02, 0.02, 0.025))
+    # Thin shells (IOR 1: no refraction) under soap films of three thicknesses (Thin Film IOR 1.33).
+    for i, (thickness, radius, z) in enumerate(((250.0, 0.22, 0.45), (420.0, 0.3, 0.55), (700.0, 0.18, 0.35))):
+        m = principled("Bubble%d" % thickness, (1.0, 1.0, 1.0), **{"Roughness": 0.0, "IOR": 1.0,
+                                                                     "Transmission Weight": 1.0,
+                                                                     "Thin Film Thickness": thickness,
+                                                                     "Thin Film IOR": 1.33})
+        obj("Bubble%d" % i, sphere(radius), m, location=(-0.6 + 0.6 * i, 0, z), smooth=True)
+    camera((0, -2.4, 0.7), (0, 0, 0.45), lens=45)
+    settings(sc, 480, 270, 256)
+
+
 SCENES = {f.__name__: f for f in (sss_vs_diffuse, sss_presets, rough_glass, diamond, rgb_vs_spectral, everyday,
-                                  sss_cornell, many_lights)}
+                                  sss_cornell, many_lights, soap_bubble)}
 
 
 def main():

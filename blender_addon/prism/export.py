@@ -331,6 +331,10 @@ def convert_material(mat):
         sss = _principled_subsurface(node, m)
         _principled_coat(node, m)
         m["specular_tint"] = _principled_specular_tint(node, m["base"])
+        # Thin Film (4.2+): exact per wavelength in Prism; on transmissive surfaces only.
+        thickness = _val(node, "Thin Film Thickness", default=0.0)
+        if thickness > 0.0 and m["transmission"] > 0.0:
+            m["thin_film"] = (float(thickness), max(float(_val(node, "Thin Film IOR", default=1.33)), 1.0))
     elif t == "BSDF_DIFFUSE":
         sock = _socket(node, "Color")
         m["image"] = _linked_image(sock)
@@ -1199,8 +1203,11 @@ class Exporter:
             ("Sheen Weight", lambda v: v > 0.0, "Sheen"),
             ("Sheen", lambda v: v > 0.0, "Sheen"),
             ("Anisotropic", lambda v: v > 0.0, "Anisotropic"),
-            ("Thin Film Thickness", lambda v: v > 0.0, "Thin Film"),
         ]
+        transmission = node.inputs.get("Transmission Weight")
+        if not own_material or transmission is None or float(transmission.default_value) <= 0.0:
+            checks.append(("Thin Film Thickness", lambda v: v > 0.0,
+                           "Thin Film (rendered on transmissive Principled materials only)"))
         for sock_name, bad, what in checks:
             sock = node.inputs.get(sock_name)
             if sock is None or sock.is_linked:
@@ -1296,6 +1303,11 @@ class Exporter:
             ext["KHR_materials_specular"] = {"specularFactor": max(spec, 0.0)}
             if tinted:
                 ext["KHR_materials_specular"]["specularColorFactor"] = tint
+        film = m.get("thin_film")
+        if film is not None:
+            ext["KHR_materials_iridescence"] = {"iridescenceFactor": 1.0, "iridescenceIor": film[1],
+                                                "iridescenceThicknessMinimum": film[0],
+                                                "iridescenceThicknessMaximum": film[0]}
         coat = m.get("coat")
         if coat is not None:
             weight, roughness, ior, tint = coat
