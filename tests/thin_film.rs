@@ -26,7 +26,11 @@ fn film_scene(theta: f32, film: ThinFilm) -> SceneDesc {
         (a * 3.0, b * 3.0)
     };
     // quad_mesh's front face is along u x v; make it face the film (-r).
-    let (u, v) = if u.cross(v).dot(r) > 0.0 { (v, u) } else { (u, v) };
+    let (u, v) = if u.cross(v).dot(r) > 0.0 {
+        (v, u)
+    } else {
+        (u, v)
+    };
     let shell = GltfMaterialDesc {
         name: "film".into(),
         base_color: Vec4::ONE,
@@ -44,7 +48,11 @@ fn film_scene(theta: f32, film: ThinFilm) -> SceneDesc {
         let a = n.cross(Vec3::X).normalize();
         let b = n.cross(a).normalize();
         // Front face along +n (towards the camera).
-        let (a, b) = if a.cross(b).dot(n) > 0.0 { (a, b) } else { (b, a) };
+        let (a, b) = if a.cross(b).dot(n) > 0.0 {
+            (a, b)
+        } else {
+            (b, a)
+        };
         quad_mesh("film", Vec3::ZERO, a * 2.0, b * 2.0, 0)
     };
     SceneDesc {

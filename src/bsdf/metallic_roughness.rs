@@ -126,7 +126,7 @@ impl MetallicRoughnessBsdf {
     /// cosine-weighted branch, which samples the diffuse and every multiple-scattering lobe,
     /// has the rest): each lobe's estimated albedo over the total, with the Fresnel terms at
     /// the macro-surface angle. A lobe that vanishes gets exactly 0.
-    fn lobe_probabilities(&self, cos_o: f32) -> (f32, f32) {
+    fn lobe_probabilities(&self, cos_o: f32, layers: Option<&Layers>) -> (f32, f32) {
         let m = self.metallic();
         let (fd, fc) = self.fresnels(cos_o);
         let coat = &self.coat;
@@ -145,7 +145,7 @@ impl MetallicRoughnessBsdf {
         let w_spec = below * ((1.0 - m) * fd.average() + m * fc.average());
         let w_cos = coat_ms
             + below
-                * match self.layers(cos_o) {
+                * match layers {
                     Some(l) => {
                         let ms = l.ms_scale_o;
                         (1.0 - m) * (l.diffuse_o * self.base_color + l.fms_d * ms).average()
@@ -252,6 +252,15 @@ impl MetallicRoughnessBsdf {
         if !(wo.z > 0.0 && wi.z > 0.0) {
             return (SampledSpectrum::ZERO, 0.0);
         }
+        let layers = self.layers(wo.z);
+        self.eval_pdf_with(wo, wi, layers.as_ref())
+    }
+
+    /// `eval_pdf` with the `wo`-only terms already computed (`sample` shares them).
+    fn eval_pdf_with(&self, wo: Vec3, wi: Vec3, layers: Option<&Layers>) -> (SampledSpectrum, f32) {
+        if !(wo.z > 0.0 && wi.z > 0.0) {
+            return (SampledSpectrum::ZERO, 0.0);
+        }
         let h = (wo + wi).normalize_or_zero();
         if h == Vec3::ZERO {
             return (SampledSpectrum::ZERO, 0.0);
@@ -261,11 +270,9 @@ impl MetallicRoughnessBsdf {
         let smooth = distrib.effectively_smooth();
         let vdoth = wo.dot(h).clamp(0.0, 1.0);
         let (fd, fc) = self.fresnels(vdoth);
-        let layers = self.layers(wo.z);
-
-        let (p_coat, p_spec) = self.lobe_probabilities(wo.z);
+        let (p_coat, p_spec) = self.lobe_probabilities(wo.z, layers);
         let mut pdf = (1.0 - p_coat - p_spec).max(0.0) * cosine_hemisphere_pdf(wi.z);
-        let (mut dielectric, mut conductor) = match &layers {
+        let (mut dielectric, mut conductor) = match layers {
             Some(l) => {
                 let at_i = l.at(wi.z, self.alpha, smooth);
                 let diffuse =
@@ -343,7 +350,8 @@ impl MetallicRoughnessBsdf {
             return None;
         }
         let distrib = self.distribution();
-        let (p_coat, p_spec) = self.lobe_probabilities(wo.z);
+        let layers = self.layers(wo.z);
+        let (p_coat, p_spec) = self.lobe_probabilities(wo.z, layers.as_ref());
         let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
         // A Dirac lobe's sample: weight albedo / (cos pdf).
         let dirac = |albedo: SampledSpectrum, p: f32| {
@@ -383,7 +391,7 @@ impl MetallicRoughnessBsdf {
         if !(wi.z > 0.0) {
             return None;
         }
-        let (f, pdf) = self.eval_pdf(wo, wi);
+        let (f, pdf) = self.eval_pdf_with(wo, wi, layers.as_ref());
         if !(pdf > 0.0) {
             return None;
         }
@@ -470,7 +478,10 @@ mod tests {
         let (fd, _) = b.fresnels(0.7);
         assert_eq!(fd, SampledSpectrum::ONE);
         // The diffuse lobe gets (1 - F) = 0 of the light, so only the GGX lobe is sampled.
-        assert_eq!(b.lobe_probabilities(0.7), (0.0, 1.0));
+        assert_eq!(
+            b.lobe_probabilities(0.7, b.layers(0.7).as_ref()),
+            (0.0, 1.0)
+        );
     }
 
     /// F82 tint: at cos = 1/7 the metal's Fresnel is the tint times Schlick's; at normal
