@@ -61,6 +61,7 @@ fn metallic_roughness(base: SampledSpectrum, metallic: f32, roughness: f32, spec
         ior: 1.5,
         energy_compensation: true,
         coat: prism::bsdf::Coat::NONE,
+        iridescence: None,
     })
 }
 
@@ -97,6 +98,24 @@ fn coated(base: Bsdf, weight: f32, roughness: f32, tint: SampledSpectrum) -> Bsd
                 ior: 1.5,
                 tint,
             },
+            ..b
+        }),
+        _ => unreachable!(),
+    }
+}
+
+/// A metallic-roughness material whose specular layer carries a 350 nm film of IOR 1.33.
+fn filmed(b: Bsdf) -> Bsdf {
+    match b {
+        Bsdf::MetallicRoughness(b) => Bsdf::MetallicRoughness(MetallicRoughnessBsdf {
+            iridescence: Some(prism::bsdf::Iridescence {
+                film: prism::bsdf::ThinFilm {
+                    thickness_nm: 350.0,
+                    ior: 1.33,
+                },
+                weight: 1.0,
+                lambda: SampledSpectrum([420.0, 500.0, 580.0, 660.0]),
+            }),
             ..b
         }),
         _ => unreachable!(),
@@ -234,6 +253,16 @@ fn chi2_cases() -> Vec<Chi2Case> {
                 [metallic, roughness, coat_roughness],
             );
         }
+    }
+    // A thin film on the specular layer of an opaque material.
+    for roughness in [0.2f32, 0.6] {
+        push(
+            "metallic_roughness",
+            "thin-film metallic_roughness(metallic, roughness, specular)",
+            Target::Bsdf(filmed(metallic_roughness(color(), 0.0, roughness, 1.0))),
+            wo_at(0.5),
+            [0.0, roughness, 1.0],
+        );
     }
     // Smooth GGX limit: Dirac mirror lobe + diffuse; only the diffuse part has a density.
     for c in [0.3, 0.9] {
@@ -955,6 +984,7 @@ fn metallic_roughness_energy_is_bounded() {
                     ior: 1.5,
                     energy_compensation: false,
                     coat: prism::bsdf::Coat::NONE,
+                    iridescence: None,
                 });
                 for c in [0.1f32, 0.3, 0.6, 1.0] {
                     let (e, _) = albedo(&b, wo_at(c), 200_000, 23, false);
@@ -1400,4 +1430,43 @@ fn thin_film_splits_each_wavelength_by_its_airy_reflectance() {
         let (e, _) = albedo(&b, wo_at(0.5), 200_000, 41, true);
         assert!((e - 1.0).abs() < 0.012, "wavelength {i}: E = {e}");
     }
+}
+
+/// A thin film on an opaque material's specular layer (white base): the diffuse base is coupled
+/// to a Schlick-equivalent of the film's reflectance (its normal-incidence value, F90 = 1), so
+/// energy is conserved only approximately; bound the gain and the loss per wavelength.
+#[test]
+fn thin_film_on_a_white_base_stays_near_one() {
+    let mut worst = 0.0f64;
+    for roughness in [0.0f32, 0.3, 0.7] {
+        for c in [0.1f32, 0.5, 0.9] {
+            let Bsdf::MetallicRoughness(b) = filmed(metallic_roughness(
+                SampledSpectrum::ONE,
+                0.0,
+                roughness,
+                1.0,
+            )) else {
+                unreachable!()
+            };
+            let b = MetallicRoughnessBsdf {
+                specular_color: SampledSpectrum::ONE,
+                ..b
+            };
+            for i in 0..4 {
+                let mut film = b.iridescence.unwrap();
+                film.lambda.0.swap(0, i);
+                let bi = Bsdf::MetallicRoughness(MetallicRoughnessBsdf {
+                    iridescence: Some(film),
+                    ..b
+                });
+                let (e, _) = albedo(&bi, wo_at(c), 100_000, 43, false);
+                worst = worst.max((e - 1.0).abs());
+                assert!(
+                    (0.97..=1.03).contains(&e),
+                    "E = {e}: roughness {roughness} cos {c} wavelength {i}"
+                );
+            }
+        }
+    }
+    println!("thin film on a white base: worst |E - 1| = {worst:.4}");
 }

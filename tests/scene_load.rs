@@ -1137,7 +1137,7 @@ fn names_with_newlines_stay_on_one_line() {
 fn unsupported_optional_extensions_are_named_in_one_warning() {
     let dir = test_dir("unsupported_ext");
     let mut b = GltfBuilder::basic();
-    b.use_ext("KHR_materials_clearcoat");
+    b.use_ext("KHR_materials_anisotropy");
     b.use_ext("KHR_materials_sheen");
     b.use_ext("KHR_texture_transform");
     let s = load(&b.write_gltf(&dir.join("t.gltf")));
@@ -1148,7 +1148,7 @@ fn unsupported_optional_extensions_are_named_in_one_warning() {
         .collect();
     assert_eq!(hits.len(), 1, "{:?}", s.warnings);
     assert!(
-        hits[0].contains("KHR_materials_clearcoat, KHR_materials_sheen")
+        hits[0].contains("KHR_materials_anisotropy, KHR_materials_sheen")
             && !hits[0].contains("KHR_texture_transform"),
         "{}",
         hits[0]
@@ -1193,4 +1193,72 @@ fn vertex_colours_and_extra_uv_sets_are_loaded() {
         mesh.extra_uvs[1].as_ref().unwrap()[1],
         glam::Vec2::new(0.25, 0.75)
     );
+}
+
+/// KHR_materials_clearcoat (+ the add-on's coat extras) and KHR_materials_iridescence reach the
+/// material; their textures are named in a warning; out-of-range values are one-line errors.
+#[test]
+fn clearcoat_and_iridescence_are_read() {
+    let dir = test_dir("coat_film");
+    let mut b = GltfBuilder::basic();
+    b.use_ext("KHR_materials_clearcoat");
+    b.use_ext("KHR_materials_iridescence");
+    let coated = b.material(json!({
+        "name": "Coated",
+        "extras": { "prism_coat_ior": 1.6, "prism_coat_tint": [0.9, 0.5, 0.2] },
+        "extensions": {
+            "KHR_materials_clearcoat": { "clearcoatFactor": 0.8, "clearcoatRoughnessFactor": 0.2,
+                                         "clearcoatTexture": { "index": 0 } },
+            "KHR_materials_iridescence": { "iridescenceFactor": 1.0, "iridescenceIor": 1.4,
+                                           "iridescenceThicknessMaximum": 520.0 }
+        }
+    }));
+    let q = b.quad_mesh("C", Some(coated));
+    b.root(json!({ "name": "C", "mesh": q }));
+    let s = load(&b.write_gltf(&dir.join("c.gltf")));
+    let m = &s.materials[coated].gltf;
+    assert_eq!((m.coat, m.coat_roughness, m.coat_ior), (0.8, 0.2, 1.6));
+    assert_eq!(m.coat_tint, Vec3::new(0.9, 0.5, 0.2));
+    assert_eq!(
+        (m.iridescence, m.iridescence_ior, m.iridescence_thickness),
+        (1.0, 1.4, 520.0)
+    );
+    assert!(
+        s.warnings.iter().any(|w| w.contains("clearcoat textures")),
+        "{:?}",
+        s.warnings
+    );
+    assert!(s
+        .warnings
+        .iter()
+        .all(|w| !w.contains("extensions not supported")));
+    // Defaults: no coat, IOR 1.5, white tint; the extension's film defaults.
+    let plain = load(&GltfBuilder::basic().write_gltf(&dir.join("plain.gltf")));
+    let p = &plain.materials[0].gltf;
+    assert_eq!((p.coat, p.coat_ior, p.iridescence), (0.0, 1.5, 0.0));
+    for (ext, bad, want) in [
+        (
+            "KHR_materials_clearcoat",
+            json!({ "clearcoatFactor": 1.5 }),
+            "KHR_materials_clearcoat.clearcoatFactor must be a number in [0, 1], got 1.5",
+        ),
+        (
+            "KHR_materials_iridescence",
+            json!({ "iridescenceIor": 0.5 }),
+            "KHR_materials_iridescence.iridescenceIor must be a number >= 1, got 0.5",
+        ),
+        (
+            "KHR_materials_iridescence",
+            json!({ "iridescenceThicknessMaximum": -3 }),
+            "iridescenceThicknessMaximum must be a non-negative number, got -3",
+        ),
+    ] {
+        let mut b = GltfBuilder::basic();
+        b.use_ext(ext);
+        let m = b.material(json!({ "name": "Bad", "extensions": { ext: bad } }));
+        let q = b.quad_mesh("B", Some(m));
+        b.root(json!({ "name": "B", "mesh": q }));
+        let e = input_error(load_scene(&b.write_gltf(&dir.join("bad.gltf")), None, None));
+        assert!(e.contains(want), "{e}");
+    }
 }

@@ -331,9 +331,9 @@ def convert_material(mat):
         sss = _principled_subsurface(node, m)
         _principled_coat(node, m)
         m["specular_tint"] = _principled_specular_tint(node, m["base"])
-        # Thin Film (4.2+): exact per wavelength in Prism; on transmissive surfaces only.
+        # Thin Film (4.2+): exact per wavelength in Prism, on the dielectric (not the metal).
         thickness = _val(node, "Thin Film Thickness", default=0.0)
-        if thickness > 0.0 and m["transmission"] > 0.0:
+        if thickness > 0.0:
             m["thin_film"] = (float(thickness), max(float(_val(node, "Thin Film IOR", default=1.33)), 1.0))
     elif t == "BSDF_DIFFUSE":
         sock = _socket(node, "Color")
@@ -1204,10 +1204,12 @@ class Exporter:
             ("Sheen", lambda v: v > 0.0, "Sheen"),
             ("Anisotropic", lambda v: v > 0.0, "Anisotropic"),
         ]
-        transmission = node.inputs.get("Transmission Weight")
-        if not own_material or transmission is None or float(transmission.default_value) <= 0.0:
+        metallic = node.inputs.get("Metallic")
+        if not own_material:
+            checks.append(("Thin Film Thickness", lambda v: v > 0.0, "Thin Film (inside a Mix/Add Shader)"))
+        elif metallic is not None and (metallic.is_linked or float(metallic.default_value) > 0.0):
             checks.append(("Thin Film Thickness", lambda v: v > 0.0,
-                           "Thin Film (rendered on transmissive Principled materials only)"))
+                           "Thin Film on the metallic part (rendered on the dielectric part only)"))
         for sock_name, bad, what in checks:
             sock = node.inputs.get(sock_name)
             if sock is None or sock.is_linked:

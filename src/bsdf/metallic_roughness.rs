@@ -73,6 +73,59 @@ impl MetallicRoughnessBsdf {
         (self.specular_color * r0).map(|v| v.min(1.0)) * self.specular
     }
 
+    /// The dielectric layer's Fresnel as a Schlick curve (F0, F90), for its tabulated albedo. A
+    /// thin film's reflectance is not one: with a film the curve gets F90 = 1 (a dielectric's
+    /// Fresnel at grazing) and the F0 that gives it the film's hemispherical average (so the
+    /// base receives the right share of uniform light; `tests/bsdf_chi2.rs` bounds the rest).
+    fn layer_schlick_equivalent(&self) -> (SampledSpectrum, f32) {
+        let (f0, f90) = (self.dielectric_f0(), self.dielectric_f90());
+        match self.iridescence.filter(|i| i.weight > 0.0) {
+            Some(film) => {
+                let f90 = f90 + (1.0 - f90) * film.weight.min(1.0);
+                // average = f0 + (f90 - f0) / 21.
+                let f0 = self
+                    .dielectric_fresnel_average(|mu| self.fresnels(mu).0)
+                    .map(|a| ((21.0 * a - f90) / 20.0).clamp(0.0, 1.0));
+                (f0, f90)
+            }
+            None => (f0, f90),
+        }
+    }
+
+    /// The albedo of the specular layer under a film with GGX albedos `a` (see `Layers::film`):
+    /// the single scattering `E F(mu_eff)`, the Fresnel at the cosine `mu_eff` whose Schlick
+    /// weight is the lobe's mean one (`(1 - mu_eff)^5 = B / E`: the microfacets a rough lobe
+    /// reflects through face the viewer more than the macro-surface does), plus the multiple
+    /// scattering `F_ms (1 - E)`. Exact for a smooth layer (`mu_eff = mu`).
+    fn film_albedo(&self, a: ReflectionAlbedo, fms_d: SampledSpectrum) -> SampledSpectrum {
+        let w = if a.e > 0.0 {
+            (a.b / a.e).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let mu_eff = 1.0 - w.powf(0.2);
+        self.fresnels(mu_eff).0 * a.e + fms_d * (1.0 - a.e)
+    }
+
+    /// `2 int g(mu) mu dmu` over the hemisphere for a spectral `g` (8-point Gauss-Legendre in
+    /// mu: the Airy reflectance of films up to a few hundred nm is smooth in the angle).
+    fn dielectric_fresnel_average(&self, g: impl Fn(f32) -> SampledSpectrum) -> SampledSpectrum {
+        const NODES: [(f32, f32); 4] = [
+            (0.183_434_64, 0.362_683_8),
+            (0.525_532_4, 0.313_706_65),
+            (0.796_666_5, 0.222_381_03),
+            (0.960_289_9, 0.101_228_54),
+        ];
+        let mut sum = SampledSpectrum::ZERO;
+        for (x, w) in NODES {
+            for mu in [0.5 * (1.0 - x), 0.5 * (1.0 + x)] {
+                // dmu = dx / 2, and the factor 2 of the average: weight w mu.
+                sum += g(mu) * (w * mu);
+            }
+        }
+        sum
+    }
+
     /// Dielectric grazing reflectance: the specular factor in the glTF model (the spec scales
     /// F90 with it); at most 1 in the energy-conserving model, where (as in Cycles, whose
     /// Specular IOR Level changes the IOR, and a dielectric's Fresnel reaches 1 at grazing
@@ -89,12 +142,23 @@ impl MetallicRoughnessBsdf {
     /// Dielectric and conductor Fresnel at a cosine with the microfacet normal: Schlick for
     /// the dielectric; for the conductor Schlick with F0 = base colour, in the
     /// energy-conserving model minus the F82-tint term (`f82_tint_scale`).
+    /// With a thin film the dielectric's Fresnel is mixed with the film's Airy reflectance
+    /// over a substrate of the material's IOR, per wavelength (`thin_film.rs`).
     #[inline]
     fn fresnels(&self, cos: f32) -> (SampledSpectrum, SampledSpectrum) {
         let w5 = schlick_weight(cos);
         let f0 = self.dielectric_f0();
         let f90 = self.dielectric_f90();
-        let fd = f0.map(|f| f + (f90 - f) * w5);
+        let mut fd = f0.map(|f| f + (f90 - f) * w5);
+        if let Some(film) = self.iridescence.filter(|i| i.weight > 0.0) {
+            let w = film.weight.min(1.0);
+            fd = SampledSpectrum::from_fn(|k| {
+                let r = film
+                    .film
+                    .reflectance(cos, self.ior.max(1.0), film.lambda[k]);
+                fd[k] + w * (r - fd[k])
+            });
+        }
         let mut fc = self.base_color.map(|b| b + (1.0 - b) * w5);
         if let Some(a) = self.f82_tint_scale() {
             let c = cos.clamp(0.0, 1.0);
@@ -210,8 +274,7 @@ impl MetallicRoughnessBsdf {
                 ggx_reflection_average(self.alpha),
             )
         };
-        let f0_d = self.dielectric_f0();
-        let f90_d = self.dielectric_f90();
+        let (f0_d, f90_d) = self.layer_schlick_equivalent();
         let fms = |f_avg: SampledSpectrum| f_avg.map(|f| multiscatter_fresnel(f, average.e));
         let fms_d = fms(f0_d.map(|f| f + (f90_d - f) * SCHLICK_WEIGHT_AVERAGE));
         // Hemispherical average of the conductor's Fresnel: Schlick's, minus the F82 term's
@@ -228,7 +291,11 @@ impl MetallicRoughnessBsdf {
         } else {
             0.0
         };
+        // Under a film the layer's albedo is taken as F(mu) E(mu) (the film's curve is no Schlick
+        // curve; exact for a smooth layer, whose mirror reflects exactly F(mu)).
+        let film = self.iridescence.is_some_and(|i| i.weight > 0.0);
         let mut layers = Layers {
+            film,
             ms_scale_o: (1.0 - albedo.e).max(0.0),
             ms_norm,
             fms_d,
@@ -238,12 +305,32 @@ impl MetallicRoughnessBsdf {
             diffuse_o: SampledSpectrum::ZERO,
             diffuse_norm: SampledSpectrum::ZERO,
         };
-        layers.diffuse_o = layers.left_to_diffuse(albedo);
+        let (diffuse_o, diffuse_avg) = if film {
+            let rest = |f: SampledSpectrum| f.map(|v| (1.0 - v).max(0.0));
+            let albedo_at = |mu: f32| {
+                if smooth {
+                    ReflectionAlbedo {
+                        e: 1.0,
+                        b: schlick_weight(mu),
+                    }
+                } else {
+                    ggx_reflection_albedo(self.alpha, mu)
+                }
+            };
+            let film_avg = self.dielectric_fresnel_average(|mu| {
+                let a = albedo_at(mu);
+                self.film_albedo(a, fms_d)
+            });
+            (rest(self.film_albedo(albedo, fms_d)), rest(film_avg))
+        } else {
+            (
+                layers.left_to_diffuse(albedo),
+                layers.left_to_diffuse(average),
+            )
+        };
+        layers.diffuse_o = diffuse_o;
         // The diffuse lobe's 1 / (1 - A_d,avg) normalisation (0 when the layer reflects all).
-        layers.diffuse_norm =
-            layers
-                .left_to_diffuse(average)
-                .map(|v| if v > 1e-6 { 1.0 / v } else { 0.0 });
+        layers.diffuse_norm = diffuse_avg.map(|v| if v > 1e-6 { 1.0 / v } else { 0.0 });
         Some(layers)
     }
 
@@ -274,7 +361,7 @@ impl MetallicRoughnessBsdf {
         let mut pdf = (1.0 - p_coat - p_spec).max(0.0) * cosine_hemisphere_pdf(wi.z);
         let (mut dielectric, mut conductor) = match layers {
             Some(l) => {
-                let at_i = l.at(wi.z, self.alpha, smooth);
+                let at_i = l.at(wi.z, self.alpha, smooth, |a, f| self.film_albedo(a, f));
                 let diffuse =
                     self.base_color * INV_PI * l.diffuse_o * at_i.diffuse * l.diffuse_norm;
                 let ms = l.ms_scale_o * at_i.ms_scale * l.ms_norm;
@@ -322,7 +409,10 @@ impl MetallicRoughnessBsdf {
         let share = match self.layers(wo.z) {
             Some(l) => {
                 let smooth = self.distribution().effectively_smooth();
-                l.diffuse_o * l.at(wi.z, self.alpha, smooth).diffuse * l.diffuse_norm
+                l.diffuse_o
+                    * l.at(wi.z, self.alpha, smooth, |a, f| self.film_albedo(a, f))
+                        .diffuse
+                    * l.diffuse_norm
             }
             None => {
                 let h = (wo + wi).normalize_or_zero();
@@ -408,6 +498,8 @@ impl MetallicRoughnessBsdf {
 
 /// The energy-compensation terms of one evaluation that depend on `wo` only.
 struct Layers {
+    /// A thin film on the layer: its albedo is `MetallicRoughnessBsdf::film_albedo`.
+    film: bool,
     /// 1 - E(mu_o): the multiple-scattering lobe's factor at `wo`.
     ms_scale_o: f32,
     /// 1 / (pi (1 - E_avg)).
@@ -429,7 +521,15 @@ struct LayersAt {
 }
 
 impl Layers {
-    fn at(&self, cos_i: f32, alpha: f32, smooth: bool) -> LayersAt {
+    /// The factors at `wi`; `film_albedo` is `MetallicRoughnessBsdf::film_albedo` (used under
+    /// a film).
+    fn at(
+        &self,
+        cos_i: f32,
+        alpha: f32,
+        smooth: bool,
+        film_albedo: impl Fn(ReflectionAlbedo, SampledSpectrum) -> SampledSpectrum,
+    ) -> LayersAt {
         let a = if smooth {
             ReflectionAlbedo {
                 e: 1.0,
@@ -438,9 +538,14 @@ impl Layers {
         } else {
             ggx_reflection_albedo(alpha, cos_i)
         };
+        let diffuse = if self.film {
+            film_albedo(a, self.fms_d).map(|v| (1.0 - v).max(0.0))
+        } else {
+            self.left_to_diffuse(a)
+        };
         LayersAt {
             ms_scale: (1.0 - a.e).max(0.0),
-            diffuse: self.left_to_diffuse(a),
+            diffuse,
         }
     }
 
@@ -473,6 +578,7 @@ mod tests {
             ior: 0.0,
             energy_compensation: false,
             coat: Coat::NONE,
+            iridescence: None,
         };
         assert_eq!(b.dielectric_f0(), SampledSpectrum::ONE);
         let (fd, _) = b.fresnels(0.7);
@@ -499,6 +605,7 @@ mod tests {
             ior: 1.5,
             energy_compensation: true,
             coat: Coat::NONE,
+            iridescence: None,
         };
         let schlick = |c: f32| base.map(|f| f + (1.0 - f) * schlick_weight(c));
         let (_, fc) = b.fresnels(1.0 / 7.0);

@@ -148,6 +148,8 @@ pub struct MetallicRoughnessBsdf {
     pub energy_compensation: bool,
     /// A clear coat over all of it (`coat.rs`; `Coat::NONE` for none).
     pub coat: Coat,
+    /// A thin film on the dielectric specular layer (`thin_film.rs`; metals ignore it).
+    pub iridescence: Option<Iridescence>,
 }
 
 /// Dielectric interface: smooth (alpha < 1e-3, or eta == 1: exact Fresnel, specular reflection

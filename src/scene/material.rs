@@ -53,7 +53,8 @@ pub struct Material {
     energy_compensation: bool,
     /// The clear coat (weight 0: none).
     coat: MaterialCoat,
-    /// A thin film on transmissive surfaces and its weight (KHR_materials_iridescence).
+    /// A thin film and its weight (KHR_materials_iridescence): on the dielectric interface of
+    /// transmissive surfaces and on the specular layer of opaque ones.
     thin_film: Option<(ThinFilm, f32)>,
     /// KHR_materials_specular colour, upsampled once (not per shading point).
     specular_color: RgbAlbedoSpectrum,
@@ -400,6 +401,15 @@ impl Material {
         }
     }
 
+    /// The thin film at the path's wavelengths, if any.
+    fn iridescence(&self, w: &SampledWavelengths) -> Option<Iridescence> {
+        self.thin_film.map(|(film, weight)| Iridescence {
+            film,
+            weight,
+            lambda: SampledSpectrum::from_fn(|i| w.lambda[i]),
+        })
+    }
+
     /// The glTF model has a Lambertian base everywhere: not a metal, not transmissive, no
     /// sidecar model (see `gltf_bsdf`).
     fn has_diffuse_base(&self) -> bool {
@@ -542,16 +552,16 @@ impl Material {
                 eta: SampledSpectrum::from_fn(|i| self.gltf_ior.eval(w.lambda[i])),
                 alpha: if alpha < MIN_ALPHA { 0.0 } else { alpha },
                 transmission_tint: base,
-                iridescence: self.thin_film.map(|(film, weight)| Iridescence {
-                    film,
-                    weight,
-                    lambda: SampledSpectrum::from_fn(|i| w.lambda[i]),
-                }),
+                iridescence: self.iridescence(w),
                 refraction_only,
                 energy_compensation: self.energy_compensation,
             });
         }
-        if metallic <= 0.0 && specular <= 0.0 && !(self.coat.weight > 0.0) {
+        if metallic <= 0.0
+            && specular <= 0.0
+            && !(self.coat.weight > 0.0)
+            && self.thin_film.is_none()
+        {
             return Bsdf::Diffuse(DiffuseBsdf { reflectance: base });
         }
         Bsdf::MetallicRoughness(MetallicRoughnessBsdf {
@@ -563,6 +573,7 @@ impl Material {
             ior: g.ior,
             energy_compensation: self.energy_compensation,
             coat: self.coat.sample(w),
+            iridescence: self.iridescence(w),
         })
     }
 }
