@@ -104,35 +104,33 @@ fn coated(base: Bsdf, weight: f32, roughness: f32, tint: SampledSpectrum) -> Bsd
     }
 }
 
-/// A metallic-roughness material whose specular layer carries a 350 nm film of IOR 1.33.
+/// A 350 nm soap film (IOR 1.33) at four visible wavelengths.
+fn soap_film() -> Option<prism::bsdf::Iridescence> {
+    Some(prism::bsdf::Iridescence {
+        film: prism::bsdf::ThinFilm {
+            thickness_nm: 350.0,
+            ior: 1.33,
+        },
+        weight: 1.0,
+        lambda: SampledSpectrum([420.0, 500.0, 580.0, 660.0]),
+    })
+}
+
+/// A metallic-roughness material whose specular layer carries the soap film.
 fn filmed(b: Bsdf) -> Bsdf {
     match b {
         Bsdf::MetallicRoughness(b) => Bsdf::MetallicRoughness(MetallicRoughnessBsdf {
-            iridescence: Some(prism::bsdf::Iridescence {
-                film: prism::bsdf::ThinFilm {
-                    thickness_nm: 350.0,
-                    ior: 1.33,
-                },
-                weight: 1.0,
-                lambda: SampledSpectrum([420.0, 500.0, 580.0, 660.0]),
-            }),
+            iridescence: soap_film(),
             ..b
         }),
         _ => unreachable!(),
     }
 }
 
-/// Glass (IOR 1.5) under a 350 nm soap film (IOR 1.33), at four visible wavelengths.
+/// Glass (IOR 1.5) under the soap film.
 fn thin_film_glass(roughness: f32) -> Bsdf {
     Bsdf::Dielectric(DielectricBsdf {
-        iridescence: Some(prism::bsdf::Iridescence {
-            film: prism::bsdf::ThinFilm {
-                thickness_nm: 350.0,
-                ior: 1.33,
-            },
-            weight: 1.0,
-            lambda: SampledSpectrum([420.0, 500.0, 580.0, 660.0]),
-        }),
+        iridescence: soap_film(),
         ..match dielectric(1.5, roughness) {
             Bsdf::Dielectric(d) => d,
             _ => unreachable!(),
@@ -703,23 +701,34 @@ fn albedo(b: &Bsdf, wo: Vec3, n: usize, seed: u64, undo_eta2: bool) -> (f64, f32
     (sum / n as f64, max_weight)
 }
 
-/// A white furnace check: the albedo of `b` at `wo` (`albedo` with `n` samples) must lie in
-/// `range`; `worst` keeps the largest |E - 1| seen, `what` names the case in the failure.
-#[allow(clippy::too_many_arguments)]
-fn check_albedo(
-    b: &Bsdf,
-    wo: Vec3,
+/// White-furnace checks of a family of BSDFs: each albedo (`albedo` with `n` samples and
+/// `seed`) must lie in `range`; `worst` keeps the largest |E - 1| seen.
+struct Furnace {
     n: usize,
     seed: u64,
     undo_eta2: bool,
     range: std::ops::RangeInclusive<f64>,
-    worst: &mut f64,
-    what: impl Fn() -> String,
-) -> f64 {
-    let (e, _) = albedo(b, wo, n, seed, undo_eta2);
-    *worst = worst.max((e - 1.0).abs());
-    assert!(range.contains(&e), "E = {e}: {}", what());
-    e
+    worst: f64,
+}
+
+impl Furnace {
+    fn new(n: usize, seed: u64, undo_eta2: bool, range: std::ops::RangeInclusive<f64>) -> Self {
+        Furnace {
+            n,
+            seed,
+            undo_eta2,
+            range,
+            worst: 0.0,
+        }
+    }
+
+    /// The albedo of `b` at `wo`, asserted in range (`what` names the case).
+    fn check(&mut self, b: &Bsdf, wo: Vec3, what: impl Fn() -> String) -> f64 {
+        let (e, _) = albedo(b, wo, self.n, self.seed, self.undo_eta2);
+        self.worst = self.worst.max((e - 1.0).abs());
+        assert!(self.range.contains(&e), "E = {e}: {}", what());
+        e
+    }
 }
 
 #[test]
@@ -798,21 +807,24 @@ fn rough_dielectric_energy_is_bounded() {
 /// dispersive IORs (each wavelength divided by its own albedo), at every roughness.
 #[test]
 fn rough_dielectric_white_furnace() {
-    let mut worst = 0.0f64;
+    let mut furnace = Furnace::new(200_000, 19, true, 0.99..=1.01);
     for eta in [1.5f32, 1.0 / 1.5, 1.33, 2.4] {
         for roughness in [0.2f32, 0.5, 0.8, 1.0] {
             let b = dielectric(eta, roughness);
             for c in [0.05f32, 0.2, 0.5, 0.9] {
                 for side in [1.0f32, -1.0] {
                     let wo = wo_at(c) * Vec3::new(1.0, 1.0, side);
-                    check_albedo(&b, wo, 200_000, 19, true, 0.99..=1.01, &mut worst, || {
+                    furnace.check(&b, wo, || {
                         format!("eta {eta} roughness {roughness} cos_o {}", wo.z)
                     });
                 }
             }
         }
     }
-    println!("compensated rough glass: worst |E - 1| = {worst:.4}");
+    println!(
+        "compensated rough glass: worst |E - 1| = {:.4}",
+        furnace.worst
+    );
     // A dispersive glass: every wavelength's own albedo is 1 (slot i of f holds eta[i]).
     let d = DielectricBsdf {
         eta: SampledSpectrum([1.45, 1.5, 1.6, 1.75]),
@@ -843,6 +855,12 @@ fn energy_tables_match_monte_carlo() {
         ggx_dielectric_albedo, ggx_reflection_albedo, ggx_reflection_average,
     };
     let mut worst = [0.0f64; 3];
+    let close = |what: String, integral: f64, table: f32, tol: f64| {
+        assert!(
+            (integral - table as f64).abs() < tol,
+            "{what}: integral {integral} table {table}"
+        );
+    };
     for (roughness, c) in [
         (0.13f32, 0.37f32),
         (0.35, 0.08),
@@ -868,16 +886,8 @@ fn energy_tables_match_monte_carlo() {
         );
         worst[0] = worst[0].max((e - table.e as f64).abs());
         worst[1] = worst[1].max((b - table.b as f64).abs());
-        assert!(
-            (e - table.e as f64).abs() < 0.006,
-            "E({roughness}, {c}): MC {e} table {}",
-            table.e
-        );
-        assert!(
-            (b - table.b as f64).abs() < 0.006,
-            "B({roughness}, {c}): MC {b} table {}",
-            table.b
-        );
+        close(format!("E({roughness}, {c})"), e, table.e, 0.006);
+        close(format!("B({roughness}, {c})"), b, table.b, 0.006);
         for eta in [1.05f32, 1.33, 1.7, 1.0 / 1.45] {
             for side in [1.0f32, -1.0] {
                 let wo = wo_at(c) * Vec3::new(1.0, 1.0, side);
@@ -888,13 +898,9 @@ fn energy_tables_match_monte_carlo() {
                     13,
                     true,
                 );
-                let t = ggx_dielectric_albedo(alpha, wo.z, eta) as f64;
-                worst[2] = worst[2].max((mc - t).abs());
-                assert!(
-                    (mc - t).abs() < 0.006,
-                    "E_T({roughness}, {}, {eta}): MC {mc} table {t}",
-                    wo.z
-                );
+                let t = ggx_dielectric_albedo(alpha, wo.z, eta);
+                worst[2] = worst[2].max((mc - t as f64).abs());
+                close(format!("E_T({roughness}, {}, {eta})", wo.z), mc, t, 0.006);
             }
         }
         // The averages are 2 int E mu dmu of the directional table (fine midpoint rule).
@@ -907,16 +913,8 @@ fn energy_tables_match_monte_carlo() {
             ba += 2.0 * (a.b * mu) as f64 / n as f64;
         }
         let avg = ggx_reflection_average(alpha);
-        assert!(
-            (ea - avg.e as f64).abs() < 0.004,
-            "E_avg({roughness}): {ea} vs {}",
-            avg.e
-        );
-        assert!(
-            (ba - avg.b as f64).abs() < 0.004,
-            "B_avg({roughness}): {ba} vs {}",
-            avg.b
-        );
+        close(format!("E_avg({roughness})"), ea, avg.e, 0.004);
+        close(format!("B_avg({roughness})"), ba, avg.b, 0.004);
     }
     println!(
         "table vs Monte Carlo, worst |difference|: E {:.4} B {:.4} E_T {:.4}",
@@ -1037,25 +1035,21 @@ fn metallic_roughness_energy_is_bounded() {
 #[test]
 fn principled_white_furnace() {
     let white = SampledSpectrum::ONE;
-    let mut worst = 0.0f64;
+    let mut furnace = Furnace::new(200_000, 31, false, 0.99..=1.007);
     for metallic in [0.0f32, 0.5, 1.0] {
         for roughness in [0.0f32, 0.1, 0.3, 0.6, 0.8, 1.0] {
             for c in [0.05f32, 0.2, 0.5, 0.9] {
                 let b = metallic_roughness(white, metallic, roughness, 1.0);
-                check_albedo(
-                    &b,
-                    wo_at(c),
-                    200_000,
-                    31,
-                    false,
-                    0.99..=1.007,
-                    &mut worst,
-                    || format!("metallic {metallic} roughness {roughness} cos_o {c}"),
-                );
+                furnace.check(&b, wo_at(c), || {
+                    format!("metallic {metallic} roughness {roughness} cos_o {c}")
+                });
             }
         }
     }
-    println!("energy-conserving Principled, white: worst |E - 1| = {worst:.4}");
+    println!(
+        "energy-conserving Principled, white: worst |E - 1| = {:.4}",
+        furnace.worst
+    );
     // A coloured conductor loses energy to absorption between the facets: darker than the
     // compensated white one, brighter than single scattering.
     let gold = SampledSpectrum([1.0, 0.8, 0.4, 0.9]);
@@ -1089,7 +1083,7 @@ fn principled_white_furnace() {
 #[test]
 fn coat_over_white_base_conserves_energy() {
     let white = SampledSpectrum::ONE;
-    let mut worst = 0.0f64;
+    let mut furnace = Furnace::new(200_000, 37, false, 0.985..=1.007);
     for metallic in [0.0f32, 1.0] {
         for roughness in [0.2f32, 0.8] {
             for (weight, coat_roughness) in [(1.0f32, 0.0f32), (1.0, 0.1), (0.5, 0.5), (1.0, 1.0)] {
@@ -1097,16 +1091,7 @@ fn coat_over_white_base_conserves_energy() {
                     let base = metallic_roughness(white, metallic, roughness, 1.0);
                     let b = coated(base, weight, coat_roughness, white);
                     let msg = format!("metallic {metallic} roughness {roughness} coat {weight} coat roughness {coat_roughness} cos_o {c}");
-                    let e = check_albedo(
-                        &b,
-                        wo_at(c),
-                        200_000,
-                        37,
-                        false,
-                        0.985..=1.007,
-                        &mut worst,
-                        || msg.clone(),
-                    );
+                    let e = furnace.check(&b, wo_at(c), || msg.clone());
                     let tinted = coated(
                         base,
                         weight,
@@ -1122,7 +1107,7 @@ fn coat_over_white_base_conserves_energy() {
             }
         }
     }
-    println!("coated white base: worst |E - 1| = {worst:.4}");
+    println!("coated white base: worst |E - 1| = {:.4}", furnace.worst);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1463,7 +1448,7 @@ fn thin_film_splits_each_wavelength_by_its_airy_reflectance() {
 /// energy is conserved only approximately; bound the gain and the loss per wavelength.
 #[test]
 fn thin_film_on_a_white_base_stays_near_one() {
-    let mut worst = 0.0f64;
+    let mut furnace = Furnace::new(100_000, 43, false, 0.97..=1.03);
     for roughness in [0.0f32, 0.3, 0.7] {
         for c in [0.1f32, 0.5, 0.9] {
             let Bsdf::MetallicRoughness(b) = filmed(metallic_roughness(
@@ -1485,18 +1470,14 @@ fn thin_film_on_a_white_base_stays_near_one() {
                     iridescence: Some(film),
                     ..b
                 });
-                check_albedo(
-                    &bi,
-                    wo_at(c),
-                    100_000,
-                    43,
-                    false,
-                    0.97..=1.03,
-                    &mut worst,
-                    || format!("roughness {roughness} cos {c} wavelength {i}"),
-                );
+                furnace.check(&bi, wo_at(c), || {
+                    format!("roughness {roughness} cos {c} wavelength {i}")
+                });
             }
         }
     }
-    println!("thin film on a white base: worst |E - 1| = {worst:.4}");
+    println!(
+        "thin film on a white base: worst |E - 1| = {:.4}",
+        furnace.worst
+    );
 }
