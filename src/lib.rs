@@ -15,6 +15,7 @@ pub mod media;
 pub mod render;
 pub mod sampler;
 pub mod scene;
+pub mod serve;
 pub mod shading;
 pub mod spectrum;
 

@@ -295,6 +295,17 @@ enum Command {
     },
     /// Measure samples/s and rays/s per thread on a scene (default: the Cornell box).
     Bench(BenchArgs),
+    /// Stay up for an interactive session (Blender's rendered viewport): JSON commands on
+    /// stdin (load, view, transform, shading, settings, stop, quit), events and raw float
+    /// frames on stdout; the protocol is documented in `src/serve.rs`
+    Serve {
+        /// Worker threads (default: all cores)
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Cache mesh BVHs here, so a re-load after a mesh edit rebuilds only that mesh
+        #[arg(long)]
+        bvh_cache: Option<PathBuf>,
+    },
 }
 
 fn main() {
@@ -313,6 +324,7 @@ fn main() {
             exposure,
         } => to_png(&input, &output, exposure),
         Command::Bench(args) => run_bench(&args),
+        Command::Serve { threads, bvh_cache } => run_serve(threads, bvh_cache.as_deref()),
     };
     // BVH cache entries are written while the render runs; let them finish before exiting.
     prism::geometry::bvh_cache::wait_for_stores();
@@ -431,6 +443,7 @@ fn load(args: &SceneArgs) -> Result<Loaded> {
         clamp: SampleClamp::default(),
         film_transparent: args.film_transparent || defaults.film_transparent.unwrap_or(false),
         crop: None,
+        max_pass_samples: 64,
     };
     let threshold = args
         .noise_threshold
@@ -529,6 +542,17 @@ fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     builder
         .build()
         .map_err(|e| PrismError::internal(format!("cannot start worker threads: {e}")))
+}
+
+fn run_serve(threads: Option<usize>, bvh_cache: Option<&Path>) -> Result<()> {
+    if let Some(dir) = bvh_cache {
+        prism::geometry::bvh_cache::set_cache_dir(dir).map_err(|e| {
+            PrismError::input(format!("--bvh-cache {}: cannot create: {e}", dir.display()))
+        })?;
+    }
+    let pool = thread_pool(threads)?;
+    let stdin = std::io::BufReader::new(std::io::stdin());
+    prism::serve::serve(stdin, std::io::stdout(), pool)
 }
 
 fn json_escape(s: &str) -> String {

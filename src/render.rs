@@ -48,6 +48,9 @@ pub struct RenderSettings {
     /// film is the window's size, and each of its pixels gets exactly the samples (and value)
     /// it gets in the full render.
     pub crop: Option<Crop>,
+    /// The most samples a progressive pass takes (passes double up to it; 64 by default). A
+    /// smaller cap shows results more often (the interactive viewport), at a little overhead.
+    pub max_pass_samples: u32,
 }
 
 /// A window of the image: top-left pixel and size.
@@ -116,6 +119,7 @@ impl Default for RenderSettings {
             clamp: SampleClamp::default(),
             film_transparent: false,
             crop: None,
+            max_pass_samples: 64,
         }
     }
 }
@@ -147,15 +151,16 @@ pub struct RenderStats {
 /// to amortise scheduling.
 const BAND_ROWS: usize = 4;
 
-/// Samples of the pass after `done` of `spp`: 1, 1, 2, 4, ... doubling up to 64 per pass (so
-/// passes end at stratified prefixes of every pixel's sequence). With adaptive sampling the
-/// passes land exactly on `min_samples` and continue in steps of a quarter of the samples
-/// done (4 to 64), so converged pixels stop soon after they converge.
-fn next_pass(done: u32, spp: u32, adaptive_min: Option<u32>) -> u32 {
-    let doubling = if done <= 1 { 1 } else { done.min(64) };
+/// Samples of the pass after `done` of `spp`: 1, 1, 2, 4, ... doubling up to `cap` (64 by
+/// default) per pass (so passes end at stratified prefixes of every pixel's sequence). With
+/// adaptive sampling the passes land exactly on `min_samples` and continue in steps of a
+/// quarter of the samples done (4 to `cap`), so converged pixels stop soon after they converge.
+fn next_pass(done: u32, spp: u32, adaptive_min: Option<u32>, cap: u32) -> u32 {
+    let cap = cap.max(1);
+    let doubling = if done <= 1 { 1 } else { done.min(cap) };
     let n = match adaptive_min {
         Some(min) if done < min => doubling.min(min - done),
-        Some(_) => (done / 4).clamp(4, 64),
+        Some(_) => (done / 4).clamp(4.min(cap), cap),
         None => doubling,
     };
     n.min(spp - done)
@@ -167,7 +172,7 @@ fn pass_sizes(spp: u32) -> Vec<u32> {
     let mut sizes = Vec::new();
     let mut done = 0;
     while done < spp {
-        let n = next_pass(done, spp, None);
+        let n = next_pass(done, spp, None, 64);
         sizes.push(n);
         done += n;
     }
@@ -251,7 +256,12 @@ pub fn render(
             if cancel.load(Ordering::Relaxed) {
                 break;
             }
-            let pass = next_pass(spp_done, settings.spp, adaptive_min);
+            let pass = next_pass(
+                spp_done,
+                settings.spp,
+                adaptive_min,
+                settings.max_pass_samples,
+            );
             let (s0, s1) = (spp_done, spp_done + pass);
             film.pixels
                 .par_chunks_mut(w * BAND_ROWS)

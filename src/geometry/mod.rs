@@ -394,7 +394,9 @@ pub struct Geometry {
     pub meshes: Vec<Mesh>,
     pub instances: Vec<Instance>,
     flat: Option<FlatLevel>,
-    /// Over the instances that share their mesh (empty when none do).
+    /// Whether instance i is in the flattened level (else under the TLAS).
+    flattened: Vec<bool>,
+    /// Over the instances that are not flattened (empty when there are none).
     tlas: CwBvh,
     /// Those instances in TLAS leaf order (ids the traversal reports).
     tlas_order: Vec<u32>,
@@ -496,34 +498,72 @@ impl FlatLevel {
     }
 }
 
+/// How `Geometry` arranges its BVHs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BvhLayout {
+    /// Instances whose mesh no other instance uses in one world-space BVH, shared meshes under
+    /// a two-level BVH: the fastest to trace (final renders).
+    Flattened,
+    /// Every instance under the top level: moving an object rebuilds only the top level (the
+    /// interactive viewport, where objects move between frames).
+    TwoLevel,
+}
+
 impl Geometry {
-    pub fn new(mut meshes: Vec<Mesh>, instances: Vec<Instance>) -> Self {
-        let aabbs: Vec<Aabb> = instances
-            .iter()
-            .map(|inst| transform_aabb(&meshes[inst.mesh as usize].aabb(), &inst.object_to_world))
-            .collect();
-        let mut bounds = Aabb::empty();
-        for b in &aabbs {
-            bounds = bounds.union(b);
-        }
+    pub fn new(meshes: Vec<Mesh>, instances: Vec<Instance>) -> Self {
+        Self::with_layout(meshes, instances, BvhLayout::Flattened)
+    }
+
+    pub fn with_layout(mut meshes: Vec<Mesh>, instances: Vec<Instance>, layout: BvhLayout) -> Self {
         let mut uses = vec![0u32; meshes.len()];
         for inst in &instances {
             uses[inst.mesh as usize] += 1;
         }
-        let flat: Vec<bool> = instances
+        let flattened: Vec<bool> = instances
             .iter()
-            .map(|inst| uses[inst.mesh as usize] == 1)
+            .map(|inst| layout == BvhLayout::Flattened && uses[inst.mesh as usize] == 1)
             .collect();
+        let mut needs_bvh = vec![false; meshes.len()];
+        for (inst, &flat) in instances.iter().zip(&flattened) {
+            needs_bvh[inst.mesh as usize] |= !flat;
+        }
         meshes
             .par_iter_mut()
-            .zip(&uses)
-            .filter(|(_, &n)| n > 1)
+            .zip(&needs_bvh)
+            .filter(|(_, &needed)| needed)
             .for_each(|(mesh, _)| mesh.ensure_bvh());
-        let flat_level = FlatLevel::build(&meshes, &instances, &flat);
-        let shared: Vec<u32> = (0..instances.len() as u32)
-            .filter(|&i| !flat[i as usize])
+        let flat = FlatLevel::build(&meshes, &instances, &flattened);
+        let mut geometry = Geometry {
+            meshes,
+            instances,
+            flat,
+            flattened,
+            tlas: CwBvh::default(),
+            tlas_order: Vec::new(),
+            bounds: Aabb::empty(),
+        };
+        geometry.build_top_level();
+        geometry
+    }
+
+    /// Scene bounds and the top-level BVH over the instances that are not flattened, from the
+    /// instances' current transforms.
+    fn build_top_level(&mut self) {
+        let aabbs: Vec<Aabb> = self
+            .instances
+            .iter()
+            .map(|inst| {
+                transform_aabb(
+                    &self.meshes[inst.mesh as usize].aabb(),
+                    &inst.object_to_world,
+                )
+            })
             .collect();
-        let (tlas, tlas_order) = if shared.is_empty() {
+        self.bounds = aabbs.iter().fold(Aabb::empty(), |b, a| b.union(a));
+        let shared: Vec<u32> = (0..self.instances.len() as u32)
+            .filter(|&i| !self.flattened[i as usize])
+            .collect();
+        (self.tlas, self.tlas_order) = if shared.is_empty() {
             (CwBvh::default(), Vec::new())
         } else {
             let shared_aabbs: Vec<Aabb> = shared.iter().map(|&i| aabbs[i as usize]).collect();
@@ -535,14 +575,24 @@ impl Geometry {
                 .collect();
             (tlas, order)
         };
-        Geometry {
-            meshes,
-            instances,
-            flat: flat_level,
-            tlas,
-            tlas_order,
-            bounds,
+    }
+
+    /// Moves instances (index, new object-to-world). Instances under the top level cost only a
+    /// top-level rebuild; moving a flattened one rebuilds the flattened level as well.
+    pub fn set_transforms(&mut self, moves: &[(u32, Affine3A)]) {
+        let mut flat_moved = false;
+        for &(i, m) in moves {
+            let inst = &mut self.instances[i as usize];
+            let moved = Instance::new(inst.mesh, m)
+                .with_visibility(inst.casts_shadows, inst.camera_visible)
+                .with_holdout(inst.holdout);
+            *inst = moved;
+            flat_moved |= self.flattened[i as usize];
         }
+        if flat_moved {
+            self.flat = FlatLevel::build(&self.meshes, &self.instances, &self.flattened);
+        }
+        self.build_top_level();
     }
 
     /// World-space bounding box of everything (empty box if there is no geometry).

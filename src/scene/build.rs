@@ -2,13 +2,15 @@
 //! built from a `SceneDesc`.
 
 use super::camera::Camera;
-use super::desc::{CameraDesc, MaterialDesc, RenderDefaults, SceneDesc, TextureDesc};
+use super::desc::{
+    CameraDesc, MaterialDesc, PunctualLightDesc, RenderDefaults, SceneDesc, TextureDesc, WorldDesc,
+};
 use super::material::Material;
 use crate::error::{PrismError, Result};
-use crate::geometry::{Geometry, Instance, Mesh};
+use crate::geometry::{BvhLayout, Geometry, Instance, Mesh};
 use crate::lights::envmap::EnvironmentMap;
 use crate::lights::{Lights, World};
-use glam::{Affine3A, Vec3};
+use glam::{Affine3A, Mat4, Vec3};
 use rayon::prelude::*;
 
 pub struct Scene {
@@ -19,12 +21,29 @@ pub struct Scene {
     pub camera: CameraDesc,
     pub render_defaults: RenderDefaults,
     pub warnings: Vec<String>,
+    /// What the materials and lights were built from, kept so that a live session
+    /// (`crate::serve`) can replace them without reloading the geometry.
+    shading: ShadingDescs,
+    /// The glTF node name of each runtime instance (`geometry.instances[i]`).
+    instance_names: Vec<String>,
+}
+
+/// The scene's descriptions that are rebuilt on a shading edit.
+struct ShadingDescs {
+    materials: Vec<MaterialDesc>,
+    lights: Vec<PunctualLightDesc>,
+    world: WorldDesc,
 }
 
 impl Scene {
     /// Builds acceleration structures and light tables. Fails (as bad input) only for scenes
     /// that cannot produce an image: no camera, no light at all.
     pub fn build(desc: SceneDesc) -> Result<Scene> {
+        Self::build_with_layout(desc, BvhLayout::Flattened)
+    }
+
+    /// As [`Scene::build`], with the BVH arranged as `layout` says.
+    pub fn build_with_layout(desc: SceneDesc, layout: BvhLayout) -> Result<Scene> {
         let SceneDesc {
             meshes,
             instances,
@@ -39,17 +58,7 @@ impl Scene {
         } = desc;
         let camera = camera.ok_or_else(|| PrismError::input("the scene has no camera"))?;
 
-        // Runtime materials: the described ones, then glTF's default material for primitives
-        // without one (white, metallic 1, roughness 1 per the spec).
-        let mut runtime_materials: Vec<Material> = materials.iter().map(Material::new).collect();
-        let default_material = runtime_materials.len() as u32;
-        runtime_materials.push(Material::new(&MaterialDesc {
-            gltf: super::desc::GltfMaterialDesc {
-                name: "(glTF default)".into(),
-                ..Default::default()
-            },
-            ..Default::default()
-        }));
+        let default_material = materials.len() as u32;
         // Meshes: keep valid triangles only (indices in range, finite, non-zero area), built
         // side by side. Their BVHs come with the geometry (`Geometry::new`): one flattened BVH
         // for the meshes one instance uses, a BVH each for the shared ones.
@@ -100,7 +109,7 @@ impl Scene {
             mesh_map[mi] = runtime_meshes.len() as u32;
             runtime_meshes.push(mesh);
         }
-        let runtime_instances: Vec<Instance> = instances
+        let (runtime_instances, instance_names): (Vec<Instance>, Vec<String>) = instances
             .iter()
             .enumerate()
             .filter_map(|(i, inst)| {
@@ -108,63 +117,95 @@ impl Scene {
                 if mesh == u32::MAX {
                     return None;
                 }
-                let affine = Affine3A::from_mat4(inst.object_to_world);
-                let det = glam::Mat3::from(affine.matrix3).determinant();
+                let affine = invertible(inst.object_to_world)?;
                 let vis = instance_visibility.get(i).copied().unwrap_or_default();
-                (det.is_finite() && det.abs() > 1e-30).then(|| {
-                    Instance::new(mesh, affine)
-                        .with_visibility(vis.casts_shadows, vis.camera_visible)
-                        .with_holdout(vis.holdout)
-                })
+                let instance = Instance::new(mesh, affine)
+                    .with_visibility(vis.casts_shadows, vis.camera_visible)
+                    .with_holdout(vis.holdout);
+                Some((instance, inst.name.clone()))
             })
-            .collect();
-        let geometry = Geometry::new(runtime_meshes, runtime_instances);
-        estimate_density_bounds(&geometry, &mut runtime_materials);
-
-        let tint = if world.strength > 0.0 {
-            world.color.max(Vec3::ZERO) * world.strength
-        } else {
-            Vec3::ZERO
+            .unzip();
+        let geometry = Geometry::with_layout(runtime_meshes, runtime_instances, layout);
+        let shading = ShadingDescs {
+            materials,
+            lights,
+            world,
         };
-        let world_light = match &world.texture {
-            Some(tex) if tint.max_element() > 0.0 => {
-                if tex.width == 0
-                    || tex.height == 0
-                    || tex.texels.len() != (tex.width * tex.height) as usize
-                {
-                    return Err(PrismError::input(format!(
-                        "{}: the environment texture's size does not match its data",
-                        tex.name
-                    )));
-                }
-                World::Map(Box::new(EnvironmentMap::new(
-                    tex.width,
-                    tex.height,
-                    &tex.texels,
-                    tint,
-                    tex.rotation_z,
-                )))
-            }
-            Some(_) => World::Black,
-            None => World::Uniform(tint),
-        };
-        let lights = Lights::build(
-            &geometry,
-            &runtime_materials,
-            &textures,
-            &lights,
-            world_light,
-        );
+        let (materials, lights) = build_shading(&geometry, &shading, &textures)?;
         // No light at all is allowed: the image is black (`load::load_scene` warns).
         Ok(Scene {
             geometry,
-            materials: runtime_materials,
+            materials,
             textures,
             lights,
             camera,
             render_defaults: render,
             warnings,
+            shading,
+            instance_names,
         })
+    }
+
+    /// Moves the instances of the named glTF nodes to new object-to-world matrices (in the
+    /// scene's world space): the top level of the BVH and the light tables are rebuilt, the
+    /// meshes' BVHs are kept. Returns how many instances moved; a name no instance has, or a
+    /// singular matrix, is an input error (and nothing moves).
+    pub fn set_transforms(&mut self, moves: &[(String, Mat4)]) -> Result<usize> {
+        let mut resolved = Vec::new();
+        for (name, m) in moves {
+            let affine = invertible(*m).ok_or_else(|| {
+                PrismError::input(format!(
+                    "transform of '{name}': the matrix is not invertible"
+                ))
+            })?;
+            let before = resolved.len();
+            for (i, n) in self.instance_names.iter().enumerate() {
+                if n == name {
+                    resolved.push((i as u32, affine));
+                }
+            }
+            if resolved.len() == before {
+                return Err(PrismError::input(format!(
+                    "transform of '{name}': no instance of the scene has that name"
+                )));
+            }
+        }
+        self.geometry.set_transforms(&resolved);
+        (self.materials, self.lights) =
+            build_shading(&self.geometry, &self.shading, &self.textures)?;
+        Ok(resolved.len())
+    }
+
+    /// Replaces the materials (matched by name: every material of the scene must be in
+    /// `desc`), the punctual lights and the world by those of `desc`, keeping the geometry.
+    /// `desc`'s meshes, instances and camera are ignored.
+    pub fn replace_shading(&mut self, desc: SceneDesc) -> Result<()> {
+        let mut materials = Vec::with_capacity(self.shading.materials.len());
+        for old in &self.shading.materials {
+            let name = &old.gltf.name;
+            let new = desc
+                .materials
+                .iter()
+                .find(|m| &m.gltf.name == name)
+                .ok_or_else(|| {
+                    PrismError::input(format!(
+                        "material '{name}' of the scene is not in the new shading"
+                    ))
+                })?;
+            materials.push(new.clone());
+        }
+        let shading = ShadingDescs {
+            materials,
+            lights: desc.lights,
+            world: desc.world,
+        };
+        let (runtime, lights) = build_shading(&self.geometry, &shading, &desc.textures)?;
+        self.materials = runtime;
+        self.lights = lights;
+        self.textures = desc.textures;
+        self.shading = shading;
+        self.warnings = desc.warnings;
+        Ok(())
     }
 
     /// The camera for an image of the given size.
@@ -183,6 +224,61 @@ impl Scene {
             None => camera,
         }
     }
+}
+
+/// The affine form of an object-to-world matrix; `None` when it is singular or not finite.
+fn invertible(m: Mat4) -> Option<Affine3A> {
+    let affine = Affine3A::from_mat4(m);
+    let det = glam::Mat3::from(affine.matrix3).determinant();
+    (det.is_finite() && det.abs() > 1e-30).then_some(affine)
+}
+
+/// Runtime materials (the described ones, then glTF's default material for primitives without
+/// one: white, metallic 1, roughness 1 per the spec) and the light tables, over `geometry`.
+fn build_shading(
+    geometry: &Geometry,
+    shading: &ShadingDescs,
+    textures: &[TextureDesc],
+) -> Result<(Vec<Material>, Lights)> {
+    let mut materials: Vec<Material> = shading.materials.iter().map(Material::new).collect();
+    materials.push(Material::new(&MaterialDesc {
+        gltf: super::desc::GltfMaterialDesc {
+            name: "(glTF default)".into(),
+            ..Default::default()
+        },
+        ..Default::default()
+    }));
+    estimate_density_bounds(geometry, &mut materials);
+    let world = &shading.world;
+    let tint = if world.strength > 0.0 {
+        world.color.max(Vec3::ZERO) * world.strength
+    } else {
+        Vec3::ZERO
+    };
+    let world_light = match &world.texture {
+        Some(tex) if tint.max_element() > 0.0 => {
+            if tex.width == 0
+                || tex.height == 0
+                || tex.texels.len() != (tex.width * tex.height) as usize
+            {
+                return Err(PrismError::input(format!(
+                    "{}: the environment texture's size does not match its data",
+                    tex.name
+                )));
+            }
+            World::Map(Box::new(EnvironmentMap::new(
+                tex.width,
+                tex.height,
+                &tex.texels,
+                tint,
+                tex.rotation_z,
+            )))
+        }
+        Some(_) => World::Black,
+        None => World::Uniform(tint),
+    };
+    let lights = Lights::build(geometry, &materials, textures, &shading.lights, world_light);
+    Ok((materials, lights))
 }
 
 /// Points per majorant-grid cell at which a heterogeneous volume's density is sampled.
