@@ -30,7 +30,9 @@
 //! "warnings":[..]}` after `load`; `{"event":"ok","cmd":..,"generation":..,"seconds":..}` after
 //! other commands;
 //! `{"event":"error","cmd":..,"message":..}` when a command fails (the session goes on with what
-//! it had); `{"event":"done","generation":..,"spp":..,"seconds":..}` when a render finishes.
+//! it had); `{"event":"done","generation":..,"spp":..,"seconds":..}` when a render finishes;
+//! `{"event":"idle","generation":..}` when there is nothing to render (no scene or no view yet,
+//! or after `stop`).
 //! A frame is `{"event":"frame","generation":G,"width":W,"height":H,"spp":S,"bytes":N}`
 //! followed by N = W x H x 16 raw bytes: little-endian f32 RGBA, scene-linear Rec.709, rows
 //! from the bottom up (a texture's layout). The generation counts restarts, so a client can
@@ -227,7 +229,8 @@ pub fn serve(
                     let message = e.to_string().replace('\n', " ");
                     emit(
                         &session.out,
-                        &serde_json::json!({"event": "error", "cmd": cmd, "message": message}),
+                        &serde_json::json!({"event": "error", "cmd": cmd, "message": message,
+                            "generation": session.generation}),
                         None,
                     );
                 }
@@ -235,6 +238,12 @@ pub fn serve(
         }
         if restart {
             session.start();
+        } else {
+            emit(
+                &session.out,
+                &serde_json::json!({"event": "idle", "generation": session.generation}),
+                None,
+            );
         }
     }
     session.stop();
@@ -377,6 +386,11 @@ impl Session {
     /// Starts rendering the current scene and view, if both are there.
     fn start(&mut self) {
         let (Some(scene), Some((width, height))) = (self.scene.clone(), self.view) else {
+            emit(
+                &self.out,
+                &serde_json::json!({"event": "idle", "generation": self.generation}),
+                None,
+            );
             return;
         };
         let sampling = self.sampling;

@@ -11,7 +11,7 @@ import traceback
 import bpy
 import numpy as np
 
-from . import exr, export, runner
+from . import exr, export, runner, viewport
 
 # What the last render did (read by the add-on tests and the benchmark).
 LAST = {}
@@ -147,6 +147,40 @@ class PrismRenderEngine(bpy.types.RenderEngine):
     bl_use_postprocess = True
     bl_use_shading_nodes_custom = False  # materials are Blender's shader nodes (converted on export)
     bl_use_eevee_viewport = True  # Material Preview / Rendered viewport shading through EEVEE
+
+    # -- the rendered viewport (viewport.py): a `prism serve` process per viewport
+    def view_update(self, context, depsgraph):
+        try:
+            session = getattr(self, "_viewport", None)
+            if session is None:
+                self._viewport = viewport.ViewportSession(self, context, depsgraph)
+            else:
+                session.sync(self, context, depsgraph)
+        except (runner.RunnerError, export.ExportError, viewport.ServeError) as e:
+            _log("viewport: " + str(e))
+            self.report({"ERROR"}, "Prism: " + str(e))
+        except Exception as e:  # never let an exception escape into Blender's draw loop
+            traceback.print_exc()
+            self.report({"ERROR"}, "Prism: internal error: %s" % e)
+
+    def view_draw(self, context, depsgraph):
+        session = getattr(self, "_viewport", None)
+        if session is None:
+            return
+        try:
+            session.draw(self, context, depsgraph)
+        except viewport.ServeError as e:
+            self.report({"ERROR"}, "Prism: " + str(e))
+        except Exception as e:
+            traceback.print_exc()
+            self.report({"ERROR"}, "Prism: internal error: %s" % e)
+
+    def __del__(self):
+        # Blender frees the engine when its viewport leaves Rendered shading, the engine
+        # changes, or the area closes: the renderer process ends with it.
+        session = getattr(self, "_viewport", None)
+        if session is not None:
+            session.close()
 
     def render(self, depsgraph):
         t_engine = time.perf_counter()
@@ -337,7 +371,9 @@ class PrismRenderEngine(bpy.types.RenderEngine):
 
 def register():
     bpy.utils.register_class(PrismRenderEngine)
+    viewport.register()
 
 
 def unregister():
+    viewport.unregister()
     bpy.utils.unregister_class(PrismRenderEngine)

@@ -858,8 +858,17 @@ def _mesh_tangents(me, uv_name):
 
 
 class Exporter:
-    def __init__(self, depsgraph, out_dir, name="scene", width=None, height=None):
+    """Writes a depsgraph as glTF + material JSON.
+
+    `viewport`: for the rendered viewport, which brings its own view (no scene camera is
+    needed). `shading_only`: only what a shading edit changes (materials, lights, world) and no
+    mesh data, for `prism serve`'s `shading` command.
+    """
+
+    def __init__(self, depsgraph, out_dir, name="scene", width=None, height=None, viewport=False, shading_only=False):
         self.dg = depsgraph
+        self.viewport = viewport
+        self.shading_only = shading_only
         self.scene = depsgraph.scene_eval
         self.out_dir = out_dir
         self.name = name
@@ -1455,6 +1464,15 @@ class Exporter:
 
     # -- objects
     def _add_mesh_object(self, ob, matrix, is_instance):
+        if self.shading_only:
+            # The materials the mesh can draw with (a superset of those its triangles use), and
+            # the default one for faces without a slot.
+            slots = [s.material for s in ob.material_slots]
+            if ob.type == "MESH" and not slots:
+                slots = list(ob.data.materials)
+            for mat in slots + [None]:
+                self._material(mat)
+            return
         if ob.type == "MESH":
             me = ob.data
             key = ("mesh", me.as_pointer())
@@ -1681,6 +1699,8 @@ class Exporter:
 
     def _add_camera(self):
         cam_ob = self.scene.camera
+        if cam_ob is None and self.viewport:
+            return
         if cam_ob is None:
             raise ExportError("the scene has no active camera")
         cam_ob = cam_ob.evaluated_get(self.dg)
@@ -1952,6 +1972,11 @@ class Exporter:
             with open(os.path.join(self.out_dir, bin_name), "wb") as f:
                 for c in self.buf.chunks:
                     f.write(c)
+        # glTF node name -> how many nodes have it (the viewport moves an object by name only
+        # when its name is unique).
+        self.node_names = {}
+        for n in self.nodes[1:]:
+            self.node_names[n.get("name")] = self.node_names.get(n.get("name"), 0) + 1
         gltf_path = os.path.join(self.out_dir, self.name + ".gltf")
         with open(gltf_path, "w") as f:
             json.dump(gltf, f, separators=(",", ":"))

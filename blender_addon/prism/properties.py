@@ -30,6 +30,21 @@ class PrismRenderSettings(bpy.types.PropertyGroup):
         min=1,
         max=1 << 20,
     )
+    preview_samples: IntProperty(
+        name="Viewport Samples",
+        description="Samples per pixel of the rendered viewport (0 = keep refining until the view changes)",
+        default=1024,
+        min=0,
+        max=1 << 20,
+    )
+    preview_start_resolution: IntProperty(
+        name="Start Pixels",
+        description="Largest side of the viewport's first, coarse image after an edit (it then doubles to the full "
+        "size), as Cycles' Start Pixels",
+        default=64,
+        min=8,
+        max=16384,
+    )
     use_adaptive_sampling: BoolProperty(
         name="Noise Threshold",
         description="Adaptive sampling: stop sampling pixels whose estimated noise is below the threshold "

@@ -52,6 +52,10 @@ class ServeClient:
         self.events = []
         self.frame = None
         self.generation = 0
+        # The newest generation whose render finished (or that had nothing to render), and
+        # the commands sent that have no answer yet.
+        self.done_generation = -1
+        self.unanswered = 0
         self.stderr_tail = []
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
@@ -96,8 +100,13 @@ class ServeClient:
                         self.on_frame(fr)
                     continue
                 with self.lock:
-                    if "generation" in ev and ev.get("event") in ("ok", "loaded"):
-                        self.generation = max(self.generation, int(ev["generation"]))
+                    kind = ev.get("event")
+                    if kind in ("ok", "loaded", "error"):
+                        self.unanswered = max(0, self.unanswered - 1)
+                        if "generation" in ev:
+                            self.generation = max(self.generation, int(ev["generation"]))
+                    elif kind in ("done", "idle"):
+                        self.done_generation = max(self.done_generation, int(ev["generation"]))
                     self.events.append(ev)
                     self.lock.notify_all()
                 if self.on_event is not None:
@@ -134,6 +143,8 @@ class ServeClient:
         fields["cmd"] = cmd
         with self.lock:
             mark = len(self.events)
+            if cmd != "quit":
+                self.unanswered += 1
         try:
             self.proc.stdin.write((json.dumps(fields, separators=(",", ":")) + "\n").encode())
             self.proc.stdin.flush()
@@ -160,6 +171,11 @@ class ServeClient:
 
         ev = self.wait_for(ok, timeout=timeout, since=after)
         return ev, self.frame
+
+    def finished(self):
+        """Every command is answered and the render of the current generation is over."""
+        with self.lock:
+            return self.unanswered == 0 and self.done_generation >= self.generation
 
     def alive(self):
         return self.proc.poll() is None

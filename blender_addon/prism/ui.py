@@ -51,6 +51,27 @@ class RENDER_PT_prism_sampling(PrismPanel, bpy.types.Panel):
         col.prop(p, "seed")
 
 
+class RENDER_PT_prism_viewport(PrismPanel, bpy.types.Panel):
+    """Render > Prism > Viewport, as Cycles' Sampling > Viewport and Performance > Viewport."""
+
+    bl_label = "Viewport"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_prism_sampling"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        p = context.scene.prism
+        col = layout.column(align=True)
+        col.prop(p, "preview_samples", text="Max Samples")
+        col.prop(p, "preview_start_resolution")
+        layout.prop(context.scene.render, "preview_pixel_size", text="Pixel Size")
+
+
 class RENDER_PT_prism_denoise(PrismPanel, bpy.types.Panel):
     """Render > Prism > Denoise, as Cycles' Sampling > Render > Denoise: the checkbox in the header."""
 
@@ -437,6 +458,7 @@ def builtin_panels():
 
 classes = (
     RENDER_PT_prism_sampling,
+    RENDER_PT_prism_viewport,
     RENDER_PT_prism_denoise,
     RENDER_PT_prism_light_paths,
     RENDER_PT_prism_film,

@@ -107,7 +107,111 @@ def test_properties_editor_panels():
     check(all(os.path.getsize(s) > 1000 for s in shots), "screenshots: %s" % ", ".join(shots))
 
 
+def _png_rgb(path):
+    """A screenshot's RGB (byte values / 255, display-encoded), top row first."""
+    import bpy
+    import numpy as np
+
+    img = bpy.data.images.load(path, check_existing=False)
+    try:
+        w, h = img.size
+        px = np.empty(w * h * 4, np.float32)
+        img.pixels.foreach_get(px)
+    finally:
+        bpy.data.images.remove(img)
+    return px.reshape(h, w, 4)[::-1, :, :3]
+
+
+def _srgb(linear):
+    import numpy as np
+
+    x = np.clip(linear, 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+
+
+def _camera_view(step):
+    """The screenshot's camera frame (y from the top), resampled to the render's size, and the
+    F12 render's pixels in the same display encoding (Standard view transform = sRGB)."""
+    import numpy as np
+    import common
+
+    shot = _png_rgb(step["png"])
+    aw, ah = step["area"]
+    check(shot.shape[:2] == (ah, aw), "screenshot is the viewport area (%dx%d)" % (aw, ah))
+    x0, y0, x1, y1 = step["camera_rect"]
+    # Region y runs up; the screenshot's rows run down.
+    top, bottom = ah - y1, ah - y0
+    render = _srgb(common.read_exr(step["exr"])[::-1, :, :3])  # top row first, as the screenshot
+    rh, rw = render.shape[:2]
+    # Sample the screenshot at the centres of the render's pixels.
+    xs = (x0 + (np.arange(rw) + 0.5) * (x1 - x0) / rw).astype(int).clip(0, aw - 1)
+    ys = (top + (np.arange(rh) + 0.5) * (bottom - top) / rh).astype(int).clip(0, ah - 1)
+    return shot[np.ix_(ys, xs)], render
+
+
+def _blocks(img, n=8):
+    h, w = img.shape[:2]
+    return img[: h - h % n, : w - w % n].reshape(h // n, n, w // n, n, 3).mean(axis=(1, 3))
+
+
+def test_rendered_viewport():
+    """Blender 3.4 with a window: the 3D viewport in Rendered shading with Prism (a `prism
+    serve` process), seen through the camera, against F12 renders of the same camera; a camera
+    move and a material edit made through the Python API show up; Solid shading and File > New
+    end the renderer process."""
+    import numpy as np
+
+    out = tempfile.mkdtemp(prefix="prism_interactive_")
+    start = os.path.join(out, "start.blend")
+    # Opening a file skips the splash screen, which would cover the viewport.
+    subprocess.run([BLENDER, "-b", "--factory-startup", "--python-expr",
+                    "import bpy; bpy.ops.wm.save_as_mainfile(filepath=%r)" % start],
+                   capture_output=True, timeout=60, check=True)
+    report_path = os.path.join(out, "viewport.json")
+    env = dict(os.environ, PRISM_VIEWPORT_REPORT=report_path, PRISM_VIEWPORT_OUT=out)
+    cmd = ["xvfb-run", "-a", "-s", "-screen 0 800x600x24",
+           BLENDER, "--factory-startup", start, "-P", os.path.join(HERE, "viewport_blender.py")]
+    try:
+        p = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=240)
+    except subprocess.TimeoutExpired as e:
+        raise AssertionError("viewport session did not finish in 240 s: %s" % (e.stderr or "")[-600:])
+    log = p.stdout + p.stderr
+    check(os.path.exists(report_path), "the viewport session wrote its report (log tail: %s)" % log[-600:])
+    with open(report_path) as f:
+        report = json.load(f)
+    check(not report["errors"], "no Python errors in the session: %s" % report["errors"])
+    check(p.returncode == 0, "Blender exited cleanly (rc %d)" % p.returncode)
+    steps = report["steps"]
+    for name in ("rendered", "camera_moved", "material_blue"):
+        st = steps[name]
+        print("  %s: %d frames drawn so far, %s; first frame %.2f s after the edit, finished in %.1f s"
+              % (name, st["stats"]["frames_drawn"], st["frame"], st["latency"].get("first_frame", -1), st["seconds"]), flush=True)
+        check(st["frame"]["spp"] >= 32, "%s: the viewport reached 32 samples" % name)
+    check(steps["camera_moved"]["stats"]["loads"] == 1 and steps["camera_moved"]["stats"]["views"] >= 2,
+          "a camera move is a new view, not a new export (%s)" % steps["camera_moved"]["stats"])
+    check(steps["material_blue"]["stats"]["shadings"] >= 1 and steps["material_blue"]["stats"]["loads"] == 1,
+          "a material edit is a shading update, not a reload (%s)" % steps["material_blue"]["stats"])
+    views = {}
+    for name in ("rendered", "camera_moved", "material_blue"):
+        shot, render = _camera_view(steps[name])
+        views[name] = (shot, render)
+        ms, mr = shot.reshape(-1, 3).mean(axis=0), render.reshape(-1, 3).mean(axis=0)
+        rel = np.abs(ms - mr) / np.maximum(mr, 1e-3)
+        check(rel.max() < 0.05, "%s: viewport means %s within 5%% of the F12 render's %s" % (name, ms.round(4), mr.round(4)))
+        diff = np.abs(_blocks(shot) - _blocks(render)).max()
+        check(diff < 0.05, "%s: every 8x8 block of the viewport within 0.05 of the render's (max %.3f)" % (name, diff))
+    moved = np.abs(_blocks(views["camera_moved"][0]) - _blocks(views["rendered"][1])).max()
+    check(moved > 0.15, "the camera move changed the viewport (max block change %.3f)" % moved)
+    shot_blue, _ = views["material_blue"]
+    cube = shot_blue[shot_blue.max(axis=-1) - shot_blue.min(axis=-1) > 0.1]
+    check(len(cube) > 500 and cube[:, 2].mean() > 2.0 * cube[:, 0].mean(),
+          "the blue material shows in the viewport (%d coloured pixels, mean %s)" % (len(cube), cube.mean(axis=0).round(3) if len(cube) else None))
+    check(report["solid_process_alive"] is False, "Solid shading ended the renderer process (in %.2f s)" % report["solid_seconds"])
+    check(report["new_file_process_alive"] is False, "File > New ended the renderer process (in %.2f s)" % report["new_file_seconds"])
+
+
 if __name__ == "__main__":
+    test_rendered_viewport()
     test_interactive_f12_render()
     test_properties_editor_panels()
     print("interactive test passed")
