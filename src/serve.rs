@@ -394,7 +394,13 @@ impl Session {
             return;
         };
         let sampling = self.sampling;
-        let settings = session_settings(&scene, width, height, sampling);
+        let settings = session_settings(
+            &scene,
+            width / sampling.pixel_size,
+            height / sampling.pixel_size,
+            sampling.samples,
+            sampling.max_depth,
+        );
         let cancel = Arc::new(AtomicBool::new(false));
         let (out, pool, generation) = (self.out.clone(), self.pool.clone(), self.generation);
         let job_cancel = cancel.clone();
@@ -441,10 +447,17 @@ fn view_camera(c: &ViewCamera) -> Result<CameraDesc> {
     })
 }
 
-/// Render settings of a session: the scene's render defaults where they describe the image
-/// (wavelengths, filter, sampler, light selection, transparency), the session's sampling, no
-/// adaptive sampling, time limit, clamps or crop.
-fn session_settings(scene: &Scene, width: u32, height: u32, s: Sampling) -> RenderSettings {
+/// Render settings of a session at `width` x `height` (after the pixel size) and `samples` per
+/// pixel (0: until stopped): the scene's render defaults where they describe the image
+/// (wavelengths, filter, sampler, light selection, transparency, path depth unless
+/// `max_depth` is given), no adaptive sampling, time limit, clamps or crop, and short passes.
+pub fn session_settings(
+    scene: &Scene,
+    width: u32,
+    height: u32,
+    samples: u32,
+    max_depth: Option<u32>,
+) -> RenderSettings {
     let d = &scene.render_defaults;
     let filter = d
         .filter
@@ -452,14 +465,10 @@ fn session_settings(scene: &Scene, width: u32, height: u32, s: Sampling) -> Rend
         .and_then(|(name, w)| PixelFilter::new(FilterKind::from_name(name)?, *w).ok())
         .unwrap_or_default();
     RenderSettings {
-        width: (width / s.pixel_size).max(1),
-        height: (height / s.pixel_size).max(1),
-        spp: if s.samples == 0 {
-            ENDLESS_SPP
-        } else {
-            s.samples
-        },
-        max_depth: s.max_depth.or(d.max_depth).unwrap_or(16),
+        width: width.max(1),
+        height: height.max(1),
+        spp: if samples == 0 { ENDLESS_SPP } else { samples },
+        max_depth: max_depth.or(d.max_depth).unwrap_or(16),
         wavelengths: WavelengthSampling {
             strategy: d
                 .wavelengths

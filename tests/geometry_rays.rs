@@ -66,10 +66,9 @@ fn meshes_without_uvs_have_zero_texture_coordinates() {
 /// instances which cast no shadows, whichever level they are in. The scene mixes single-use
 /// meshes (one mirrored and non-uniformly scaled, one not casting shadows) with a mesh placed
 /// twice.
-#[test]
-fn flattened_and_instanced_levels_agree_with_brute_force() {
+fn mixed_instances() -> (Vec<Mesh>, Vec<Instance>) {
     use glam::Quat;
-    use prism::geometry::{intersect_triangle, shapes::uv_sphere};
+    use prism::geometry::shapes::uv_sphere;
     let sphere = |segments, rings| {
         let (p, n, t) = uv_sphere(segments, rings);
         Mesh::new(p, Some(n), None, t, 0)
@@ -99,7 +98,46 @@ fn flattened_and_instanced_levels_agree_with_brute_force() {
         1,
         at(Vec3::splat(0.3), 0.0, Vec3::new(-1.0, 1.0, 1.0)),
     ));
-    let geometry = Geometry::new(meshes, instances);
+    (meshes, instances)
+}
+
+#[test]
+fn flattened_and_instanced_levels_agree_with_brute_force() {
+    let (meshes, instances) = mixed_instances();
+    agrees_with_brute_force(&Geometry::new(meshes, instances));
+}
+
+/// The viewport's layout (every instance under the top level), and moving instances in either
+/// layout (`Geometry::set_transforms`: a top-level rebuild, plus the flattened level when one of
+/// its instances moves), traces what brute force finds at the new places.
+#[test]
+fn two_level_layout_and_moved_instances_agree_with_brute_force() {
+    use prism::geometry::BvhLayout;
+    let moves = [
+        // Single-use (flattened in the default layout), mirrored and scaled.
+        (
+            3u32,
+            Affine3A::from_scale_rotation_translation(
+                Vec3::new(1.1, -0.6, 0.9),
+                glam::Quat::from_rotation_x(0.4),
+                Vec3::new(-0.5, 0.8, 0.2),
+            ),
+        ),
+        // Shared mesh (top level in both layouts).
+        (2u32, Affine3A::from_translation(Vec3::new(-1.2, -0.9, 0.4))),
+    ];
+    for layout in [BvhLayout::TwoLevel, BvhLayout::Flattened] {
+        let (meshes, instances) = mixed_instances();
+        let mut geometry = Geometry::with_layout(meshes, instances, layout);
+        agrees_with_brute_force(&geometry);
+        geometry.set_transforms(&moves);
+        assert_eq!(geometry.instances[2].object_to_world, moves[1].1);
+        agrees_with_brute_force(&geometry);
+    }
+}
+
+fn agrees_with_brute_force(geometry: &Geometry) {
+    use prism::geometry::intersect_triangle;
     let brute = |origin: Vec3, dir: Vec3, t_max: f32, shadow: bool| {
         let mut best: Option<(f32, u32, u32, f32, f32)> = None;
         for (i, inst) in geometry.instances.iter().enumerate() {
