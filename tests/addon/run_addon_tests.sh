@@ -94,6 +94,9 @@ if [ "$WHICH" = all ] || [ "$WHICH" = bpy ]; then
     echo "== energy-conserving rough glass, metal and Principled parity with Cycles in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_energy_parity.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== the rendered viewport's renderer (prism serve): each kind of edit vs F12 renders in the bpy wheel"
+    .venv-bpy/bin/python tests/addon/test_serve.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
     echo "== the standalone binary on glTF from Blender's bundled exporter, vs Cycles"
     .venv-bpy/bin/python tests/addon/test_bundled_gltf.py 2>&1 | filter | grep -v ' INFO: '
     [ "${PIPESTATUS[0]}" = 0 ]
@@ -123,7 +126,7 @@ if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
     [ "${PIPESTATUS[0]}" = 0 ]
 fi
 if [ "$WHICH" = all ] || [ "$WHICH" = interactive ]; then
-    echo "== interactive Blender ($(blender --version 2>/dev/null | head -1)) under Xvfb: engine list, panels, F12, the Properties editor's tabs"
+    echo "== interactive Blender ($(blender --version 2>/dev/null | head -1)) under Xvfb: Rendered viewport vs F12, engine list, panels, F12, the Properties editor's tabs"
     .venv-bpy/bin/python tests/addon/test_interactive.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
 fi
@@ -133,5 +136,6 @@ if [ "$WHICH" = all ] || [ "$WHICH" = package ]; then
     [ "${PIPESTATUS[0]}" = 0 ]
 fi
 leftover=$(find "$TMPDIR" -maxdepth 1 -name 'prism_*' -type d | grep -v -E 'prism_(addon|bg|pkg)_test_|prism_interactive_' || true)
+if pgrep -f 'prism serve' >/dev/null; then echo "prism serve processes left running: $(pgrep -af 'prism serve')" >&2; exit 1; fi
 if [ -n "$leftover" ]; then echo "temporary render folders left behind: $leftover" >&2; exit 1; fi
 echo "== add-on tests passed"

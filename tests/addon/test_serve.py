@@ -1,0 +1,193 @@
+"""The rendered viewport's renderer process (`prism serve`) in the bpy 5.0.1 wheel, no window.
+
+    .venv-bpy/bin/python tests/addon/test_serve.py
+
+Blender has no viewport here, so the add-on's viewport session (viewport.ViewportSession) is
+driven the way view_update drives it: from a depsgraph_update_post handler, with the real
+depsgraph and its updates after each edit made through the Python API. After each edit the
+session's frames are compared with an F12 render of the scene as edited (same samples, seed
+and settings): load, a camera view, an object moved, a material edited, a light edited, a
+mesh edited, an object added. Each edit's path (view / transform / shading / load) is checked,
+and its latency (edit to first frame, to the finished image) printed: a benchmark figure, not
+an assertion. bench/serve_latency.py measures it on a 100k-triangle scene.
+"""
+
+import math
+import os
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+
+import bpy  # noqa: E402
+import numpy as np  # noqa: E402
+from mathutils import Matrix  # noqa: E402
+
+import common  # noqa: E402
+from common import check  # noqa: E402
+
+SPP = 8
+W, H = 96, 64
+
+
+class Engine:
+    """What the session needs of a RenderEngine without a viewport: reports."""
+
+    def __init__(self):
+        self.reports = []
+
+    def report(self, kind, msg):
+        self.reports.append((sorted(kind)[0], msg))
+
+
+class Context:
+    preferences = bpy.context.preferences
+
+
+def setup():
+    common.enable_addon()
+    sc = common.simple_scene()
+    common.use_prism(sc, spp=SPP)
+    sc.render.resolution_x, sc.render.resolution_y = W, H
+    sc.prism.preview_samples = SPP
+    sc.render.preview_pixel_size = "1"
+    return sc
+
+
+def scene_camera_view():
+    """The `view` command of the scene camera, as view_draw builds it from a camera view's
+    region (here from the camera itself: its inverse world matrix and its projection)."""
+    sc = bpy.context.scene
+    from prism import viewport
+
+    class Region3D:
+        view_matrix = sc.camera.matrix_world.inverted()
+        window_matrix = sc.camera.calc_matrix_camera(bpy.context.evaluated_depsgraph_get(), x=W, y=H)
+        is_perspective = sc.camera.data.type != "ORTHO"
+
+    return {"width": W, "height": H, "camera": viewport.view_camera(Region3D)}
+
+
+def run():
+    sc = setup()
+    from prism import viewport
+
+    engine = Engine()
+    state = {"session": None}
+
+    def on_update(scene, depsgraph):
+        s = state["session"]
+        if s is not None:
+            s.sync(engine, Context, depsgraph)
+
+    bpy.app.handlers.depsgraph_update_post.append(on_update)
+    out = tempfile.mkdtemp(prefix="prism_addon_test_serve_")
+    try:
+        t0 = time.monotonic()
+        s = viewport.ViewportSession(engine, Context, bpy.context.evaluated_depsgraph_get())
+        state["session"] = s
+        client = s.client
+
+        def send_view():
+            view = scene_camera_view()
+            s.view = view
+            return client.send("view", **view)
+
+        def frames_after(mark, what, t_edit):
+            ev, _ = client.wait_frame(mark, timeout=60)
+            first = ev["received"] - t_edit
+            done = client.wait_for(lambda e: e.get("event") == "done", since=mark, timeout=120)
+            fr = client.frame
+            check(fr is not None and fr.spp == SPP and (fr.width, fr.height) == (W, H), "%s: a %dx%d frame at %d spp" % (what, W, H, SPP))
+            print("  latency %-16s first frame %6.1f ms, %d spp in %6.1f ms" % (what, 1e3 * first, SPP, 1e3 * (done["received"] - t_edit)), flush=True)
+            return fr.pixels[::-1]  # top row first
+
+        def compare(what, px, name):
+            ref = common.render_pixels(sc, os.path.join(out, name + ".exr"))[::-1]
+            ms, mr = px[..., :3].mean(axis=(0, 1)), ref[..., :3].mean(axis=(0, 1))
+            check(np.allclose(ms, mr, rtol=0.01, atol=1e-4), "%s: frame means %s = F12 render's %s (1%%)" % (what, ms.round(4), mr.round(4)))
+            diff = np.abs(px[..., :3] - ref[..., :3]).max()
+            check(diff < 0.02, "%s: every pixel within 0.02 of the F12 render (max %.4f)" % (what, diff))
+            return ref
+
+        mark = send_view()
+        img0 = frames_after(mark, "load + view", t0)
+        ref0 = compare("load", img0, "load")
+        check(s.node_names.get("Ball") == 1, "the export names its nodes (Ball once)")
+
+        # The camera: a new view only.
+        cam = sc.camera
+        cam.location.x += 1.5
+        cam.rotation_euler.z += 0.15
+        bpy.context.view_layer.update()
+        t = time.monotonic()
+        mark = send_view()
+        img = frames_after(mark, "camera", t)
+        ref = compare("camera", img, "camera")
+        check(np.abs(ref - ref0).max() > 0.2, "the camera move changes the image")
+        cam.location.x -= 1.5
+        cam.rotation_euler.z -= 0.15
+        bpy.context.view_layer.update()
+        mark = send_view()
+        frames_after(mark, "camera back", time.monotonic())
+
+        stats = dict(viewport.STATS)
+
+        def edit(what, fn, path):
+            before = {k: viewport.STATS[k] for k in ("loads", "shadings", "transforms")}
+            mark = len(client.events)
+            t = time.monotonic()
+            fn()
+            bpy.context.view_layer.update()  # runs the depsgraph: the handler syncs
+            after = {k: viewport.STATS[k] for k in ("loads", "shadings", "transforms")}
+            grew = sorted(k for k in after if after[k] > before[k])
+            check(grew == [path], "%s: sent as %s (%s)" % (what, path, grew))
+            return frames_after(mark, what, t)
+
+        ball = bpy.data.objects["Ball"]
+        img = edit("object move", lambda: setattr(ball, "location", (1.2, 0.5, 1.4)), "transforms")
+        red = bpy.data.materials["Red"].node_tree.nodes["Diffuse BSDF"].inputs["Color"]
+        img = edit("material colour", lambda: setattr(red, "default_value", (0.1, 0.2, 0.8, 1.0)), "shadings")
+        compare("material colour", img, "blue")
+        lamp = bpy.data.lights["Lamp"]
+        img = edit("light power", lambda: setattr(lamp, "energy", 2500.0), "shadings")
+        compare("light power", img, "light")
+        lamp_ob = bpy.data.objects["Lamp"]
+        img = edit("light move", lambda: setattr(lamp_ob, "location", (-2.0, -2.5, 3.0)), "shadings")
+        compare("light move", img, "light_moved")
+
+        def scale_mesh():
+            me = ball.data
+            co = np.empty(len(me.vertices) * 3, np.float32)
+            me.vertices.foreach_get("co", co)
+            me.vertices.foreach_set("co", co * np.float32(0.7))
+            me.update()
+
+        img = edit("mesh edit", scale_mesh, "loads")
+        compare("mesh edit", img, "mesh")
+
+        def add_object():
+            common.mesh_object("Box", common.cube(0.8), bpy.data.materials["Red"], location=(-1.5, 0.8, 0.4))
+
+        img = edit("object added", add_object, "loads")
+        compare("object added", img, "added")
+        check(not [r for r in engine.reports if r[0] == "ERROR"], "no errors reported: %s" % engine.reports)
+        print("  session stats:", {k: v for k, v in viewport.STATS.items() if k != "last_frame"}, "(after camera: %s)" % stats)
+
+        pid = client.proc.pid
+        s.close()
+        check(client.proc.poll() is not None, "close() ends the renderer process (pid %d)" % pid)
+        check(not os.path.exists(s.tmp), "close() removes the session's export folder")
+    finally:
+        bpy.app.handlers.depsgraph_update_post.remove(on_update)
+        viewport.close_all()
+        import shutil
+
+        shutil.rmtree(out, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    run()
+    print("serve test passed")
