@@ -136,6 +136,6 @@ if [ "$WHICH" = all ] || [ "$WHICH" = package ]; then
     [ "${PIPESTATUS[0]}" = 0 ]
 fi
 leftover=$(find "$TMPDIR" -maxdepth 1 -name 'prism_*' -type d | grep -v -E 'prism_(addon|bg|pkg)_test_|prism_interactive_' || true)
-if pgrep -f 'prism serve' >/dev/null; then echo "prism serve processes left running: $(pgrep -af 'prism serve')" >&2; exit 1; fi
+if command -v pgrep >/dev/null && pgrep -f 'prism serve' >/dev/null; then echo "prism serve processes left running: $(pgrep -af 'prism serve')" >&2; exit 1; fi
 if [ -n "$leftover" ]; then echo "temporary render folders left behind: $leftover" >&2; exit 1; fi
 echo "== add-on tests passed"
