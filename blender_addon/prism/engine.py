@@ -15,6 +15,11 @@ from . import exr, export, runner, viewport
 
 # What the last render did (read by the add-on tests and the benchmark).
 LAST = {}
+# Samples of a material/world/light preview render (the Preview panel, icons): enough for the
+# look of a material on the preview sphere at a few hundred pixels, in a fraction of a second.
+PREVIEW_SAMPLES = 16
+# How many preview renders ran (the tests check that Prism, not EEVEE, renders previews).
+PREVIEW_RENDERS = []
 
 
 def addon_preferences():
@@ -143,7 +148,9 @@ def _log(msg):
 class PrismRenderEngine(bpy.types.RenderEngine):
     bl_idname = "PRISM"
     bl_label = "Prism"
-    bl_use_preview = False
+    # Material, world and light previews (the Preview panel's sphere, data-block icons) are
+    # rendered by Prism too, small and at PREVIEW_SAMPLES (render(): `is_preview`).
+    bl_use_preview = True
     bl_use_postprocess = True
     bl_use_shading_nodes_custom = False  # materials are Blender's shader nodes (converted on export)
     bl_use_eevee_viewport = True  # Material Preview / Rendered viewport shading through EEVEE
@@ -221,7 +228,8 @@ class PrismRenderEngine(bpy.types.RenderEngine):
     def _error(self, msg):
         LAST["error"] = msg
         _log("error: " + msg)
-        self.report({"ERROR"}, "Prism: " + msg)
+        if not self.is_preview:  # a preview that fails keeps its old picture; the log says why
+            self.report({"ERROR"}, "Prism: " + msg)
 
     def _warn(self, msg):
         LAST["warnings"].append(msg)
@@ -263,16 +271,25 @@ class PrismRenderEngine(bpy.types.RenderEngine):
         gltf, mjson, warnings, tris = export.export_scene(depsgraph, tmp)
         timings["export"] = time.perf_counter() - t0
         LAST["triangles"] = tris
+        preview_render = bool(self.is_preview)
         for w in warnings:
-            self._warn(w)
+            if preview_render:
+                # The preview scene's own objects and the icons would repeat the final
+                # render's warnings many times over: the console only.
+                _log("preview: warning: " + w)
+            else:
+                self._warn(w)
 
         output = os.path.join(tmp, "render.exr")
         preview = os.path.join(tmp, "preview.exr")
-        denoise = bool(getattr(settings, "use_denoising", False))
+        denoise = bool(getattr(settings, "use_denoising", False)) and not preview_render
         oidn = blender_oidn() if denoise else None
+        samples = min(settings.samples, PREVIEW_SAMPLES) if preview_render else settings.samples
+        if preview_render:
+            PREVIEW_RENDERS.append((width, height))
         LAST["oidn"] = oidn
         args = runner.render_args(
-            binary, gltf, mjson, output, preview, settings.samples, width, height,
+            binary, gltf, mjson, output, preview, samples, width, height,
             settings.max_depth, settings.seed, settings.threads,
             bvh_cache=runner.bvh_cache_dir() if getattr(prefs, "cache_bvh", True) else None,
             denoise=denoise, oidn=oidn, denoise_previews=getattr(settings, "denoise_previews", False),

@@ -206,6 +206,9 @@ def test_rendered_viewport():
     cube = shot_blue[shot_blue.max(axis=-1) - shot_blue.min(axis=-1) > 0.1]
     check(len(cube) > 500 and cube[:, 2].mean() > 2.0 * cube[:, 0].mean(),
           "the blue material shows in the viewport (%d coloured pixels, mean %s)" % (len(cube), cube.mean(axis=0).round(3) if len(cube) else None))
+    check(report["preview_renders"] and report["icon_mean"] and report["icon_mean"] > 0.05,
+          "Prism rendered the material's preview icon (renders %s, icon %s, mean %s)"
+          % (report["preview_renders"], report["icon_size"], report["icon_mean"]))
     check(report["solid_process_alive"] is False, "Solid shading ended the renderer process (in %.2f s)" % report["solid_seconds"])
     check(report["new_file_process_alive"] is False, "File > New ended the renderer process (in %.2f s)" % report["new_file_seconds"])
 

@@ -69,6 +69,11 @@ def setup():
         bpy.ops.view3d.view_center_camera()
     space.shading.type = "RENDERED"
     report["engines"] = [e.bl_idname for e in bpy.types.RenderEngine.__subclasses__()]
+    # The Material tab: its slot list draws the material's icon, which Blender renders with
+    # the engine's preview render (bl_use_preview) in a background job.
+    props = next(a for a in win.screen.areas if a.type == "PROPERTIES")
+    bpy.context.view_layer.objects.active = bpy.data.objects["Cube"]
+    props.spaces.active.context = "MATERIAL"
 
 
 def camera_rect(region, rv3d):
@@ -163,6 +168,13 @@ def tick():
         stats, clients = viewport_stats()
         state["generation"] = clients[-1].frame.generation
         if step == "rendered":
+            from prism import engine
+
+            pv = bpy.data.objects["Cube"].active_material.preview
+            icon = list(pv.icon_pixels_float[:]) if pv is not None else []
+            report["preview_renders"] = list(engine.PREVIEW_RENDERS)
+            report["icon_size"] = list(pv.icon_size) if pv is not None else None
+            report["icon_mean"] = sum(icon) / len(icon) if icon else None
             shoot("rendered")
             report["pid"] = stats["pid"]
             f12("rendered")
