@@ -78,6 +78,10 @@ def view_camera(rv3d, clip_end=1000.0):
     return cam
 
 
+def _slot_materials(ob):
+    return tuple(s.material.name if s.material is not None else "" for s in ob.material_slots)
+
+
 def _object_names(depsgraph):
     """The objects the export sees (instances included), to notice added, removed and hidden
     ones."""
@@ -137,6 +141,8 @@ class ViewportSession:
         ex, gltf, mjson = self._export(engine, depsgraph, shading_only=False)
         self.node_names = ex.node_names
         self.names = _object_names(depsgraph)
+        # Which materials each object draws with: a shading update cannot change that.
+        self.slots = {ob.name: _slot_materials(ob) for ob in depsgraph.objects if ob.type in MESH_TYPES}
         self.client.send("load", scene=gltf, materials=mjson)
         STATS["loads"] += 1
 
@@ -162,18 +168,20 @@ class ViewportSession:
             if isinstance(idb, bpy.types.Object):
                 ob = idb
                 if ob.type in MESH_TYPES:
-                    if u.is_updated_geometry:
-                        reload = True
+                    if u.is_updated_geometry or _slot_materials(ob) != self.slots.get(ob.name):
+                        reload = True  # new mesh data, or other materials assigned
                     elif u.is_updated_transform:
                         moves[ob.name] = ob.matrix_world.copy()
                 elif ob.type == "LIGHT":
                     # Punctual lights are part of the shading export; an area light is also a
-                    # mesh that moves (its size, and with it its radiance, are shading).
+                    # mesh that moves (its scale, and with it its radiance, are shading).
                     shading = True
                     if ob.data.type == "AREA" and u.is_updated_transform:
                         moves[ob.name] = ob.matrix_world.copy()
                 elif ob.type == "EMPTY" and ob.instance_type != "NONE" and u.is_updated_transform:
                     reload = True  # a collection instance: its objects are not depsgraph objects
+            elif isinstance(idb, bpy.types.Light) and idb.type == "AREA":
+                reload = True  # its size and shape are the mesh the renderer holds for it
             elif isinstance(idb, SHADING_TYPES):
                 shading = True
             elif isinstance(idb, GEOMETRY_TYPES) and u.is_updated_geometry:

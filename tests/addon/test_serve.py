@@ -104,12 +104,25 @@ def run():
             print("  latency %-16s first frame %6.1f ms, %d spp in %6.1f ms" % (what, 1e3 * first, SPP, 1e3 * (done["received"] - t_edit)), flush=True)
             return fr.pixels[::-1]  # top row first
 
-        def compare(what, px, name):
+        def compare(what, px, name, exact=True):
             ref = common.render_pixels(sc, os.path.join(out, name + ".exr"))[::-1]
             ms, mr = px[..., :3].mean(axis=(0, 1)), ref[..., :3].mean(axis=(0, 1))
             check(np.allclose(ms, mr, rtol=0.01, atol=1e-4), "%s: frame means %s = F12 render's %s (1%%)" % (what, ms.round(4), mr.round(4)))
-            diff = np.abs(px[..., :3] - ref[..., :3]).max()
-            check(diff < 0.02, "%s: every pixel within 0.02 of the F12 render (max %.4f)" % (what, diff))
+            # The same samples of the same paths give the same pixels. With emissive meshes
+            # (area lights) the light tables list a mesh's triangles in its BVH's leaf order,
+            # which differs between the viewport's BVH layout (every instance under the top
+            # level) and the final render's (flattened): the same estimator with other random
+            # choices. So: every pixel equal, or (emitters) equal 16x16 block means.
+            diff = np.abs(px[..., :3] - ref[..., :3]).max(axis=-1)
+            if not exact:
+                def blocks(a):
+                    return a[..., :3].reshape(H // 16, 16, W // 16, 16, 3).mean(axis=(1, 3))
+
+                rel = float((np.abs(blocks(px) - blocks(ref)) / np.maximum(blocks(ref), 0.05)).max())
+                check(rel < 0.03, "%s: 16x16 block means within 3%% of the F12 render's (max %.3f)" % (what, rel))
+            else:
+                check(float(diff.max()) < 1e-4, "%s: every pixel equals the F12 render's (max difference %.2g)"
+                      % (what, float(diff.max())))
             return ref
 
         mark = send_view()
@@ -142,8 +155,8 @@ def run():
             fn()
             bpy.context.view_layer.update()  # runs the depsgraph: the handler syncs
             after = {k: viewport.STATS[k] for k in ("loads", "shadings", "transforms")}
-            grew = sorted(k for k in after if after[k] > before[k])
-            check(grew == [path], "%s: sent as %s (%s)" % (what, path, grew))
+            grew = "+".join(sorted(k for k in after if after[k] > before[k]))
+            check(grew == path, "%s: sent as %s (%s)" % (what, path, grew))
             return frames_after(mark, what, t)
 
         ball = bpy.data.objects["Ball"]
@@ -157,6 +170,14 @@ def run():
         lamp_ob = bpy.data.objects["Lamp"]
         img = edit("light move", lambda: setattr(lamp_ob, "location", (-2.0, -2.5, 3.0)), "shadings")
         compare("light move", img, "light_moved")
+
+        def assign_material():
+            ball.data.materials[0] = bpy.data.materials["Floor"]
+
+        img = edit("material assigned", assign_material, "loads")
+        compare("material assigned", img, "assigned")
+        ball.data.materials[0] = bpy.data.materials["Red"]
+        bpy.context.view_layer.update()
 
         def scale_mesh():
             me = ball.data
@@ -173,6 +194,16 @@ def run():
 
         img = edit("object added", add_object, "loads")
         compare("object added", img, "added")
+
+        def add_area_light():
+            common.light("Panel", "AREA", 300.0, (-1.0, -3.0, 3.0), size=1.0)
+
+        img = edit("area light added", add_area_light, "loads")
+        compare("area light added", img, "area", exact=False)
+        img = edit("area light size", lambda: setattr(bpy.data.lights["Panel"], "size", 2.5), "loads")
+        compare("area light size", img, "area_size", exact=False)
+        img = edit("area light move", lambda: setattr(bpy.data.objects["Panel"], "location", (1.0, -3.0, 2.5)), "shadings+transforms")
+        compare("area light move", img, "area_moved", exact=False)
         check(not [r for r in engine.reports if r[0] == "ERROR"], "no errors reported: %s" % engine.reports)
         print("  session stats:", {k: v for k, v in viewport.STATS.items() if k != "last_frame"}, "(after camera: %s)" % stats)
 
