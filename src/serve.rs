@@ -27,7 +27,8 @@
 //!
 //! Events go to stdout, one JSON object per line:
 //! `{"event":"ready","version":...}` at start; `{"event":"loaded","generation":..,"seconds":..,
-//! "warnings":[..]}` after `load`; `{"event":"ok","cmd":..,"generation":..,"seconds":..}` after
+//! "warnings":[..],"bvh_cache_hits":..,"bvh_cache_misses":..}` after `load` (the BVHs this load
+//! found in the cache or built: with `--bvh-cache`, a re-load after a mesh edit builds one); `{"event":"ok","cmd":..,"generation":..,"seconds":..}` after
 //! other commands;
 //! `{"event":"error","cmd":..,"message":..}` when a command fails (the session goes on with what
 //! it had); `{"event":"done","generation":..,"spp":..,"seconds":..}` when a render finishes;
@@ -308,13 +309,17 @@ impl Session {
                     });
                 }
                 self.scene_camera = desc.camera.clone();
+                let (hits, misses) = crate::geometry::bvh_cache::counters();
                 let scene = Scene::build_with_layout(desc, BvhLayout::TwoLevel)?;
+                let (hits_after, misses_after) = crate::geometry::bvh_cache::counters();
                 let warnings = scene.warnings.clone();
                 self.scene = Some(Arc::new(scene));
                 emit(
                     &self.out,
                     &serde_json::json!({"event": "loaded", "generation": generation,
-                        "seconds": start.elapsed().as_secs_f64(), "warnings": warnings}),
+                        "seconds": start.elapsed().as_secs_f64(), "warnings": warnings,
+                        "bvh_cache_hits": hits_after - hits,
+                        "bvh_cache_misses": misses_after - misses}),
                     None,
                 );
                 return Ok(Flow::Continue);

@@ -183,11 +183,17 @@ def run():
             me = ball.data
             co = np.empty(len(me.vertices) * 3, np.float32)
             me.vertices.foreach_get("co", co)
-            me.vertices.foreach_set("co", co * np.float32(0.7))
+            # A scale no earlier run used: the BVH cache (kept in the temporary folder) has not
+            # seen this mesh.
+            me.vertices.foreach_set("co", co * np.float32(0.7 + 1e-4 * (time.time_ns() % 1000)))
             me.update()
 
         img = edit("mesh edit", scale_mesh, "loads")
         compare("mesh edit", img, "mesh")
+        loaded = [e for e in client.events if e.get("event") == "loaded"][-1]
+        check((loaded["bvh_cache_misses"], loaded["bvh_cache_hits"]) == (1, 1),
+              "the mesh edit's reload built one BVH (the ball's) and took the floor's from the cache (%s)"
+              % {k: v for k, v in loaded.items() if k.startswith("bvh")})
 
         def add_object():
             common.mesh_object("Box", common.cube(0.8), bpy.data.materials["Red"], location=(-1.5, 0.8, 0.4))
