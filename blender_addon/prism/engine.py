@@ -159,7 +159,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
     def view_update(self, context, depsgraph):
         try:
             session = getattr(self, "_viewport", None)
-            if session is None:
+            if session is None or session.closed:
                 self._viewport = viewport.ViewportSession(self, context, depsgraph)
             else:
                 session.sync(self, context, depsgraph)
@@ -172,7 +172,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
 
     def view_draw(self, context, depsgraph):
         session = getattr(self, "_viewport", None)
-        if session is None:
+        if session is None or session.closed:
             return
         try:
             session.draw(self, context, depsgraph)

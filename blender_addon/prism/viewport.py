@@ -117,6 +117,8 @@ class ViewportSession:
         self.node_names = {}
         self.names = []
         self.t_edit = time.monotonic()
+        self.scene_name = depsgraph.scene.name
+        self.closed = False
         SESSIONS.append(self)
         STATS.clear()
         STATS.update(loads=0, shadings=0, transforms=0, views=0, frames_drawn=0, pid=self.client.proc.pid)
@@ -269,6 +271,7 @@ class ViewportSession:
             engine.tag_redraw()
 
     def close(self):
+        self.closed = True
         try:
             self.client.close()
         finally:
@@ -290,9 +293,22 @@ def _on_load_pre(*_args):
     close_all()
 
 
+@bpy.app.handlers.persistent
+def _on_depsgraph_update(*_args):
+    """Another engine picked (or the scene gone): end that scene's sessions now. Blender frees
+    the engine, and with it the session, only on a later redraw (seconds later when EEVEE
+    compiles its shaders first)."""
+    for s in list(SESSIONS):
+        sc = bpy.data.scenes.get(s.scene_name)
+        if sc is None or sc.render.engine != "PRISM":
+            s.close()
+
+
 def register():
     if _on_load_pre not in bpy.app.handlers.load_pre:
         bpy.app.handlers.load_pre.append(_on_load_pre)
+    if _on_depsgraph_update not in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.append(_on_depsgraph_update)
     import atexit
 
     atexit.register(close_all)
@@ -301,4 +317,6 @@ def register():
 def unregister():
     if _on_load_pre in bpy.app.handlers.load_pre:
         bpy.app.handlers.load_pre.remove(_on_load_pre)
+    if _on_depsgraph_update in bpy.app.handlers.depsgraph_update_post:
+        bpy.app.handlers.depsgraph_update_post.remove(_on_depsgraph_update)
     close_all()

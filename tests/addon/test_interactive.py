@@ -157,8 +157,8 @@ def _blocks(img, n=8):
 def test_rendered_viewport():
     """Blender 3.4 with a window: the 3D viewport in Rendered shading with Prism (a `prism
     serve` process), seen through the camera, against F12 renders of the same camera; a camera
-    move and a material edit made through the Python API show up; Solid shading and File > New
-    end the renderer process."""
+    move and a material edit made through the Python API show up; Solid shading, switching the
+    engine and File > New end the renderer process."""
     import numpy as np
 
     out = tempfile.mkdtemp(prefix="prism_interactive_")
@@ -210,6 +210,8 @@ def test_rendered_viewport():
           "Prism rendered the material's preview icon (renders %s, icon %s, mean %s)"
           % (report["preview_renders"], report["icon_size"], report["icon_mean"]))
     check(report["solid_process_alive"] is False, "Solid shading ended the renderer process (in %.2f s)" % report["solid_seconds"])
+    check(report["engine_switch_process_alive"] is False,
+          "switching the engine to EEVEE ended the renderer process (in %.2f s)" % report["engine_switch_seconds"])
     check(report["new_file_process_alive"] is False, "File > New ended the renderer process (in %.2f s)" % report["new_file_seconds"])
 
 

@@ -5,8 +5,9 @@ as a user would. Steps, each waiting for the viewport's renderer to finish its v
 1. Rendered shading: a screenshot of the viewport, and an F12 render of the same camera.
 2. The camera moved through the Python API: a screenshot and an F12 render again.
 3. The cube's material made blue: a screenshot.
-4. Solid shading: the renderer process must end. Rendered again, then File > New (the file is
-   closed): that process must end too.
+4. Solid shading: the renderer process must end. Rendered again, then the engine switched to
+   EEVEE: that process must end; Prism again, then File > New (the file is closed): that
+   process must end too.
 
 The viewport's overlays, gizmos, header and side regions are off, so the screenshot of the area
 is the rendered image; the view transform is Standard, so pixels are sRGB-encoded values of the
@@ -225,6 +226,7 @@ def tick_solid():
 
 
 def tick_again():
+    """Rendered again: a new process; switching the engine to EEVEE must end it."""
     try:
         if state["step"] != "again":
             return 0.2
@@ -235,8 +237,39 @@ def tick_again():
                 finish()
                 return None
             return 0.2
-        pid = stats["pid"]
-        report["second_pid"] = pid
+        report["second_pid"] = stats["pid"]
+        bpy.context.scene.render.engine = "BLENDER_EEVEE"
+        state["step"] = "engine_switched"
+        state["t"] = time.time()
+        bpy.app.timers.register(tick_engine_switched, first_interval=0.2)
+        return None
+    except Exception:
+        report["errors"].append(traceback.format_exc())
+        finish()
+        return None
+
+
+def tick_engine_switched():
+    """After the switch to EEVEE: the process must be gone; then Prism again, and File > New."""
+    try:
+        pid = report["second_pid"]
+        if state["step"] == "engine_switched":
+            if pid_alive(pid) and time.time() - state["t"] < 10:
+                return 0.2
+            report["engine_switch_process_alive"] = pid_alive(pid)
+            report["engine_switch_seconds"] = time.time() - state["t"]
+            bpy.context.scene.render.engine = "PRISM"
+            state["step"] = "third"
+            state["t"] = time.time()
+            return 0.2
+        stats, clients = viewport_stats()
+        if not clients or clients[-1].frame is None or stats["pid"] == pid:
+            if time.time() - state["t"] > 30:
+                report["errors"].append("Prism again after EEVEE: no frame in 30 s")
+                finish()
+                return None
+            return 0.2
+        report["third_pid"] = stats["pid"]
         bpy.ops.wm.read_homefile(app_template="")
         state["step"] = "new_file"
         state["t"] = time.time()
@@ -249,8 +282,8 @@ def tick_again():
 
 
 def tick_new_file():
-    """After File > New: the second process must be gone (the load_pre handler ends it)."""
-    pid = report["second_pid"]
+    """After File > New: the third process must be gone (the load_pre handler ends it)."""
+    pid = report["third_pid"]
     if pid_alive(pid) and time.time() - state["t"] < 10:
         return 0.2
     report["new_file_process_alive"] = pid_alive(pid)
