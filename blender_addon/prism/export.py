@@ -1923,7 +1923,9 @@ class Exporter:
         self._textures = []
         for inst in self.dg.object_instances:
             ob = inst.object
-            if ob.original is not None and ob.original.hide_render and not inst.is_instance:
+            # The viewport's depsgraph has already applied viewport visibility; as in Cycles'
+            # viewport, Disable in Renders does not hide an object there.
+            if ob.original is not None and ob.original.hide_render and not inst.is_instance and not self.viewport:
                 continue
             if not inst.show_self:
                 continue

@@ -149,6 +149,22 @@ def run():
         mark = send_view()
         frames_after(mark, "camera back", time.monotonic())
 
+        # Lens shift and an orthographic camera: the view's projection matrix carries both.
+        cam.data.shift_x, cam.data.shift_y = 0.15, -0.1
+        bpy.context.view_layer.update()
+        mark = send_view()
+        compare("camera shift", frames_after(mark, "camera shift", time.monotonic()), "shift")
+        cam.data.type = "ORTHO"
+        cam.data.ortho_scale = 9.0
+        bpy.context.view_layer.update()
+        mark = send_view()
+        compare("orthographic", frames_after(mark, "orthographic", time.monotonic()), "ortho")
+        cam.data.type = "PERSP"
+        cam.data.shift_x = cam.data.shift_y = 0.0
+        bpy.context.view_layer.update()
+        mark = send_view()
+        frames_after(mark, "camera back", time.monotonic())
+
         stats = dict(viewport.STATS)
 
         def edit(what, fn, path):
