@@ -21,7 +21,7 @@
 //! | `shading` | `scene`, `materials`? | take materials (by name), punctual lights and world from this glTF + JSON |
 //! | `transform` | `objects`: [{`name`, `matrix`}] | move every instance of each named glTF node; `matrix`: 16 numbers, column-major object-to-world in the scene's (glTF, Y-up) world |
 //! | `view` | `width`, `height`, `camera`? | image size; `camera` {`to_world` (16, column-major), `yfov` (radians) or `ortho_half_height`, `shift`? [x, y] x the view height, `aperture_radius`?, `focus_distance`?}; without `camera`: the scene's own |
-//! | `settings` | `samples`?, `max_depth`?, `pixel_size`?, `start_resolution`? | samples per pixel (0: until stopped), path depth, render at 1/`pixel_size` of the view's size, largest side of the first preview |
+//! | `settings` | `samples`?, `max_depth`?, `pixel_size`?, `start_resolution`?, `denoise`?, `oidn`?, `denoise_start_sample`? | samples per pixel (0: until stopped), path depth, render at 1/`pixel_size` of the view's size, largest side of the first preview; denoise frames (Open Image Denoise, loaded from `oidn`: a file or a folder, else the system's) from `denoise_start_sample` samples on |
 //! | `stop` | | stop rendering until the next command |
 //! | `quit` | | end the process (so does the end of stdin) |
 //!
@@ -42,6 +42,7 @@
 //! refines progressively.
 
 use crate::error::{PrismError, Result};
+use crate::film::denoise::{DenoiseOptions, Oidn, OidnLocation};
 use crate::film::{FilterKind, PixelFilter};
 use crate::geometry::BvhLayout;
 use crate::integrator::{WavelengthPdf, WavelengthSampling, WavelengthStrategy};
@@ -125,6 +126,9 @@ struct SettingsCommand {
     max_depth: Option<u32>,
     pixel_size: Option<u32>,
     start_resolution: Option<u32>,
+    denoise: Option<bool>,
+    oidn: Option<PathBuf>,
+    denoise_start_sample: Option<u32>,
 }
 
 /// Viewport sampling settings (`settings` command).
@@ -135,6 +139,8 @@ struct Sampling {
     max_depth: Option<u32>,
     pixel_size: u32,
     start_resolution: u32,
+    /// Denoise frames from this many samples on (`None`: no denoising).
+    denoise_from: Option<u32>,
 }
 
 /// Samples per progressive pass in a session: a frame every few samples, not every 64.
@@ -170,6 +176,8 @@ struct Session {
     scene_camera: Option<CameraDesc>,
     view: Option<(u32, u32)>,
     sampling: Sampling,
+    /// The Open Image Denoise library, once a `settings` command turned denoising on.
+    oidn: Option<Arc<Oidn>>,
     generation: u64,
     job: Option<Job>,
 }
@@ -208,7 +216,9 @@ pub fn serve(
             max_depth: None,
             pixel_size: 1,
             start_resolution: 64,
+            denoise_from: None,
         },
+        oidn: None,
         generation: 0,
         job: None,
     };
@@ -376,6 +386,26 @@ impl Session {
                 if let Some(r) = s.start_resolution {
                     sampling.start_resolution = r;
                 }
+                if let Some(n) = s.denoise_start_sample {
+                    sampling.denoise_from = sampling.denoise_from.map(|_| n.max(1));
+                }
+                match s.denoise {
+                    Some(false) => sampling.denoise_from = None,
+                    Some(true) => {
+                        if self.oidn.is_none() {
+                            let location = match &s.oidn {
+                                Some(p) => OidnLocation::Path(p.clone()),
+                                None => OidnLocation::System,
+                            };
+                            let oidn = Oidn::load(&location).map_err(|e| {
+                                PrismError::input(format!("denoise: {e}; frames stay noisy"))
+                            })?;
+                            self.oidn = Some(Arc::new(oidn));
+                        }
+                        sampling.denoise_from = Some(s.denoise_start_sample.unwrap_or(1).max(1));
+                    }
+                    None => {}
+                }
                 self.sampling = sampling;
                 ok(&self.out, "settings");
             }
@@ -399,19 +429,34 @@ impl Session {
             return;
         };
         let sampling = self.sampling;
-        let settings = session_settings(
+        let oidn = self
+            .oidn
+            .clone()
+            .filter(|_| sampling.denoise_from.is_some());
+        let mut settings = session_settings(
             &scene,
             width / sampling.pixel_size,
             height / sampling.pixel_size,
             sampling.samples,
             sampling.max_depth,
         );
+        // The denoiser's albedo and normal guides.
+        settings.guides = oidn.is_some();
         let cancel = Arc::new(AtomicBool::new(false));
         let (out, pool, generation) = (self.out.clone(), self.pool.clone(), self.generation);
         let job_cancel = cancel.clone();
         let handle = std::thread::spawn(move || {
             pool.install(|| {
-                run_job(&scene, settings, sampling, generation, &job_cancel, &out);
+                let denoiser = oidn.as_deref().map(|o| (o, pool.current_num_threads()));
+                run_job(
+                    &scene,
+                    settings,
+                    sampling,
+                    denoiser,
+                    generation,
+                    &job_cancel,
+                    &out,
+                );
             })
         });
         self.job = Some(Job { cancel, handle });
@@ -520,10 +565,14 @@ fn preview_divisors(width: u32, height: u32, start_resolution: u32) -> Vec<u32> 
     out
 }
 
+/// Renders one generation: the coarse previews, then the progressive full-size passes, each
+/// sent as a frame (denoised from `sampling.denoise_from` samples on when a denoiser and its
+/// thread count are given).
 fn run_job(
     scene: &Scene,
     settings: RenderSettings,
     sampling: Sampling,
+    denoiser: Option<(&Oidn, usize)>,
     generation: u64,
     cancel: &AtomicBool,
     out: &Output,
@@ -531,7 +580,37 @@ fn run_job(
     let start = Instant::now();
     let frame = |film: &crate::film::Film, spp: u32| {
         let (w, h) = (film.width as usize, film.height as usize);
-        let rgba = film.to_rgba();
+        let mut rgba = film.to_rgba();
+        if let (Some((oidn, threads)), Some(from)) = (denoiser, sampling.denoise_from) {
+            if spp >= from {
+                // Cycles' viewport denoising settings: quick filters, so frames keep coming.
+                let options = DenoiseOptions {
+                    threads,
+                    ..DenoiseOptions::default()
+                }
+                .for_previews();
+                let (albedo, normal) = (film.albedo_guide(), film.normal_guide());
+                let denoised = oidn.denoise(
+                    w,
+                    h,
+                    &film.color(),
+                    Some(&albedo),
+                    Some(&normal),
+                    &options,
+                    cancel,
+                );
+                match denoised {
+                    Ok(rgb) => {
+                        for (px, c) in rgba.iter_mut().zip(rgb) {
+                            px[..3].copy_from_slice(&c.to_array());
+                        }
+                    }
+                    // Cancelled by the next edit, or the library failed: the noisy frame.
+                    Err(_) if cancel.load(Ordering::Relaxed) => return,
+                    Err(_) => {}
+                }
+            }
+        }
         let mut bytes = Vec::with_capacity(w * h * 16);
         // Bottom row first, as a texture is laid out.
         for row in rgba.chunks(w.max(1)).rev() {

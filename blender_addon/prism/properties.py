@@ -45,6 +45,19 @@ class PrismRenderSettings(bpy.types.PropertyGroup):
         min=8,
         max=16384,
     )
+    use_preview_denoising: BoolProperty(
+        name="Viewport Denoise",
+        description="Denoise the rendered viewport with Open Image Denoise (the one Blender ships), as Cycles' "
+        "Sampling > Viewport > Denoise",
+        default=False,
+    )
+    preview_denoising_start_sample: IntProperty(
+        name="Start Sample",
+        description="Denoise the viewport from this many samples on (before: the noisy image)",
+        default=1,
+        min=1,
+        max=1 << 20,
+    )
     use_adaptive_sampling: BoolProperty(
         name="Noise Threshold",
         description="Adaptive sampling: stop sampling pixels whose estimated noise is below the threshold "

@@ -70,6 +70,12 @@ class RENDER_PT_prism_viewport(PrismPanel, bpy.types.Panel):
         col.prop(p, "preview_samples", text="Max Samples")
         col.prop(p, "preview_start_resolution")
         layout.prop(context.scene.render, "preview_pixel_size", text="Pixel Size")
+        heading = layout.column(align=True, heading="Denoise")
+        row = heading.row(align=True)
+        row.prop(p, "use_preview_denoising", text="")
+        sub = row.row()
+        sub.active = p.use_preview_denoising
+        sub.prop(p, "preview_denoising_start_sample", text="Start Sample")
 
 
 class RENDER_PT_prism_denoise(PrismPanel, bpy.types.Panel):

@@ -122,7 +122,7 @@ class ViewportSession:
         SESSIONS.append(self)
         STATS.clear()
         STATS.update(loads=0, shadings=0, transforms=0, views=0, frames_drawn=0, pid=self.client.proc.pid)
-        self._send_settings(context, scene)
+        self.send_settings(engine, context, scene)
         self._load(engine, depsgraph)
 
     # -- sync
@@ -148,14 +148,28 @@ class ViewportSession:
         self.client.send("load", scene=gltf, materials=mjson)
         STATS["loads"] += 1
 
-    def _send_settings(self, context, scene):
+    def send_settings(self, engine, context, scene):
+        """Sends the viewport settings (Render > Prism > Viewport, Pixel Size) if they changed."""
         p = scene.prism
         s = {
             "samples": int(getattr(p, "preview_samples", 1024)),
             "max_depth": int(p.max_depth),
             "pixel_size": pixel_size(context, scene),
             "start_resolution": int(getattr(p, "preview_start_resolution", 64)),
+            "denoise": bool(getattr(p, "use_preview_denoising", False)),
+            "denoise_start_sample": int(getattr(p, "preview_denoising_start_sample", 1)),
         }
+        if s["denoise"]:
+            from .engine import blender_oidn
+
+            oidn = blender_oidn()
+            if oidn is None:
+                # The renderer would look on the system; say where the add-on looked.
+                self._warn(engine, "Viewport Denoise is on, but this Blender has no Open Image Denoise library; "
+                                   "the viewport is not denoised")
+                s["denoise"] = False
+            else:
+                s["oidn"] = oidn
         if s != self.settings:
             self.settings = s
             self.client.send("settings", **s)
@@ -189,7 +203,7 @@ class ViewportSession:
             elif isinstance(idb, GEOMETRY_TYPES) and u.is_updated_geometry:
                 reload = True
         scene = depsgraph.scene_eval
-        self._send_settings(context, scene)
+        self.send_settings(engine, context, scene)
         names = _object_names(depsgraph)
         if names != self.names:
             reload = True
@@ -245,6 +259,9 @@ class ViewportSession:
             self.view = view
             self.client.send("view", **view)
             STATS["views"] += 1
+        # A changed add-on property does not always reach view_update (no depsgraph update),
+        # but the viewport redraws: compare here too.
+        self.send_settings(engine, context, scene)
         self._poll(engine)
         if not self.client.alive():
             engine.report({"ERROR"}, "Prism: the viewport renderer stopped: %s" % " | ".join(self.client.stderr_tail[-2:]))

@@ -229,6 +229,37 @@ def run():
         compare("area light size", img, "area_size", exact=False)
         img = edit("area light move", lambda: setattr(bpy.data.objects["Panel"], "location", (1.0, -3.0, 2.5)), "shadings+transforms")
         compare("area light move", img, "area_moved", exact=False)
+        # Viewport Denoise (the wheel's OIDN): a 2-spp frame, denoised, is closer to a 64-spp
+        # render than the noisy 2-spp frame, and keeps its brightness.
+        from prism import engine as prism_engine
+
+        if prism_engine.blender_oidn() is not None:
+            sc.prism.samples = 64
+            ref = common.render_pixels(sc, os.path.join(out, "ref64.exr"))[::-1][..., :3]
+            sc.prism.samples = SPP
+
+            def frame_at(denoise):
+                sc.prism.use_preview_denoising = denoise
+                sc.prism.preview_samples = 2
+                mark = len(client.events)
+                s.send_settings(engine, Context, sc)  # what view_draw does on the next redraw
+                try:
+                    client.wait_for(lambda e: e.get("event") == "done", since=mark, timeout=60)
+                except Exception:
+                    print([{k: v for k, v in e.items() if k != "received"} for e in client.events[mark:]], client.stderr_tail)
+                    raise
+                return client.frame.pixels[::-1][..., :3]
+
+            noisy, denoised = frame_at(False), frame_at(True)
+            err = [float(np.mean((x - ref) ** 2)) for x in (noisy, denoised)]
+            check(err[1] < 0.5 * err[0], "Viewport Denoise: MSE against 64 spp %.5f denoised vs %.5f noisy" % (err[1], err[0]))
+            check(abs(denoised.mean() / noisy.mean() - 1.0) < 0.05, "Viewport Denoise keeps the brightness (%.4f vs %.4f)"
+                  % (denoised.mean(), noisy.mean()))
+            sc.prism.use_preview_denoising = False
+            sc.prism.preview_samples = SPP
+            s.send_settings(engine, Context, sc)
+        else:
+            print("  skipped: Viewport Denoise (no OIDN in this Blender)")
         check(not [r for r in engine.reports if r[0] == "ERROR"], "no errors reported: %s" % engine.reports)
         print("  session stats:", {k: v for k, v in viewport.STATS.items() if k != "last_frame"}, "(after camera: %s)" % stats)
 
