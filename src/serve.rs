@@ -520,33 +520,23 @@ pub fn session_settings(
         spp: if samples == 0 { ENDLESS_SPP } else { samples },
         max_depth: max_depth.or(d.max_depth).unwrap_or(16),
         wavelengths: WavelengthSampling {
-            strategy: d
-                .wavelengths
-                .as_deref()
-                .and_then(WavelengthStrategy::from_name)
-                .unwrap_or_default(),
-            pdf: d
-                .wavelength_pdf
-                .as_deref()
-                .and_then(WavelengthPdf::from_name)
-                .unwrap_or_default(),
+            strategy: named(&d.wavelengths, WavelengthStrategy::from_name),
+            pdf: named(&d.wavelength_pdf, WavelengthPdf::from_name),
             fixed: None,
         },
         filter,
-        sampler: d
-            .sampler
-            .as_deref()
-            .and_then(SamplerKind::from_name)
-            .unwrap_or_default(),
-        light_selection: d
-            .light_sampler
-            .as_deref()
-            .and_then(LightSelection::from_name)
-            .unwrap_or_default(),
+        sampler: named(&d.sampler, SamplerKind::from_name),
+        light_selection: named(&d.light_sampler, LightSelection::from_name),
         film_transparent: d.film_transparent.unwrap_or(false),
         max_pass_samples: SESSION_PASS_SAMPLES,
         ..RenderSettings::default()
     }
+}
+
+/// The option a render-defaults name stands for (the sidecar loader has validated it), else
+/// the default.
+fn named<T: Default>(name: &Option<String>, parse: fn(&str) -> Option<T>) -> T {
+    name.as_deref().and_then(parse).unwrap_or_default()
 }
 
 /// The divisors of the quick 1-spp previews that come before the full-size render: the first
