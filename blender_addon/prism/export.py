@@ -38,7 +38,7 @@ import numpy as np
 
 from .blackbody import blackbody_rgb
 from .node_graph import GraphBuilder
-from . import world_bake
+from . import hair, world_bake
 
 WATTS_TO_LUMENS = 683.0
 GREY = (0.8, 0.8, 0.8)
@@ -359,6 +359,12 @@ def convert_material(mat):
         m["roughness"] = _val(node, "Roughness", default=1.0)
         m["ior"] = _val(node, "IOR", default=1.4)
         sss = _sss_node_subsurface(node)
+    elif t in {"BSDF_HAIR_PRINCIPLED", "BSDF_HAIR"}:
+        m["base"] = _hair_colour(node)
+        m["roughness"] = _val(node, "Roughness", "RoughnessU", default=0.3)
+        m["ior"] = _val(node, "IOR", default=1.55)
+        m["approximation"] = "%s '%s' is approximated by a Principled BSDF of the hair's colour" % (
+            "Principled Hair BSDF" if t == "BSDF_HAIR_PRINCIPLED" else "Hair BSDF", node.name)
     elif t == "EMISSION":
         m["base"] = [0.0, 0.0, 0.0]
         m["emission"] = _rgb(_val(node, "Color", default=(1, 1, 1, 1)))
@@ -372,6 +378,38 @@ def convert_material(mat):
     if not normal_ok:
         m["normal_unsupported"] = True
     return m, sss, True
+
+
+# Absorption of eumelanin and pheomelanin per unit concentration (d'Eon et al. 2011), as
+# Chiang et al. 2016 and Blender's Principled Hair BSDF use them.
+EUMELANIN_SIGMA_A = (0.419, 0.697, 1.37)
+PHEOMELANIN_SIGMA_A = (0.187, 0.4, 1.05)
+
+
+def _hair_colour(node):
+    """The colour a Principled Hair BSDF shows, in [0, 1]: its Color (Direct Coloring), or the
+    colour of its absorption (Melanin, Absorption Coefficient) through Chiang et al. 2016's
+    mapping between colour and absorption, eq. 9: sigma_a = (ln c / D(beta_n))^2 with D a
+    quintic in the radial roughness, inverted: c = exp(-sqrt(sigma_a) D(beta_n))."""
+    mode = getattr(node, "parametrization", "COLOR")
+    if node.type == "BSDF_HAIR" or mode == "COLOR":
+        return _rgb(_val(node, "Color", default=(0.8, 0.5, 0.3, 1.0)))
+    b = float(_val(node, "Radial Roughness", default=0.3))
+    d = 5.969 - 0.215 * b + 2.532 * b ** 2 - 10.73 * b ** 3 + 5.574 * b ** 4 + 0.245 * b ** 5
+    if mode == "ABSORPTION":
+        sigma = [max(float(c), 0.0) for c in _val(node, "Absorption Coefficient", default=(0.245, 0.52, 1.365))[:3]]
+    else:
+        melanin = min(max(float(_val(node, "Melanin", default=0.8)), 0.0), 1.0)
+        redness = min(max(float(_val(node, "Melanin Redness", default=1.0)), 0.0), 1.0)
+        quantity = -math.log(max(1.0 - melanin, 1e-4))
+        eu, pheo = quantity * (1.0 - redness), quantity * redness
+        tint = _rgb(_val(node, "Tint", default=(1, 1, 1, 1)))
+        sigma = []
+        for k in range(3):
+            # The tint's own absorption, through the same mapping.
+            t = (math.log(max(tint[k], 1e-4)) / d) ** 2
+            sigma.append(eu * EUMELANIN_SIGMA_A[k] + pheo * PHEOMELANIN_SIGMA_A[k] + t)
+    return [math.exp(-math.sqrt(sg) * d) for sg in sigma]
 
 
 def _principled_specular_tint(node, base):
@@ -1258,6 +1296,8 @@ class Exporter:
         if volume is not None and surface is None:
             # Only a Volume shader: the surface does not scatter (Cycles makes it transparent).
             ok = True
+        if m.get("approximation"):
+            self.warnings.append("material '%s': %s" % (name, m["approximation"]))
         if not ok:
             self.unsupported.append(name)
             node = _surface_node(mat)
@@ -1553,12 +1593,59 @@ class Exporter:
                                  % (ob.name, src.name, src.bl_idname, strength))
         return col, strength
 
-    def _warn_hair(self, ob):
-        """Particle hair is drawn by Blender outside the mesh: say it is missing."""
+    def _add_tubes(self, name, strands, material, matrix=None):
+        """Hair strands (points, radii, offsets) as a tube mesh (hair.py) drawn with `material`."""
+        mesh = hair.tube_mesh(*strands)
+        if mesh is None:
+            return
+        pos, nrm, idx = mesh
+        prim = {
+            "attributes": {"POSITION": self.buf.accessor(pos, "VEC3", minmax=True), "NORMAL": self.buf.accessor(nrm, "VEC3")},
+            "indices": self.buf.accessor(idx, "SCALAR", target=34963),
+            "material": self._material(material),
+        }
+        self.meshes.append({"name": name, "primitives": [prim]})
+        self.n_triangles += len(idx) // 3
+        node = {"name": name, "mesh": len(self.meshes) - 1}
+        if matrix is not None:
+            node["matrix"] = _matrix(matrix)
+        self._child(node)
+
+    def _add_particle_hair(self, ob):
+        """The object's particle hair systems (render as Path) as tubes, in world space."""
+        enabled = {
+            mod.particle_system.name: (mod.show_viewport if self.viewport else mod.show_render)
+            for mod in ob.modifiers if mod.type == "PARTICLE_SYSTEM"
+        }
         for ps in getattr(ob, "particle_systems", ()):
             st = ps.settings
-            if st.type == "HAIR" and st.render_type == "PATH":
-                self.warnings.append("object '%s': particle hair '%s' is not rendered yet" % (ob.name, ps.name))
+            if st.type != "HAIR" or st.render_type != "PATH" or not enabled.get(ps.name, True):
+                continue
+            slot = int(st.material) - 1
+            mat = ob.material_slots[slot].material if 0 <= slot < len(ob.material_slots) else None
+            if self.shading_only:
+                self._material(mat)
+                continue
+            strands = hair.particle_strands(ob, ps, self.viewport)
+            if strands is not None:
+                self._add_tubes("%s.%s" % (ob.name, ps.name), strands, mat)
+
+    def _add_curves_object(self, ob, matrix):
+        """A Curves object (hair curves) as tubes, in object space under the object's transform."""
+        mat = ob.material_slots[0].material if len(ob.material_slots) else None
+        if self.shading_only:
+            self._material(mat)
+            return
+        strands, has_radius = hair.curves_strands(ob.data)
+        if strands is None:
+            return
+        if not has_radius:
+            self.warnings.append("object '%s': its curves have no 'radius' attribute, so they have no width and are "
+                                 "not rendered (as in Cycles)" % ob.name)
+            return
+        if len(ob.material_slots) > 1:
+            self.warnings.append("object '%s': curves are drawn with its first material only" % ob.name)
+        self._add_tubes(ob.name, strands, mat, matrix)
 
     def _warn_light_visibility(self, ob):
         """Ray visibility the renderer cannot honour for lights (only Camera is)."""
@@ -1927,15 +2014,19 @@ class Exporter:
             # viewport, Disable in Renders does not hide an object there.
             if ob.original is not None and ob.original.hide_render and not inst.is_instance and not self.viewport:
                 continue
+            matrix = inst.matrix_world.copy()
+            if ob.type == "MESH" and getattr(inst, "show_particles", True) and not inst.is_instance:
+                # Hair is drawn with the particles, also when the emitter itself is hidden.
+                self._add_particle_hair(ob)
             if not inst.show_self:
                 continue
-            matrix = inst.matrix_world.copy()
             if ob.type in {"MESH", "CURVE", "SURFACE", "FONT", "META"}:
                 self._add_mesh_object(ob, matrix, inst.is_instance)
-                self._warn_hair(ob)
             elif ob.type == "LIGHT":
                 self._add_light(ob, matrix)
-            elif ob.type in {"CURVES", "POINTCLOUD", "VOLUME"} and not inst.is_instance:
+            elif ob.type == "CURVES":
+                self._add_curves_object(ob, matrix)
+            elif ob.type in {"POINTCLOUD", "VOLUME"} and not inst.is_instance:
                 self.warnings.append("object '%s': %s objects are not rendered yet" % (ob.name, ob.type.lower()))
         if getattr(self.scene.render, "use_motion_blur", False):
             self.warnings.append("motion blur is not rendered yet: the scene is rendered at the current frame")

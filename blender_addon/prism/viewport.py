@@ -27,7 +27,7 @@ from .serve_client import ServeClient, ServeError
 
 # Blender's Z-up world -> the glTF Y-up world the exporter writes (its root node).
 Z_UP_TO_Y_UP = Matrix(((1, 0, 0, 0), (0, 0, 1, 0), (0, -1, 0, 0), (0, 0, 0, 1)))
-MESH_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
+MESH_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META", "CURVES"}
 SHADING_TYPES = tuple(
     getattr(bpy.types, n) for n in ("Material", "World", "Light", "NodeTree", "Image", "Texture") if hasattr(bpy.types, n)
 )
@@ -76,6 +76,11 @@ def view_camera(rv3d, clip_end=1000.0):
         }
     cam["to_world"] = export._matrix(to_world)
     return cam
+
+
+def _has_particle_hair(ob):
+    """Its hair is exported in world space: moving the emitter needs a new export."""
+    return any(ps.settings.type == "HAIR" for ps in getattr(ob, "particle_systems", ()))
 
 
 def _slot_materials(ob):
@@ -184,8 +189,9 @@ class ViewportSession:
             if isinstance(idb, bpy.types.Object):
                 ob = idb
                 if ob.type in MESH_TYPES:
-                    if u.is_updated_geometry or _slot_materials(ob) != self.slots.get(ob.name):
-                        reload = True  # new mesh data, or other materials assigned
+                    if (u.is_updated_geometry or _slot_materials(ob) != self.slots.get(ob.name)
+                            or (u.is_updated_transform and _has_particle_hair(ob))):
+                        reload = True  # new mesh data, other materials assigned, or moved hair
                     elif u.is_updated_transform:
                         moves[ob.name] = ob.matrix_world.copy()
                 elif ob.type == "LIGHT":

@@ -94,6 +94,9 @@ if [ "$WHICH" = all ] || [ "$WHICH" = bpy ]; then
     echo "== energy-conserving rough glass, metal and Principled parity with Cycles in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_energy_parity.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== particle hair and Curves objects vs Cycles in the bpy wheel"
+    .venv-bpy/bin/python tests/addon/test_hair.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
     echo "== the rendered viewport's renderer (prism serve): each kind of edit vs F12 renders in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_serve.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
