@@ -1746,9 +1746,6 @@ class Exporter:
             return
         col, scale = self._light_emission(ob)
         spread = float(getattr(L, "spread", math.pi))
-        if spread < math.pi - 1e-4:
-            self.warnings.append("light '%s': area light spread %.0f degrees is not supported; it emits over 180 degrees"
-                                 % (ob.name, math.degrees(spread)))
         # Cycles: radiance P / (pi A); with Normalize off (5.0) the power is per unit area.
         radiance = L.energy * scale / (math.pi * (area if getattr(L, "normalize", True) else 1.0))
         peak = max(col) if max(col) > 0 else 1.0
@@ -1766,6 +1763,9 @@ class Exporter:
             },
             "doubleSided": False,
         }
+        if spread < math.pi - 1e-4:
+            # Blender's Spread: the soft-box profile of `lights/spread.rs`, same power.
+            mat["extras"] = {"prism_emission_spread": max(spread, 0.0)}
         self.materials.append(mat)
         prim = {
             "attributes": {

@@ -787,7 +787,7 @@ impl<'a> PathTracer<'a> {
                     &scene.textures,
                     sp.uv,
                     graph_inputs.as_ref(),
-                    cos_light > 0.0,
+                    cos_light,
                     &alive,
                 );
                 if !le.is_black() {

@@ -21,6 +21,7 @@
 
 pub mod envmap;
 pub mod round;
+pub mod spread;
 pub mod tree;
 
 use crate::geometry::Geometry;
@@ -299,7 +300,7 @@ impl Lights {
                     phi: luminance(rgb) * sp.area,
                     axis: sp.ng,
                     cos_theta_o: if two_sided { -1.0 } else { 1.0 },
-                    cos_theta_e: 0.0,
+                    cos_theta_e: mat.emission_cos_cutoff(),
                 });
             }
         }
@@ -761,7 +762,7 @@ impl Lights {
                 let inputs = mat
                     .has_graph()
                     .then(|| geometry.shading_inputs(&sp, -wi, false));
-                let le = mat.emitted(textures, sp.uv, inputs.as_ref(), cos_light > 0.0, w);
+                let le = mat.emitted(textures, sp.uv, inputs.as_ref(), cos_light, w);
                 if le.is_black() || cos_light.abs() < 1e-7 {
                     return None;
                 }

@@ -119,6 +119,10 @@ pub struct GltfMaterialDesc {
     /// The film's thickness in nm: `iridescenceThicknessMaximum` (default 400; Blender's Thin
     /// Film Thickness), the extension's thickness without a thickness texture.
     pub iridescence_thickness: f32,
+    /// Blender's area light Spread (extras `prism_emission_spread`, radians, full angle):
+    /// the emission narrows to a cone of that angle around the normal (`crate::lights::spread`);
+    /// pi (the default) is the Lambertian emitter.
+    pub emission_spread: f32,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -156,6 +160,7 @@ impl Default for GltfMaterialDesc {
             iridescence: 0.0,
             iridescence_ior: 1.3,
             iridescence_thickness: 400.0,
+            emission_spread: std::f32::consts::PI,
             alpha_mode: AlphaMode::Opaque,
             alpha_cutoff: 0.5,
         }

@@ -1957,6 +1957,15 @@ impl<'d> Importer<'d> {
             }
         };
         check("extras.prism_coat_tint", &coat_tint, 0.0)?;
+        let emission_spread = extras
+            .as_ref()
+            .and_then(|e| e.get("prism_emission_spread")?.as_f64())
+            .map_or(std::f32::consts::PI, |x| x as f32);
+        if !(0.0..=std::f32::consts::PI).contains(&emission_spread) {
+            return Err(format!(
+                "{label}: extras.prism_emission_spread must be an angle from 0 to pi radians, got {emission_spread}"
+            ));
+        }
         // Inputs the renderer does not model yet: reported once, never fatal.
         // Read from the JSON: the crate's accessors would resolve (and unwrap) the texture
         // indices, which are not checked for slots the renderer does not read.
@@ -2083,6 +2092,7 @@ impl<'d> Importer<'d> {
             iridescence,
             iridescence_ior,
             iridescence_thickness,
+            emission_spread,
             alpha_mode,
             alpha_cutoff: if alpha_cutoff.is_finite() {
                 alpha_cutoff

@@ -11,6 +11,7 @@ use crate::bsdf::{
 };
 use crate::bssrdf::SubsurfaceMaterial;
 use crate::geometry::{Geometry, SurfacePoint};
+use crate::lights::spread::Spread;
 use crate::media::{DensityField, Medium};
 use crate::shading::{MaterialInput, ShadingGraph, ShadingInputs};
 use crate::spectrum::{
@@ -59,6 +60,8 @@ pub struct Material {
     /// KHR_materials_specular colour, upsampled once (not per shading point).
     specular_color: RgbAlbedoSpectrum,
     emission: Option<RgbIlluminantSpectrum>,
+    /// Blender's area light Spread (`GltfMaterialDesc::emission_spread`); `None`: Lambertian.
+    spread: Option<Spread>,
     /// The medium inside the object: the sidecar's `volume`, or KHR_materials_volume's
     /// Beer–Lambert absorption. Entered where a path is transmitted into the surface.
     interior: Option<Medium>,
@@ -148,6 +151,7 @@ impl Material {
                 tint: RgbAlbedoSpectrum::new(g.coat_tint),
             },
             emission,
+            spread: Spread::new(g.emission_spread),
             interior,
             null_surface: desc.null_surface && desc.volume.is_some(),
             energy_compensation: !desc.gltf_brdf,
@@ -333,12 +337,31 @@ impl Material {
         textures: &[TextureDesc],
         uv: Vec2,
         inputs: Option<&ShadingInputs>,
-        front_facing: bool,
+        cos_emit: f32,
         w: &SampledWavelengths,
     ) -> SampledSpectrum {
-        if !front_facing && !self.gltf.double_sided {
+        if cos_emit <= 0.0 && !self.gltf.double_sided {
             return SampledSpectrum::ZERO;
         }
+        match &self.spread {
+            None => self.emitted_lambertian(textures, uv, inputs, w),
+            Some(s) => self.emitted_lambertian(textures, uv, inputs, w) * s.attenuation(cos_emit),
+        }
+    }
+
+    /// Cosine of the widest angle from the normal at which the surface emits (0: the whole
+    /// hemisphere), for the light tree's orientation bounds.
+    pub fn emission_cos_cutoff(&self) -> f32 {
+        self.spread.map_or(0.0, |s| s.cos_cutoff())
+    }
+
+    fn emitted_lambertian(
+        &self,
+        textures: &[TextureDesc],
+        uv: Vec2,
+        inputs: Option<&ShadingInputs>,
+        w: &SampledWavelengths,
+    ) -> SampledSpectrum {
         if let (Some(g), Some(inputs)) = (&self.graph, inputs) {
             if g.drives_emission() {
                 let rgb = self.emitted_rgb_at(textures, uv, inputs);

@@ -107,6 +107,37 @@ def test_sun_angle():
     compare(sc, "sun_10deg")
 
 
+def test_area_spread():
+    """An area light's Spread (Blender's soft-box slats): a 0.5 m square, 2 m over the floor,
+    spread 30 and 90 degrees. The floor seen from above shows the cone's pool of light (30
+    degrees: a disc of radius about 2 tan(15) + 0.25 = 0.79 m); its profile along x and the
+    image mean against Cycles'."""
+    centre = {}
+    for degrees in (30.0, 90.0):
+        sc = penumbra_scene()
+        bpy.data.objects["Plate"].hide_render = True
+        sc.render.resolution_y = 64
+        bpy.data.objects["Camera"].data.ortho_scale = SCALE
+        area = C.light("Panel", "AREA", 100.0, (0.0, 0.0, 2.0), size=0.5)
+        area.data.spread = math.radians(degrees)
+        cyc = C.render_engine(sc, "cycles", 64, OUT, "spread%d" % degrees, 2)
+        pri = C.render_engine(sc, "prism", 64, OUT, "spread%d" % degrees, 2)
+        pc, pp = profile(cyc), profile(pri)
+        mc, mp = float(cyc.mean()), float(pri.mean())
+        print("  spread %g: mean %.4f (Cycles %.4f), centre %.3f (Cycles %.3f), edge %.4f (Cycles %.4f)"
+              % (degrees, mp, mc, pp[60:68].mean(), pc[60:68].mean(), pp[:8].mean(), pc[:8].mean()))
+        C.check(abs(mp / mc - 1.0) < 0.03, "spread %g: mean %.4f within 3%% of Cycles' %.4f" % (degrees, mp, mc))
+        # The profile, in 16 blocks along x: the pool's shape.
+        centre[degrees] = float(pp[60:68].mean())
+        bc, bp = pc.reshape(16, -1).mean(axis=1), pp.reshape(16, -1).mean(axis=1)
+        worst = float(np.max(np.abs(bp - bc)) / bc.max())
+        C.check(worst < 0.04, "spread %g: profile within 4%% of Cycles' peak in every block (worst %.3f)" % (degrees, worst))
+    # The same power in a narrower cone: a brighter pool (a Lambertian panel would light both
+    # alike).
+    C.check(centre[30.0] > 2.5 * centre[90.0], "the 30-degree pool's centre (%.2f) is far brighter than the "
+            "90-degree one's (%.2f)" % (centre[30.0], centre[90.0]))
+
+
 def chromaticity(img):
     rgb = img.reshape(-1, 3).mean(axis=0)
     m = np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722], [0.0193, 0.1192, 0.9505]])
@@ -183,6 +214,7 @@ def test_light_visible_to_camera_and_in_mirror():
 
 
 TESTS = [
+    test_area_spread,
     test_point_radius,
     test_point_sphere_without_soft_falloff,
     test_spot_radius,
