@@ -426,7 +426,7 @@ class GraphBuilder:
             j = {"type": "wavelength", "inputs": self._inputs(node, ctx, {"wavelength": I("Wavelength")})}
             outs = {"Color": "color"}
         elif t == "NORMAL_MAP":
-            if node.space not in {"TANGENT", "OBJECT", "WORLD"}:
+            if node.space not in {"TANGENT", "OBJECT", "WORLD", "BLENDER_OBJECT", "BLENDER_WORLD"}:
                 self.warn(node, "%s space is not supported; the normal is left unperturbed" % node.space)
                 return None
             if node.space == "TANGENT" and node.uv_map:

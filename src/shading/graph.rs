@@ -183,6 +183,11 @@ pub enum NormalSpace {
     Tangent,
     Object,
     World,
+    /// Blender's own convention for object- and world-space maps (as its old bakes wrote
+    /// them): the colour's Y and Z axes point the other way (Cycles' Normal Map node negates
+    /// them before reading the map as object or world space).
+    BlenderObject,
+    BlenderWorld,
 }
 
 use SocketType::{Color as C, Float as F, Vector as V};
@@ -1368,9 +1373,12 @@ fn eval_node(op: &NodeOp, i: &[Vec4; MAX_INPUTS], ctx: &ShadingInputs) -> [Vec4;
             let side = if ctx.backfacing { -1.0 } else { 1.0 };
             let n_out = ctx.normal * side;
             let c = i[1].xyz() * 2.0 - Vec3::ONE;
+            let blender = c * Vec3::new(1.0, -1.0, -1.0);
             let mapped = match space {
                 NormalSpace::World => c,
                 NormalSpace::Object => ctx.normal_to_world * c,
+                NormalSpace::BlenderWorld => blender,
+                NormalSpace::BlenderObject => ctx.normal_to_world * blender,
                 NormalSpace::Tangent => ctx.tangent * c.x + ctx.bitangent * c.y + n_out * c.z,
             };
             let mapped = mapped.try_normalize().unwrap_or(n_out);

@@ -59,7 +59,8 @@
 //!   and `value` / `color`); `vector_curves` (`tables`: 3, for X, Y and Z, sampled over the
 //!   curve's range, usually [-1, 1]; inputs `fac`, `vector`; output `vector`); `wavelength`
 //!   (input `wavelength` in nm; output `color`: Blender's colour of that wavelength);
-//!   `normal_map` (`space`: tangent (TEXCOORD_0's frame) | object | world;
+//!   `normal_map` (`space`: tangent (TEXCOORD_0's frame) | object | world | blender_object |
+//!   blender_world (Blender's convention: the colour's Y and Z negated);
 //!   inputs `strength`, `color`); `blackbody` (input `temperature` in kelvin).
 //! * `closures` (instead of or with `inputs`): a Mix / Add Shader tree flattened into its
 //!   leaves, `[{"kind": "bsdf" | "emission" | "transparent" | "translucent", "weight": <value or link>,
@@ -512,6 +513,8 @@ fn node_op(
                     ("tangent", NormalSpace::Tangent),
                     ("object", NormalSpace::Object),
                     ("world", NormalSpace::World),
+                    ("blender_object", NormalSpace::BlenderObject),
+                    ("blender_world", NormalSpace::BlenderWorld),
                 ],
                 NormalSpace::Tangent,
             )?,

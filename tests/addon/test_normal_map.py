@@ -57,7 +57,7 @@ def normal_image(name="NormalMap", size=64):
 def normal_mapped_material(name, strength=1.0, mode="MAP"):
     """Principled BSDF, grey, no specular layer (pure Lambertian: the comparison is about the
     normal, not the glossy lobe). mode: MAP (tangent-space Normal Map + image), NONE, BUMP,
-    OBJECT or BLENDER_OBJECT (a Normal Map in that space)."""
+    or a Normal Map space (OBJECT, WORLD, BLENDER_OBJECT, BLENDER_WORLD)."""
     mat = C.material(name, "ShaderNodeBsdfPrincipled", (ALBEDO,) * 3, Roughness=1.0)
     nt = mat.node_tree
     bsdf = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
@@ -178,30 +178,55 @@ def test_export_normal_texture_and_tangents():
     C.check(not any("Normal" in w for w in warnings), "no warnings about the normal map: %s" % warnings)
 
 
-def test_unsupported_normal_inputs_warn():
-    """A Blender-object-space Normal Map: no normalTexture, no TANGENT, one warning naming the
-    material; the export still succeeds. A Bump node and an object-space Normal Map are
-    exported through the shading graph (compared with Cycles in test_node_graphs.py)."""
+def test_graph_normal_inputs_export():
+    """A Bump node and Normal Maps in object space and in Blender's object space: no glTF
+    normalTexture, no TANGENT, no warning; each goes through the shading graph (compared with
+    Cycles in test_node_graphs.py and test_blender_space_normal_maps)."""
     for mode in ("BUMP", "OBJECT", "BLENDER_OBJECT"):
         g, d, warnings = export(scene(mode=mode))
         mat = g["materials"][0]
         prim = g["meshes"][0]["primitives"][0]
         C.check("normalTexture" not in mat and "TANGENT" not in prim["attributes"], "%s: no glTF normal map" % mode)
+        with open(os.path.join(d, "scene.materials.json")) as f:
+            graph = json.load(f)["materials"][mat["name"]]["graph"]
         if mode == "BUMP":
-            # A Bump node goes through the shading graph (tests/addon/test_node_graphs.py).
-            with open(os.path.join(d, "scene.materials.json")) as f:
-                graph = json.load(f)["materials"][mat["name"]]["graph"]
             C.check(any(n["type"] == "bump" for n in graph["nodes"].values()) and "normal" in graph["inputs"],
                     "BUMP: exported as a graph bump (%s)" % graph)
-            C.check(not warnings, "BUMP: no warnings %s" % warnings)
-        elif mode == "OBJECT":
-            with open(os.path.join(d, "scene.materials.json")) as f:
-                graph = json.load(f)["materials"][mat["name"]]["graph"]
-            C.check(any(n["type"] == "normal_map" and n.get("space") == "object" for n in graph["nodes"].values())
-                    and "normal" in graph["inputs"], "OBJECT: exported as an object-space graph normal map (%s)" % graph)
-            C.check(not warnings, "OBJECT: no warnings %s" % warnings)
         else:
-            C.check(any("Normal inputs ignored" in w and "Mapped" in w for w in warnings), "%s: warning %s" % (mode, warnings))
+            space = mode.lower()
+            C.check(any(n["type"] == "normal_map" and n.get("space") == space for n in graph["nodes"].values())
+                    and "normal" in graph["inputs"], "%s: exported as a %s graph normal map (%s)" % (mode, space, graph))
+        C.check(not warnings, "%s: no warnings %s" % (mode, warnings))
+
+
+def test_blender_space_normal_maps():
+    """Normal Maps in Blender's object and world spaces (its old bakes' convention: the
+    colour's Y and Z negated) against Cycles: the two-tilt map written that way renders as the
+    plain object- / world-space map does, in both renderers (thirds within 3%); read as plain
+    object space it would tilt the normal into the plane (black thirds)."""
+    thirds = {}
+    for space in ("OBJECT", "BLENDER_OBJECT", "WORLD", "BLENDER_WORLD"):
+        for engine in ("cycles", "prism"):
+            sc = scene(mode=space)
+            if space.startswith("BLENDER"):
+                img = bpy.data.images["NormalMap"]
+                px = np.empty(len(img.pixels), np.float32)
+                img.pixels.foreach_get(px)
+                px = px.reshape(-1, 4)
+                px[:, 1:3] = 1.0 - px[:, 1:3]  # 2c - 1 negated
+                img.pixels.foreach_set(px.reshape(-1))
+                img.pack()
+            thirds[(space, engine)] = halves(render(sc, engine, 64, "normal_%s" % space.lower()))
+    for space in ("OBJECT", "BLENDER_OBJECT", "WORLD", "BLENDER_WORLD"):
+        for side, p, c in zip(("left", "right"), thirds[(space, "prism")], thirds[(space, "cycles")]):
+            r = p / c
+            C.check(np.all(np.abs(r - 1.0) < 0.03), "%s %s: Prism %s / Cycles %s = %s"
+                    % (space, side, np.round(p, 4), np.round(c, 4), np.round(r, 4)))
+    for space in ("OBJECT", "WORLD"):
+        for engine in ("cycles", "prism"):
+            a, b = thirds[(space, engine)], thirds[("BLENDER_" + space, engine)]
+            C.check(all(np.all(np.abs(x / y - 1.0) < 0.01) for x, y in zip(a, b)),
+                    "%s: the Blender-convention map renders as the plain one in %s" % (space, engine))
 
 
 def test_normal_map_parity():
