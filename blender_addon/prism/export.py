@@ -793,11 +793,12 @@ def _corner_attributes(me, corner_vert, uv_sets, color_sets):
         uv[:, 1] = 1.0 - uv[:, 1]
         out["TEXCOORD_%d" % k] = uv
     attrs = getattr(me, "color_attributes", None)
-    wanted = dict(color_sets)
+    # (name, set) pairs: a named attribute that is also the default one goes to both sets.
+    wanted = list(color_sets.items())
     if attrs is not None and len(attrs):
         default = getattr(attrs, "default_color_name", "") or (attrs.active_color.name if attrs.active_color else "")
-        wanted[default] = 0
-    for name, k in wanted.items():
+        wanted.append((default, 0))
+    for name, k in wanted:
         attr = attrs.get(name) if attrs is not None and name else None
         if attr is None:
             if name and k:

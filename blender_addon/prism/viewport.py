@@ -210,8 +210,15 @@ class ViewportSession:
                 reload = True
         scene = depsgraph.scene_eval
         self.send_settings(engine, context, scene)
-        names = _object_names(depsgraph)
-        if names != self.names:
+        # Objects added, removed, shown or hidden come with an update of their collection or
+        # scene (or as an object not seen before): only then list the instances, which can be
+        # many (particle instances).
+        membership = any(
+            isinstance(u.id, (bpy.types.Scene, bpy.types.Collection))
+            or (isinstance(u.id, bpy.types.Object) and u.id.name not in self.slots and u.id.type in MESH_TYPES)
+            for u in depsgraph.updates
+        )
+        if membership and _object_names(depsgraph) != self.names:
             reload = True
         if any(self.node_names.get(n) != 1 for n in moves):
             reload = True  # instanced (several nodes of that name): only a reload places them all

@@ -217,8 +217,19 @@ def run():
         def add_object():
             common.mesh_object("Box", common.cube(0.8), bpy.data.materials["Red"], location=(-1.5, 0.8, 0.4))
 
+        frames_before_box = client.frame.pixels[::-1].copy()
         img = edit("object added", add_object, "loads")
         compare("object added", img, "added")
+
+        def hide_box():
+            box = bpy.data.objects["Box"]
+            box.hide_viewport = True  # the viewport's depsgraph drops it
+            box.hide_render = True  # and so does the F12 render compared with
+
+        img = edit("object hidden", hide_box, "loads")
+        compare("object hidden", img, "hidden")
+        check(abs(img.mean() - frames_before_box.mean()) < 1e-3 * frames_before_box.mean() + 1e-4,
+              "hiding the added object gives the image before it was added")
 
         def add_area_light():
             common.light("Panel", "AREA", 300.0, (-1.0, -3.0, 3.0), size=1.0)
