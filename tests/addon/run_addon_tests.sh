@@ -124,6 +124,10 @@ if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
     blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_camera_world.py -- \
         test_camera_shift_parity test_panoramic_camera_parity 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== shader node setups vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
+    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_node_graphs.py -- \
+        test_node_setups_match_cycles test_refraction_bsdf_matches_cycles 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
     echo "== worlds baked by Cycles vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
     PRISM_SKY_MODELS=NISHITA blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_world_bake.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
