@@ -50,7 +50,7 @@ use crate::lights::LightSelection;
 use crate::render::{render, RenderSettings};
 use crate::sampler::SamplerKind;
 use crate::scene::desc::{CameraDesc, LensDesc};
-use crate::scene::{load_scene, Scene};
+use crate::scene::{load_scene_any_camera, Scene};
 use glam::{Mat4, Vec2};
 use serde::Deserialize;
 use std::io::{BufRead, Write};
@@ -306,8 +306,8 @@ impl Session {
             Command::Load(files) => {
                 // Dropped first: two scenes need not fit in memory at once.
                 self.scene = None;
-                let desc = load_scene(&files.scene, files.materials.as_deref(), None)?;
-                let mut desc = desc;
+                let mut desc =
+                    load_scene_any_camera(&files.scene, files.materials.as_deref(), None)?;
                 if desc.camera.is_none() {
                     // A viewport needs no scene camera: until a `view` brings one, look down
                     // -Z from the origin.
@@ -335,7 +335,7 @@ impl Session {
                 return Ok(Flow::Continue);
             }
             Command::Shading(files) => {
-                let desc = load_scene(&files.scene, files.materials.as_deref(), None)?;
+                let desc = load_scene_any_camera(&files.scene, files.materials.as_deref(), None)?;
                 self.scene_mut()?.replace_shading(desc)?;
                 ok(&self.out, "shading");
             }

@@ -253,6 +253,39 @@ fn bad_commands_are_errors_and_the_session_goes_on() {
     s.quit();
 }
 
+/// A viewport brings its own view: a scene without a camera loads, and renders once a view
+/// with a camera arrives (a final render refuses such a scene).
+#[test]
+fn a_scene_without_a_camera_renders_from_the_view() {
+    let dir = std::env::temp_dir().join(format!("prism_serve_nocam_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut gltf: Value =
+        serde_json::from_str(&std::fs::read_to_string(everyday()).unwrap()).unwrap();
+    let src_dir = everyday().parent().unwrap().to_path_buf();
+    gltf["buffers"][0]["uri"] = json!(src_dir.join("everyday.bin"));
+    gltf.as_object_mut().unwrap().remove("cameras");
+    for n in gltf["nodes"].as_array_mut().unwrap() {
+        n.as_object_mut().unwrap().remove("camera");
+    }
+    let path = dir.join("nocam.gltf");
+    std::fs::write(&path, gltf.to_string()).unwrap();
+    assert!(
+        load_scene(&path, None, None).is_err(),
+        "a final render needs a camera"
+    );
+    let mut s = Session::start();
+    s.send(json!({"cmd": "settings", "samples": 1, "start_resolution": 0}));
+    s.send(json!({"cmd": "load", "scene": path}));
+    let to_world = Mat4::from_translation(Vec3::new(0.0, 1.0, 6.0));
+    s.send(json!({"cmd": "view", "width": 16, "height": 12,
+        "camera": {"to_world": to_world.to_cols_array(), "yfov": 0.8}}));
+    let (events, frame) = s.until_done();
+    assert!(events.iter().all(|e| e["event"] != "error"), "{events:?}");
+    assert!(frame.iter().any(|&v| v > 0.01), "the view sees the scene");
+    s.quit();
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn the_end_of_input_ends_the_session_during_a_render() {
     let mut s = Session::start();

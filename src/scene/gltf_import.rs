@@ -140,9 +140,8 @@ pub fn import_gltf(path: &Path, camera_name: Option<&str>) -> R<GltfImport> {
     };
     imp.scene.warnings = warnings;
     imp.run(camera_name).map_err(fail)?;
-    if imp.scene.camera.is_none() {
-        return Err(PrismError::input(format!("no camera in {file}")));
-    }
+    // A missing camera is the caller's to judge (`load::load_scene` refuses it; a viewport
+    // brings its own).
     let material_names = doc
         .materials()
         .map(|m| m.name().map(str::to_string))

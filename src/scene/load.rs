@@ -31,6 +31,23 @@ pub fn load_scene(
     materials_path: Option<&Path>,
     camera_name: Option<&str>,
 ) -> Result<SceneDesc, PrismError> {
+    let scene = load_scene_any_camera(scene_path, materials_path, camera_name)?;
+    if scene.camera.is_none() {
+        return Err(PrismError::input(format!(
+            "no camera in {}",
+            scene_path.display()
+        )));
+    }
+    Ok(scene)
+}
+
+/// As [`load_scene`], but a scene without a camera loads (with `camera` None): for a viewport,
+/// which brings its own view.
+pub fn load_scene_any_camera(
+    scene_path: &Path,
+    materials_path: Option<&Path>,
+    camera_name: Option<&str>,
+) -> Result<SceneDesc, PrismError> {
     load_scene_inner(scene_path, materials_path, camera_name).map_err(|e| match e {
         // Names inside messages come from the files: keep every message on one line.
         PrismError::Input(m) => PrismError::Input(m.replace(['\r', '\n'], " ")),

@@ -13,4 +13,4 @@ pub mod texture;
 pub use build::Scene;
 pub use camera::Camera;
 pub use desc::*;
-pub use load::load_scene;
+pub use load::{load_scene, load_scene_any_camera};
