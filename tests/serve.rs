@@ -118,6 +118,20 @@ fn max_difference(a: &[f32], b: &[f32]) -> f32 {
         .fold(0.0, f32::max)
 }
 
+/// A copy of the everyday scene's glTF, edited, in a fresh folder (its buffer still the
+/// original's): (folder, file).
+fn edited_everyday(tag: &str, edit: impl FnOnce(&mut Value)) -> (PathBuf, PathBuf) {
+    let dir = std::env::temp_dir().join(format!("prism_serve_test_{tag}_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut gltf: Value =
+        serde_json::from_str(&std::fs::read_to_string(everyday()).unwrap()).unwrap();
+    gltf["buffers"][0]["uri"] = json!(everyday().parent().unwrap().join("everyday.bin"));
+    edit(&mut gltf);
+    let path = dir.join(format!("{tag}.gltf"));
+    std::fs::write(&path, gltf.to_string()).unwrap();
+    (dir, path)
+}
+
 fn open_session() -> Session {
     let mut s = Session::start();
     s.send(json!({"cmd": "settings", "samples": SPP, "start_resolution": 0}));
@@ -172,23 +186,18 @@ fn a_moved_object_renders_as_if_loaded_there() {
 #[test]
 fn a_shading_edit_renders_as_if_loaded_with_it() {
     // The same scene with a blue ball where the red one was, a brighter sun and a blue world.
-    let dir = std::env::temp_dir().join(format!("prism_serve_test_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let mut gltf: Value =
-        serde_json::from_str(&std::fs::read_to_string(everyday()).unwrap()).unwrap();
-    let src_dir = everyday().parent().unwrap().to_path_buf();
-    gltf["buffers"][0]["uri"] = json!(src_dir.join("everyday.bin"));
-    for m in gltf["materials"].as_array_mut().unwrap() {
-        if m["name"] == "RedPlastic" {
-            m["pbrMetallicRoughness"]["baseColorFactor"] = json!([0.05, 0.1, 0.9, 1.0]);
+    let (dir, edited) = edited_everyday("shading", |gltf| {
+        for m in gltf["materials"].as_array_mut().unwrap() {
+            if m["name"] == "RedPlastic" {
+                m["pbrMetallicRoughness"]["baseColorFactor"] = json!([0.05, 0.1, 0.9, 1.0]);
+            }
         }
-    }
-    let lights = &mut gltf["extensions"]["KHR_lights_punctual"]["lights"];
-    for l in lights.as_array_mut().unwrap() {
-        l["intensity"] = json!(l["intensity"].as_f64().unwrap() * 1.5);
-    }
-    let edited = dir.join("edited.gltf");
-    std::fs::write(&edited, gltf.to_string()).unwrap();
+        let lights = &mut gltf["extensions"]["KHR_lights_punctual"]["lights"];
+        for l in lights.as_array_mut().unwrap() {
+            l["intensity"] = json!(l["intensity"].as_f64().unwrap() * 1.5);
+        }
+    });
+    let src_dir = everyday().parent().unwrap().to_path_buf();
     let mut materials: Value = serde_json::from_str(
         &std::fs::read_to_string(src_dir.join("everyday.materials.json")).unwrap(),
     )
@@ -257,18 +266,12 @@ fn bad_commands_are_errors_and_the_session_goes_on() {
 /// with a camera arrives (a final render refuses such a scene).
 #[test]
 fn a_scene_without_a_camera_renders_from_the_view() {
-    let dir = std::env::temp_dir().join(format!("prism_serve_nocam_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let mut gltf: Value =
-        serde_json::from_str(&std::fs::read_to_string(everyday()).unwrap()).unwrap();
-    let src_dir = everyday().parent().unwrap().to_path_buf();
-    gltf["buffers"][0]["uri"] = json!(src_dir.join("everyday.bin"));
-    gltf.as_object_mut().unwrap().remove("cameras");
-    for n in gltf["nodes"].as_array_mut().unwrap() {
-        n.as_object_mut().unwrap().remove("camera");
-    }
-    let path = dir.join("nocam.gltf");
-    std::fs::write(&path, gltf.to_string()).unwrap();
+    let (dir, path) = edited_everyday("nocam", |gltf| {
+        gltf.as_object_mut().unwrap().remove("cameras");
+        for n in gltf["nodes"].as_array_mut().unwrap() {
+            n.as_object_mut().unwrap().remove("camera");
+        }
+    });
     assert!(
         load_scene(&path, None, None).is_err(),
         "a final render needs a camera"
