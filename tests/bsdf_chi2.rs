@@ -1481,3 +1481,64 @@ fn thin_film_on_a_white_base_stays_near_one() {
         furnace.worst
     );
 }
+
+/// Light ray visibility (`Bsdf::visible_part`): the Diffuse, Glossy and Transmission parts of
+/// an evaluation add up to the whole, each part is non-negative, and a light no kind sees
+/// lights nothing. Principled (diffuse base + specular layer), rough glass (reflection +
+/// transmission) and Lambertian.
+#[test]
+fn visible_parts_add_up_to_the_whole() {
+    use prism::scene::desc::RayVisibility;
+    let only = |d, g, t| RayVisibility {
+        diffuse: d,
+        glossy: g,
+        transmission: t,
+    };
+    let bsdfs = [
+        metallic_roughness(SampledSpectrum::splat(0.6), 0.3, 0.4, 1.0),
+        dielectric(1.5, 0.3),
+        diffuse(SampledSpectrum::splat(0.7)),
+    ];
+    for b in &bsdfs {
+        for (cos_o, cos_i, phi) in [
+            (0.8, 0.6, 2.0),
+            (0.5, 0.9, 3.0),
+            (0.7, -0.5, 3.1),
+            (0.3, -0.9, 0.4),
+        ] {
+            let (wo, wi) = (wo_at(cos_o), dir(cos_i, phi));
+            let f = b.eval(wo, wi);
+            let parts = [
+                b.visible_part(wo, wi, f, only(true, false, false)),
+                b.visible_part(wo, wi, f, only(false, true, false)),
+                b.visible_part(wo, wi, f, only(false, false, true)),
+            ];
+            let sum = parts[0] + parts[1] + parts[2];
+            for k in 0..4 {
+                assert!(
+                    (sum[k] - f[k]).abs() <= 1e-5 * f[k].max(1.0),
+                    "{b:?}: {sum:?} vs {f:?}"
+                );
+                assert!(parts.iter().all(|p| p[k] >= 0.0));
+            }
+            assert!(b
+                .visible_part(wo, wi, f, only(false, false, false))
+                .is_black());
+            assert_eq!(b.visible_part(wo, wi, f, RayVisibility::ALL), f);
+        }
+    }
+    // The glass's transmission is Transmission, its reflection Glossy; the Principled base is
+    // Diffuse.
+    let glass = &bsdfs[1];
+    let (wo, wt) = (wo_at(0.8), dir(-0.7, 3.0));
+    let ft = glass.eval(wo, wt);
+    assert!(!ft.is_black());
+    assert_eq!(
+        glass.visible_part(wo, wt, ft, only(false, true, false)),
+        SampledSpectrum::ZERO
+    );
+    let p = &bsdfs[0];
+    let (wo, wr) = (wo_at(0.8), dir(0.6, 2.0));
+    let d = p.visible_part(wo, wr, p.eval(wo, wr), only(true, false, false));
+    assert_eq!(d, p.diffuse_part(wo, wr));
+}

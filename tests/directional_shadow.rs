@@ -134,6 +134,7 @@ fn light_only_meshes_cast_no_shadow_and_hide_from_the_camera() {
         casts_shadows: false,
         camera_visible: false,
         holdout: false,
+        light_visibility: Default::default(),
     };
     let above = render_mean(Occluder::Above(light_only));
     assert!(

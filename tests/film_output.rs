@@ -78,6 +78,7 @@ fn holdout_object_is_a_transparent_hole() {
     let mut desc = furnace_scene(diffuse_material("grey", Vec3::splat(0.5)), world);
     desc.instance_visibility = vec![InstanceVisibility {
         holdout: true,
+        light_visibility: Default::default(),
         ..Default::default()
     }];
     let px = render(desc, false);

@@ -96,6 +96,7 @@ fn area_light_node_extras_set_ray_visibility() {
             casts_shadows: false,
             camera_visible: false,
             holdout: false,
+            light_visibility: Default::default(),
         }
     );
     assert_eq!(
@@ -104,12 +105,14 @@ fn area_light_node_extras_set_ray_visibility() {
             casts_shadows: false,
             camera_visible: true,
             holdout: false,
+            light_visibility: Default::default(),
         }
     );
     assert_eq!(
         vis("Holdout"),
         InstanceVisibility {
             holdout: true,
+            light_visibility: Default::default(),
             ..default
         }
     );
@@ -119,6 +122,7 @@ fn area_light_node_extras_set_ray_visibility() {
             casts_shadows: false,
             camera_visible: false,
             holdout: false,
+            light_visibility: Default::default(),
         }
     );
 }

@@ -1648,13 +1648,18 @@ class Exporter:
             self.warnings.append("object '%s': curves are drawn with its first material only" % ob.name)
         self._add_tubes(ob.name, strands, mat, matrix)
 
-    def _warn_light_visibility(self, ob):
-        """Ray visibility the renderer cannot honour for lights (only Camera is)."""
-        off = [k.split("_", 1)[1] for k in ("visible_diffuse", "visible_glossy", "visible_transmission",
-                                             "visible_volume_scatter") if not getattr(ob, k, True)]
-        if off:
-            self.warnings.append("light '%s': ray visibility %s off is not supported; the light lights every surface"
-                                 % (ob.name, "/".join(off)))
+    def _light_ray_visibility(self, ob):
+        """The light's Ray Visibility as extras (`prism_visible_diffuse` / `_glossy` /
+        `_transmission`, written when off); Volume Scatter off is warned about (volume
+        scattering sees every light)."""
+        out = {}
+        for kind in ("diffuse", "glossy", "transmission"):
+            if not getattr(ob, "visible_" + kind, True):
+                out["prism_visible_" + kind] = False
+        if not getattr(ob, "visible_volume_scatter", True):
+            self.warnings.append("light '%s': ray visibility volume scatter off is not supported; volumes see the light"
+                                 % ob.name)
+        return out
 
     def _is_holdout(self, ob):
         """Object > Visibility > Holdout, or a holdout collection of the rendered view layer."""
@@ -1668,7 +1673,7 @@ class Exporter:
 
     def _add_light(self, ob, matrix):
         L = ob.data
-        self._warn_light_visibility(ob)
+        ray_visibility = self._light_ray_visibility(ob)
         col, scale = self._light_emission(ob)
         power = L.energy * scale
         normalize = bool(getattr(L, "normalize", True))
@@ -1709,10 +1714,12 @@ class Exporter:
             if angle > 0.0:
                 light["extras"] = {"prism_angle": min(angle, math.pi)}
         elif L.type == "AREA":
-            self._add_area_light(ob, matrix)
+            self._add_area_light(ob, matrix, ray_visibility)
             return
         else:
             return
+        if ray_visibility:
+            light.setdefault("extras", {}).update(ray_visibility)
         light["name"] = ob.name
         self.lights.append(light)
         self._child(
@@ -1723,7 +1730,7 @@ class Exporter:
             }
         )
 
-    def _add_area_light(self, ob, matrix):
+    def _add_area_light(self, ob, matrix, ray_visibility=None):
         L = ob.data
         sx = L.size
         sy = L.size_y if L.shape in {"RECTANGLE", "ELLIPSE"} else L.size
@@ -1783,6 +1790,7 @@ class Exporter:
             "prism_area_light": True,
             "prism_visible_camera": bool(getattr(ob, "visible_camera", False)),
         }
+        extras.update(ray_visibility or {})
         self._child({"name": ob.name, "mesh": len(self.meshes) - 1, "matrix": _matrix(matrix), "extras": extras})
 
     def _add_camera(self):

@@ -217,6 +217,27 @@ impl Bsdf {
         }
     }
 
+    /// The part of `f` = `eval(wo, wi)` that a light of ray visibility `vis` lights: diffuse
+    /// reflection and translucency are Diffuse, the rest of the reflection Glossy, other
+    /// transmission Transmission (as Cycles classifies its closures for light visibility).
+    pub fn visible_part(
+        &self,
+        wo: Vec3,
+        wi: Vec3,
+        f: SampledSpectrum,
+        vis: crate::scene::desc::RayVisibility,
+    ) -> SampledSpectrum {
+        let keep = |on: bool, x: SampledSpectrum| if on { x } else { SampledSpectrum::ZERO };
+        if wo.z * wi.z > 0.0 {
+            let diffuse = self.diffuse_part(wo, wi);
+            keep(vis.diffuse, diffuse) + keep(vis.glossy, (f - diffuse).clamp_zero())
+        } else if matches!(self, Bsdf::Translucent(_)) {
+            keep(vis.diffuse, f)
+        } else {
+            keep(vis.transmission, f)
+        }
+    }
+
     /// `(eval(wo, wi), pdf(wo, wi))` computed in one pass (what light sampling with MIS needs).
     pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (SampledSpectrum, f32) {
         match self {

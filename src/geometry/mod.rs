@@ -324,6 +324,8 @@ pub struct Instance {
     /// A hole in the image (Blender's holdout): camera rays that reach it leave the pixel
     /// transparent, and paths end there.
     pub holdout: bool,
+    /// Which scattering sees the instance's emission (an area light's ray visibility).
+    pub light_visibility: crate::scene::desc::RayVisibility,
 }
 
 impl Instance {
@@ -338,6 +340,7 @@ impl Instance {
             casts_shadows: true,
             camera_visible: true,
             holdout: false,
+            light_visibility: crate::scene::desc::RayVisibility::ALL,
         }
     }
 
@@ -349,6 +352,11 @@ impl Instance {
 
     pub fn with_holdout(mut self, holdout: bool) -> Self {
         self.holdout = holdout;
+        self
+    }
+
+    pub fn with_light_visibility(mut self, v: crate::scene::desc::RayVisibility) -> Self {
+        self.light_visibility = v;
         self
     }
 }
@@ -585,7 +593,8 @@ impl Geometry {
             let inst = &mut self.instances[i as usize];
             let moved = Instance::new(inst.mesh, m)
                 .with_visibility(inst.casts_shadows, inst.camera_visible)
-                .with_holdout(inst.holdout);
+                .with_holdout(inst.holdout)
+                .with_light_visibility(inst.light_visibility);
             *inst = moved;
             flat_moved |= self.flattened[i as usize];
         }

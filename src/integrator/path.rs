@@ -465,6 +465,10 @@ impl<'a> PathTracer<'a> {
         let mut prev_bsdf_density = 0.0f32;
         let mut prev_denominator = 1.0f32;
         let mut specular_bounce = true;
+        // The lobe of the last BSDF scattering, for lights that some kinds of scattering do not
+        // see (Blender's light Ray Visibility); None after the camera, a volume scattering or a
+        // subsurface exit, which see every light.
+        let mut last_lobe: Option<LobeFlags> = None;
         // Where the BSDF sample that produced `ray` was taken (light-selection probabilities
         // for MIS depend on the shading point).
         let mut prev_ctx = ShadingContext {
@@ -587,6 +591,9 @@ impl<'a> PathTracer<'a> {
                         depth == 0,
                         &alive,
                         |index, s, le| {
+                            if last_lobe.is_some_and(|fl| !lights.visibility(index).sees(fl)) {
+                                return;
+                            }
                             let weight = if specular_bounce {
                                 1.0
                             } else {
@@ -693,6 +700,7 @@ impl<'a> PathTracer<'a> {
                 let wi = phase.sample(ray.dir, u_lobe, u_dir.x, u_dir.y);
                 let pdf = phase.eval(ray.dir.dot(wi));
                 specular_bounce = false;
+                last_lobe = None;
                 prev_denominator = mis.denominator();
                 prev_bsdf_density = mis.bsdf_density(SampledSpectrum::splat(pdf));
                 prev_ctx = ctx;
@@ -710,6 +718,9 @@ impl<'a> PathTracer<'a> {
                 }
                 // The world and any sun disc along the ray, each with its own MIS weight.
                 lights.for_each_at_infinity(ray.dir, &alive, |index, le| {
+                    if last_lobe.is_some_and(|fl| !lights.visibility(index).sees(fl)) {
+                        return;
+                    }
                     let weight = if specular_bounce {
                         1.0
                     } else {
@@ -790,7 +801,12 @@ impl<'a> PathTracer<'a> {
                     cos_light,
                     &alive,
                 );
-                if !le.is_black() {
+                let seen = last_lobe.is_none_or(|fl| {
+                    geometry.instances[hit.instance as usize]
+                        .light_visibility
+                        .sees(fl)
+                });
+                if seen && !le.is_black() {
                     let weight = if specular_bounce {
                         1.0
                     } else {
@@ -926,7 +942,10 @@ impl<'a> PathTracer<'a> {
                         if visible && eval_after_shadow {
                             (f, bsdf_pdfs) = bsdf.eval_pdf_wavelengths(wo, wi);
                         }
-                        if visible && bumped {
+                        if visible && !ls.visibility.is_all() {
+                            f = bsdf.visible_part(wo, wi, f, ls.visibility);
+                        }
+                        if visible && bumped && ls.visibility.diffuse {
                             f = (f - bump_loss(wi, ls.wi)).clamp_zero();
                         }
                         f *= wi.z.abs();
@@ -987,6 +1006,7 @@ impl<'a> PathTracer<'a> {
                 guide_tint *= bsdf.albedo();
             }
             specular_bounce = bs.is_specular();
+            last_lobe = Some(bs.flags);
             prev_denominator = mis.denominator();
             prev_bsdf_density = mis.bsdf_density(bs.pdf_wavelengths);
             prev_ctx = ctx;
@@ -1102,6 +1122,7 @@ impl<'a> PathTracer<'a> {
                 }
                 beta *= lobe.eval(wi.z) * wi.z / pdf;
                 specular_bounce = false;
+                last_lobe = None;
                 prev_denominator = mis.denominator();
                 prev_bsdf_density = pdf * prev_denominator;
                 prev_ctx = exit_ctx;

@@ -26,7 +26,7 @@ pub mod tree;
 
 use crate::geometry::Geometry;
 use crate::math::{sampling, DiscreteDistribution, Frame, PI};
-use crate::scene::desc::{PunctualKind, PunctualLightDesc, TextureDesc};
+use crate::scene::desc::{PunctualKind, PunctualLightDesc, RayVisibility, TextureDesc};
 use crate::scene::material::Material;
 use crate::spectrum::{RgbIlluminantSpectrum, SampledSpectrum, SampledWavelengths};
 use envmap::EnvironmentMap;
@@ -168,6 +168,8 @@ pub struct LightSample {
     /// selection probability alone).
     pub pdf: f32,
     pub delta: bool,
+    /// Which scattering sees the light (Blender's light Ray Visibility).
+    pub visibility: RayVisibility,
 }
 
 /// See `Lights::first_choice`.
@@ -199,6 +201,8 @@ pub struct Lights {
     /// camera rays see it.
     round: Vec<(u32, bool)>,
     scene_radius: f32,
+    /// Which scattering sees each light (Blender's light Ray Visibility).
+    visibility: Vec<RayVisibility>,
 }
 
 use crate::spectrum::rgb::luminance;
@@ -305,7 +309,11 @@ impl Lights {
             }
         }
         let mut round_lights = Vec::new();
+        // Ray visibility of the punctual lights, by light index (the others: their instance's,
+        // or every kind for the world).
+        let mut punctual_visibility = Vec::new();
         for p in punctual {
+            punctual_visibility.push((lights.len(), p.ray_visibility));
             let rgb = p.color * p.intensity;
             let spectrum = RgbIlluminantSpectrum::new(rgb);
             let round =
@@ -426,6 +434,18 @@ impl Lights {
         for (slot, &(i, _)) in distant.iter().enumerate() {
             distant_slot[i as usize] = slot as u32;
         }
+        let mut visibility: Vec<RayVisibility> = lights
+            .iter()
+            .map(|l| match l {
+                Light::Triangle { instance, .. } => {
+                    geometry.instances[*instance as usize].light_visibility
+                }
+                _ => RayVisibility::ALL,
+            })
+            .collect();
+        for (index, v) in punctual_visibility {
+            visibility[index] = v;
+        }
         Lights {
             power: DiscreteDistribution::new(&power),
             tree: LightTree::build(&bounds),
@@ -436,7 +456,13 @@ impl Lights {
             environment,
             round: round_lights,
             scene_radius,
+            visibility,
         }
+    }
+
+    /// Which scattering sees light `index` (Blender's light Ray Visibility).
+    pub fn visibility(&self, index: usize) -> RayVisibility {
+        self.visibility[index]
     }
 
     pub fn is_empty(&self) -> bool {
@@ -746,7 +772,7 @@ impl Lights {
             return None;
         }
         let p = ctx.p;
-        match &self.lights[index] {
+        let mut sample = match &self.lights[index] {
             Light::Triangle { instance, prim } => {
                 let (b1, b2) = sampling::sample_uniform_triangle(u);
                 let sp = geometry.surface_point_at(*instance, *prim, b1, b2);
@@ -772,6 +798,7 @@ impl Lights {
                     li: le,
                     pdf: p_select * dist2 / (cos_light.abs() * sp.area),
                     delta: false,
+                    visibility: RayVisibility::ALL,
                 })
             }
             Light::Point {
@@ -786,6 +813,7 @@ impl Lights {
                     li: intensity.sample(w) * round.radiance_per_intensity(),
                     pdf: p_select * s.pdf,
                     delta: false,
+                    visibility: RayVisibility::ALL,
                 })
             }
             Light::Spot {
@@ -808,6 +836,7 @@ impl Lights {
                     li: intensity.sample(w) * (falloff * round.radiance_per_intensity()),
                     pdf: p_select * s.pdf,
                     delta: false,
+                    visibility: RayVisibility::ALL,
                 })
             }
             Light::Point {
@@ -825,6 +854,7 @@ impl Lights {
                         li: intensity.sample(w) / dist2,
                         pdf: p_select,
                         delta: true,
+                        visibility: RayVisibility::ALL,
                     }
                 })
             }
@@ -849,6 +879,7 @@ impl Lights {
                     li: intensity.sample(w) * (falloff / dist2),
                     pdf: p_select,
                     delta: true,
+                    visibility: RayVisibility::ALL,
                 })
             }
             Light::Directional {
@@ -862,6 +893,7 @@ impl Lights {
                     li: irradiance.sample(w),
                     pdf: p_select,
                     delta: true,
+                    visibility: RayVisibility::ALL,
                 },
                 Some(d) => LightSample {
                     wi: d.sample(u),
@@ -869,6 +901,7 @@ impl Lights {
                     li: irradiance.sample(w) * d.radiance_scale,
                     pdf: p_select * d.pdf(),
                     delta: false,
+                    visibility: RayVisibility::ALL,
                 },
             }),
             Light::Environment => match &self.environment {
@@ -882,11 +915,14 @@ impl Lights {
                         li,
                         pdf: p_select * pdf,
                         delta: false,
+                        visibility: RayVisibility::ALL,
                     })
                 }
                 None => None,
             },
-        }
+        }?;
+        sample.visibility = self.visibility[index];
+        Some(sample)
     }
 }
 

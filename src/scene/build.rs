@@ -121,7 +121,8 @@ impl Scene {
                 let vis = instance_visibility.get(i).copied().unwrap_or_default();
                 let instance = Instance::new(mesh, affine)
                     .with_visibility(vis.casts_shadows, vis.camera_visible)
-                    .with_holdout(vis.holdout);
+                    .with_holdout(vis.holdout)
+                    .with_light_visibility(vis.light_visibility);
                 Some((instance, inst.name.clone()))
             })
             .unzip();

@@ -309,6 +309,51 @@ pub struct PunctualLightDesc {
     /// A spot that also falls off with the cosine to its axis, as Blender 3.x's (Cycles
     /// before 4.0).
     pub spot_cosine: bool,
+    /// Which scattering the light reaches (Blender's light Ray Visibility).
+    pub ray_visibility: RayVisibility,
+}
+
+/// Which kinds of scattering see a light (Blender's Object > Visibility > Ray Visibility of a
+/// light: Diffuse, Glossy, Transmission), as Cycles honours them: a light a kind does not see
+/// gives that kind's lobes no direct light and its sampled rays no emission. Volume scattering
+/// and subsurface exits see every light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RayVisibility {
+    pub diffuse: bool,
+    pub glossy: bool,
+    pub transmission: bool,
+}
+
+impl RayVisibility {
+    pub const ALL: RayVisibility = RayVisibility {
+        diffuse: true,
+        glossy: true,
+        transmission: true,
+    };
+
+    pub fn is_all(&self) -> bool {
+        *self == RayVisibility::ALL
+    }
+
+    /// Whether a path whose last scattering was a lobe of `flags` sees the light: glossy and
+    /// specular transmission is Transmission, other diffuse lobes (diffuse reflection and
+    /// translucency) Diffuse, the rest Glossy.
+    pub fn sees(&self, flags: crate::bsdf::LobeFlags) -> bool {
+        use crate::bsdf::LobeFlags;
+        if flags.contains(LobeFlags::DIFFUSE) {
+            self.diffuse
+        } else if flags.contains(LobeFlags::TRANSMISSION) {
+            self.transmission
+        } else {
+            self.glossy
+        }
+    }
+}
+
+impl Default for RayVisibility {
+    fn default() -> Self {
+        RayVisibility::ALL
+    }
 }
 
 #[derive(Clone, Debug, Default)]
@@ -453,6 +498,8 @@ pub struct InstanceVisibility {
     pub camera_visible: bool,
     /// Blender's holdout (the object's, or a Holdout material's): a transparent hole.
     pub holdout: bool,
+    /// An emitting instance's (an area light's) ray visibility as a light.
+    pub light_visibility: RayVisibility,
 }
 
 impl Default for InstanceVisibility {
@@ -461,6 +508,7 @@ impl Default for InstanceVisibility {
             casts_shadows: true,
             camera_visible: true,
             holdout: false,
+            light_visibility: RayVisibility::ALL,
         }
     }
 }

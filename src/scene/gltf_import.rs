@@ -635,6 +635,12 @@ impl<'d> Importer<'d> {
                 casts_shadows: !area_light && flag("prism_casts_shadows").unwrap_or(true),
                 camera_visible: flag("prism_visible_camera").unwrap_or(!area_light),
                 holdout: flag("prism_holdout").unwrap_or(false),
+                // An emitter's (an area light's) ray visibility as a light.
+                light_visibility: RayVisibility {
+                    diffuse: flag("prism_visible_diffuse").unwrap_or(true),
+                    glossy: flag("prism_visible_glossy").unwrap_or(true),
+                    transmission: flag("prism_visible_transmission").unwrap_or(true),
+                },
             };
             if node_json.skin.is_some() {
                 let label = Self::node_label(&node);
@@ -831,7 +837,8 @@ impl<'d> Importer<'d> {
         // `prism_radius` (a point or spot light's radius, metres), `prism_soft_falloff`
         // (Blender's Soft Falloff, default true), `prism_visible_camera` (default false) and
         // `prism_spot_cosine` (a Blender 3.x spot, whose intensity also falls off with the
-        // cosine to its axis).
+        // cosine to its axis), `prism_visible_diffuse` / `_glossy` / `_transmission` (Blender's
+        // light Ray Visibility, default true).
         let extras = light
             .extras()
             .as_ref()
@@ -863,6 +870,11 @@ impl<'d> Importer<'d> {
         let soft_falloff = flag("prism_soft_falloff", true)?;
         let visible_camera = flag("prism_visible_camera", false)?;
         let spot_cosine = flag("prism_spot_cosine", false)?;
+        let ray_visibility = RayVisibility {
+            diffuse: flag("prism_visible_diffuse", true)?,
+            glossy: flag("prism_visible_glossy", true)?,
+            transmission: flag("prism_visible_transmission", true)?,
+        };
         let directional = kind == PunctualKind::Directional;
         self.scene.lights.push(PunctualLightDesc {
             name,
@@ -876,6 +888,7 @@ impl<'d> Importer<'d> {
             soft_falloff,
             visible_camera,
             spot_cosine,
+            ray_visibility,
         });
         Ok(())
     }

@@ -138,6 +138,48 @@ def test_area_spread():
             "90-degree one's (%.2f)" % (centre[30.0], centre[90.0]))
 
 
+def test_light_ray_visibility():
+    """A light's Ray Visibility (Diffuse, Glossy off) against Cycles: a white floor and a
+    glossy metal ball under a point light of radius 0.3 and an area light, both with the same
+    visibility. Glossy off: the ball shows no highlight and reflects no light, the floor is
+    lit as before; Diffuse off: the floor gets no direct light, the ball's reflection stays.
+    Means and 8x8 block means against Cycles (64 spp, 4 bounces)."""
+    images = {}
+    for case in ("all", "no_glossy", "no_diffuse"):
+        C.reset()
+        sc = bpy.context.scene
+        C.world((0.0, 0.0, 0.0), 0.0)
+        white = C.material("White", "ShaderNodeBsdfDiffuse", (0.8, 0.8, 0.8))
+        metal = C.material("Metal", "ShaderNodeBsdfPrincipled", (0.9, 0.7, 0.4), Metallic=1.0, Roughness=0.15)
+        C.mesh_object("Floor", C.plane(20.0), white)
+        C.mesh_object("Ball", C.sphere(0.8), metal, location=(0.0, 0.0, 0.8), smooth=True)
+        point = C.light("Lamp", "POINT", 600.0, (1.5, -1.5, 3.0), shadow_soft_size=0.3)
+        panel = C.light("Panel", "AREA", 300.0, (-2.0, 1.0, 2.5), rotation=(0.6, -0.5, 0.0), size=1.0)
+        for ob in (point, panel):
+            ob.visible_glossy = case != "no_glossy"
+            ob.visible_diffuse = case != "no_diffuse"
+        C.camera((0.0, -6.0, 3.0), (0.0, 0.0, 0.6), lens=50.0)
+        sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 96, 64, 100
+        cyc = C.render_engine(sc, "cycles", 64, OUT, "vis_" + case, 4)
+        pri = C.render_engine(sc, "prism", 64, OUT, "vis_" + case, 4)
+        images[case] = (pri, cyc)
+        mc, mp = cyc.mean(axis=(0, 1)), pri.mean(axis=(0, 1))
+        print("  %s: mean %s (Cycles %s)" % (case, mp.round(4), mc.round(4)))
+        C.check(np.all(np.abs(mp / mc - 1.0) < 0.05), "%s: means within 5%% of Cycles'" % case)
+
+        def blocks(a):
+            return a.reshape(8, 8, 12, 8, 3).mean(axis=(1, 3))
+
+        worst = float(np.max(np.abs(blocks(pri) - blocks(cyc))) / blocks(cyc).max())
+        C.check(worst < 0.06, "%s: 8x8 block means within 6%% of Cycles' peak (worst %.3f)" % (case, worst))
+    # The switches matter: each removes light the full setup has, in both renderers.
+    for k in (0, 1):
+        name = ("prism", "cycles")[k]
+        full, ng, nd = (images[c][k].mean() for c in ("all", "no_glossy", "no_diffuse"))
+        C.check(ng < 0.97 * full and nd < 0.8 * full, "%s: glossy off %.4f and diffuse off %.4f below all %.4f"
+                % (name, ng, nd, full))
+
+
 def chromaticity(img):
     rgb = img.reshape(-1, 3).mean(axis=0)
     m = np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722], [0.0193, 0.1192, 0.9505]])
@@ -214,6 +256,7 @@ def test_light_visible_to_camera_and_in_mirror():
 
 
 TESTS = [
+    test_light_ray_visibility,
     test_area_spread,
     test_point_radius,
     test_point_sphere_without_soft_falloff,

@@ -193,8 +193,9 @@ def test_view_layers():
 
 def test_untranslated_features_warn():
     """What Prism cannot render yet is named in a warning (they reach RenderEngine.report):
-    motion blur, light ray visibility other than Camera. Particle hair and area light spread
-    are rendered (test_hair.py, test_lights.py): no warning."""
+    motion blur, a light's Volume Scatter ray visibility. Particle hair, area light spread
+    and Diffuse / Glossy ray visibility are rendered (test_hair.py, test_lights.py): no
+    warning."""
     from prism import export
 
     sc = scene()
@@ -205,15 +206,17 @@ def test_untranslated_features_warn():
     ball.particle_systems[0].settings.type = "HAIR"
     sun = bpy.data.objects["Sun"]
     sun.visible_diffuse = False
+    sun.visible_volume_scatter = False
     area = C.light("Area", "AREA", 50.0, (0, 0, 3))
     area.data.spread = 1.0
     sc.render.engine = "PRISM"
     _, _, warnings, _ = export.export_scene(bpy.context.evaluated_depsgraph_get(), tempfile.mkdtemp(dir=OUT))
     text = "\n".join(warnings)
     for what, needle in (("motion blur", "motion blur"),
-                         ("light visibility", "light 'Sun': ray visibility diffuse")):
+                         ("light visibility", "light 'Sun': ray visibility volume scatter")):
         C.check(needle in text, "%s is warned about: %r" % (what, needle))
-    C.check("hair" not in text and "spread" not in text, "hair and spread are not warned about: %r" % text)
+    C.check("hair" not in text and "spread" not in text and "diffuse" not in text,
+            "hair, spread and Diffuse visibility are not warned about: %r" % text)
 
 
 if __name__ == "__main__":
