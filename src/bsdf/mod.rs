@@ -65,6 +65,48 @@ impl LobeFlags {
     }
 }
 
+/// Which kinds of scattering see a light (Blender's Object > Visibility > Ray Visibility of a
+/// light: Diffuse, Glossy, Transmission), as Cycles honours them: a light a kind does not see
+/// gives that kind's lobes no direct light and its sampled rays no emission. Volume scattering
+/// and subsurface exits see every light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RayVisibility {
+    pub diffuse: bool,
+    pub glossy: bool,
+    pub transmission: bool,
+}
+
+impl RayVisibility {
+    pub const ALL: RayVisibility = RayVisibility {
+        diffuse: true,
+        glossy: true,
+        transmission: true,
+    };
+
+    pub fn is_all(&self) -> bool {
+        *self == RayVisibility::ALL
+    }
+
+    /// Whether a path whose last scattering was a lobe of `flags` sees the light: glossy and
+    /// specular transmission is Transmission, other diffuse lobes (diffuse reflection and
+    /// translucency) Diffuse, the rest Glossy.
+    pub fn sees(&self, flags: LobeFlags) -> bool {
+        if flags.contains(LobeFlags::DIFFUSE) {
+            self.diffuse
+        } else if flags.contains(LobeFlags::TRANSMISSION) {
+            self.transmission
+        } else {
+            self.glossy
+        }
+    }
+}
+
+impl Default for RayVisibility {
+    fn default() -> Self {
+        RayVisibility::ALL
+    }
+}
+
 /// Result of sampling a direction from a BSDF.
 #[derive(Clone, Copy, Debug)]
 pub struct BsdfSample {
@@ -225,7 +267,7 @@ impl Bsdf {
         wo: Vec3,
         wi: Vec3,
         f: SampledSpectrum,
-        vis: crate::scene::desc::RayVisibility,
+        vis: RayVisibility,
     ) -> SampledSpectrum {
         let keep = |on: bool, x: SampledSpectrum| if on { x } else { SampledSpectrum::ZERO };
         if wo.z * wi.z > 0.0 {

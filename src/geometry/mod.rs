@@ -325,7 +325,7 @@ pub struct Instance {
     /// transparent, and paths end there.
     pub holdout: bool,
     /// Which scattering sees the instance's emission (an area light's ray visibility).
-    pub light_visibility: crate::scene::desc::RayVisibility,
+    pub light_visibility: crate::bsdf::RayVisibility,
 }
 
 impl Instance {
@@ -340,7 +340,7 @@ impl Instance {
             casts_shadows: true,
             camera_visible: true,
             holdout: false,
-            light_visibility: crate::scene::desc::RayVisibility::ALL,
+            light_visibility: crate::bsdf::RayVisibility::ALL,
         }
     }
 
@@ -355,7 +355,7 @@ impl Instance {
         self
     }
 
-    pub fn with_light_visibility(mut self, v: crate::scene::desc::RayVisibility) -> Self {
+    pub fn with_light_visibility(mut self, v: crate::bsdf::RayVisibility) -> Self {
         self.light_visibility = v;
         self
     }

@@ -313,48 +313,8 @@ pub struct PunctualLightDesc {
     pub ray_visibility: RayVisibility,
 }
 
-/// Which kinds of scattering see a light (Blender's Object > Visibility > Ray Visibility of a
-/// light: Diffuse, Glossy, Transmission), as Cycles honours them: a light a kind does not see
-/// gives that kind's lobes no direct light and its sampled rays no emission. Volume scattering
-/// and subsurface exits see every light.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct RayVisibility {
-    pub diffuse: bool,
-    pub glossy: bool,
-    pub transmission: bool,
-}
-
-impl RayVisibility {
-    pub const ALL: RayVisibility = RayVisibility {
-        diffuse: true,
-        glossy: true,
-        transmission: true,
-    };
-
-    pub fn is_all(&self) -> bool {
-        *self == RayVisibility::ALL
-    }
-
-    /// Whether a path whose last scattering was a lobe of `flags` sees the light: glossy and
-    /// specular transmission is Transmission, other diffuse lobes (diffuse reflection and
-    /// translucency) Diffuse, the rest Glossy.
-    pub fn sees(&self, flags: crate::bsdf::LobeFlags) -> bool {
-        use crate::bsdf::LobeFlags;
-        if flags.contains(LobeFlags::DIFFUSE) {
-            self.diffuse
-        } else if flags.contains(LobeFlags::TRANSMISSION) {
-            self.transmission
-        } else {
-            self.glossy
-        }
-    }
-}
-
-impl Default for RayVisibility {
-    fn default() -> Self {
-        RayVisibility::ALL
-    }
-}
+/// Which kinds of scattering see a light (defined with the lobe kinds it classifies).
+pub use crate::bsdf::RayVisibility;
 
 #[derive(Clone, Debug, Default)]
 pub struct CameraDesc {
