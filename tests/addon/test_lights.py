@@ -278,6 +278,11 @@ def main():
             continue
         if t is test_point_sphere_without_soft_falloff and "use_soft_falloff" not in bpy.types.PointLight.bl_rna.properties:
             continue
+        if t is test_light_ray_visibility and bpy.app.version < (4, 0, 0):
+            # Its glossy metal ball is 12% brighter in Prism than in Cycles 3.x's Principled
+            # (single-scattering GGX) before any visibility setting: compared in 4.x+ only.
+            print("== %s: skipped in Blender %s (compared in 4.x+)" % (t.__name__, bpy.app.version_string), flush=True)
+            continue
         print("== " + t.__name__, flush=True)
         try:
             t()
