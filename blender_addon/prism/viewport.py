@@ -111,14 +111,13 @@ class ViewportSession:
         cache = runner.bvh_cache_dir() if getattr(prefs, "cache_bvh", True) else None
         self.client = ServeClient(self.binary, threads=threads, bvh_cache=cache)
         self.warned = set()
-        self.errors_seen = 0
+        self.events_seen = 0
         self.view = None
         self.settings = None
         self.texture = None
         self.drawn = None
         self.exports = 0
         self.pending_dirs = []
-        self.answers_seen = 0
         self.node_names = {}
         self.names = []
         self.t_edit = time.monotonic()
@@ -242,20 +241,21 @@ class ViewportSession:
         engine.report({"WARNING"}, "Prism: " + msg)
 
     def _poll(self, engine):
-        """Reports the renderer's errors and warnings, and removes export folders it has read."""
+        """Reports the renderer's new errors and warnings, and removes the export folders it
+        has answered for (each load / shading command gets one answer, in order). Only the
+        events since the last call are looked at: a long session has many."""
         with self.client.lock:
-            events = list(self.client.events)
-        answers = [e for e in events if e.get("event") in ("loaded", "ok", "error") and e.get("cmd", "load") in ("load", "shading")]
-        while len(answers) > self.answers_seen and self.pending_dirs:
-            shutil.rmtree(self.pending_dirs.pop(0), ignore_errors=True)
-            self.answers_seen += 1
-        errors = [e for e in events if e.get("event") == "error"]
-        for e in errors[self.errors_seen:]:
-            _log("error: %s" % e.get("message"))
-            engine.report({"ERROR"}, "Prism: %s" % e.get("message"))
-        self.errors_seen = len(errors)
+            events = self.client.events[self.events_seen:]
+            self.events_seen += len(events)
         for e in events:
-            if e.get("event") == "loaded":
+            kind = e.get("event")
+            if kind in ("loaded", "ok", "error") and e.get("cmd", "load") in ("load", "shading"):
+                if self.pending_dirs:
+                    shutil.rmtree(self.pending_dirs.pop(0), ignore_errors=True)
+            if kind == "error":
+                _log("error: %s" % e.get("message"))
+                engine.report({"ERROR"}, "Prism: %s" % e.get("message"))
+            elif kind == "loaded":
                 for w in e.get("warnings", []):
                     self._warn(engine, w)
 
