@@ -268,6 +268,10 @@ class ViewportSession:
         scene = depsgraph.scene_eval
         clip_end = getattr(context.space_data, "clip_end", 1000.0)
         view = {"width": int(region.width), "height": int(region.height), "camera": view_camera(rv3d, clip_end)}
+        cam = scene.camera
+        if rv3d.view_perspective == "CAMERA" and cam is not None and getattr(cam.data, "dof", None) is not None \
+                and cam.data.dof.use_dof:
+            self._warn(engine, "camera '%s': depth of field is not shown in the viewport (F12 renders it)" % cam.name)
         if view != self.view:
             self.view = view
             self.client.send("view", **view)
