@@ -195,6 +195,7 @@ pub fn render(
     // (`Film::write_guides`): they may be wanted only as the denoiser's input.
     let mut film = Film::new(window.width, window.height);
     let camera = scene.camera_for(settings.width, settings.height);
+    let has_motion = scene.has_motion();
     let tracer = PathTracer::new(scene, settings.max_depth, settings.light_selection)
         .with_transparent_background(settings.film_transparent);
     // Alpha is coverage only with a transparent background or holdouts; else 1 everywhere.
@@ -288,7 +289,14 @@ pub fn render(
                             let (u_filter, u_lens) = sampler.camera();
                             let wavelengths = settings.wavelengths.sample(&mut sampler);
                             let raster = Vec2::new(x, y) + settings.filter.sample_2d(u_filter);
-                            let Some(ray): Option<Ray> = camera.generate_ray(raster, u_lens) else {
+                            let time = if has_motion {
+                                sampler.shutter_time()
+                            } else {
+                                0.5
+                            };
+                            let Some(ray): Option<Ray> =
+                                camera.generate_ray_at(raster, u_lens, time)
+                            else {
                                 // Outside a fisheye's image circle: black, as in Cycles.
                                 px.add(glam::Vec3::ZERO);
                                 if track_alpha {

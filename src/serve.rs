@@ -494,6 +494,7 @@ fn view_camera(c: &ViewCamera) -> Result<CameraDesc> {
         lens,
         shift: Vec2::from(c.shift),
         panorama: None,
+        motion: Vec::new(),
     })
 }
 

@@ -34,6 +34,7 @@ use std::f64::consts::PI;
 const ORIGIN: ShadingContext = ShadingContext {
     p: Vec3::ZERO,
     n: None,
+    time: 0.5,
 };
 
 /// Density with which light sampling at the origin produces the escaping direction `d`

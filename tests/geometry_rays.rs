@@ -54,7 +54,7 @@ fn meshes_without_uvs_have_zero_texture_coordinates() {
         let hit = g
             .intersect(&Ray::new(origin, Vec3::NEG_Y), f32::INFINITY)
             .expect("hits the plane");
-        let sp = g.surface_point_at(hit.instance, hit.prim, hit.b1, hit.b2);
+        let sp = g.surface_point_at(hit.instance, hit.prim, hit.b1, hit.b2, hit.time);
         assert_eq!(sp.uv, glam::Vec2::ZERO, "{origin}");
     }
 }
@@ -131,7 +131,7 @@ fn two_level_layout_and_moved_instances_agree_with_brute_force() {
         let mut geometry = Geometry::with_layout(meshes, instances, layout);
         agrees_with_brute_force(&geometry);
         geometry.set_transforms(&moves);
-        assert_eq!(geometry.instances[2].object_to_world, moves[1].1);
+        assert_eq!(geometry.instances[2].placement.object_to_world, moves[1].1);
         agrees_with_brute_force(&geometry);
     }
 }
@@ -148,7 +148,7 @@ fn agrees_with_brute_force(geometry: &Geometry) {
             for p in 0..mesh.triangle_count() {
                 let [a, b, c] = mesh
                     .vertices(p)
-                    .map(|v| inst.object_to_world.transform_point3(v));
+                    .map(|v| inst.placement.object_to_world.transform_point3(v));
                 let limit = best.map_or(t_max, |h| h.0);
                 if let Some((t, b1, b2)) = intersect_triangle(origin, dir, a, b - a, c - a, limit) {
                     best = Some((t, i as u32, p as u32, b1, b2));

@@ -148,6 +148,7 @@ fn contexts(n: usize) -> Vec<ShadingContext> {
             ShadingContext {
                 p,
                 n: (i % 3 != 0).then_some(Vec3::Y),
+                time: 0.5,
             }
         })
         .collect()

@@ -268,7 +268,7 @@ class PrismRenderEngine(bpy.types.RenderEngine):
 
         self.update_stats("", "Prism: exporting")
         t0 = time.perf_counter()
-        gltf, mjson, warnings, tris = export.export_scene(depsgraph, tmp)
+        gltf, mjson, warnings, tris = export.export_scene(depsgraph, tmp, engine=self)
         timings["export"] = time.perf_counter() - t0
         LAST["triangles"] = tris
         preview_render = bool(self.is_preview)

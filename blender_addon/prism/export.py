@@ -38,7 +38,7 @@ import numpy as np
 
 from .blackbody import blackbody_rgb
 from .node_graph import GraphBuilder
-from . import hair, world_bake
+from . import hair, motion, world_bake
 
 WATTS_TO_LUMENS = 683.0
 GREY = (0.8, 0.8, 0.8)
@@ -935,6 +935,10 @@ class Exporter:
         self.images = []
         self.image_index = {}
         self.lights = []
+        # Object and camera matrices over the shutter (motion.Motion), None without motion blur.
+        self.motion = None
+        # Objects whose particle hair is exported at the current frame although they move.
+        self.hair_objects = []
         self.cameras = []
         self.warnings = []
         self.n_triangles = 0
@@ -1504,7 +1508,7 @@ class Exporter:
         attrs["TANGENT"] = self.buf.accessor(tangents, "VEC4")
 
     # -- objects
-    def _add_mesh_object(self, ob, matrix, is_instance):
+    def _add_mesh_object(self, ob, matrix, is_instance, motion_key=None):
         if self.shading_only:
             # The materials the mesh can draw with (a superset of those its triangles use), and
             # the default one for faces without a slot.
@@ -1541,6 +1545,9 @@ class Exporter:
                 extras["prism_casts_shadows"] = False
             if self._is_holdout(ob):
                 extras["prism_holdout"] = True
+            moving = self.motion.objects.get(motion_key) if self.motion is not None else None
+            if moving:
+                extras["prism_motion"] = [_matrix(m) for m in moving]
             if extras:
                 node["extras"] = extras
             self._child(node)
@@ -1594,7 +1601,7 @@ class Exporter:
                                  % (ob.name, src.name, src.bl_idname, strength))
         return col, strength
 
-    def _add_tubes(self, name, strands, material, matrix=None):
+    def _add_tubes(self, name, strands, material, matrix=None, motion_key=None):
         """Hair strands (points, radii, offsets) as a tube mesh (hair.py) drawn with `material`."""
         mesh = hair.tube_mesh(*strands)
         if mesh is None:
@@ -1610,6 +1617,9 @@ class Exporter:
         node = {"name": name, "mesh": len(self.meshes) - 1}
         if matrix is not None:
             node["matrix"] = _matrix(matrix)
+        moving = self.motion.objects.get(motion_key) if self.motion is not None else None
+        if moving:
+            node["extras"] = {"prism_motion": [_matrix(m) for m in moving]}
         self._child(node)
 
     def _add_particle_hair(self, ob):
@@ -1630,8 +1640,10 @@ class Exporter:
             strands = hair.particle_strands(ob, ps, self.viewport)
             if strands is not None:
                 self._add_tubes("%s.%s" % (ob.name, ps.name), strands, mat)
+                if self.motion is not None and ("O", ob.original.name) in self.motion.objects:
+                    self.hair_objects.append(ob.name)
 
-    def _add_curves_object(self, ob, matrix):
+    def _add_curves_object(self, ob, matrix, motion_key=None):
         """A Curves object (hair curves) as tubes, in object space under the object's transform."""
         mat = ob.material_slots[0].material if len(ob.material_slots) else None
         if self.shading_only:
@@ -1646,7 +1658,7 @@ class Exporter:
             return
         if len(ob.material_slots) > 1:
             self.warnings.append("object '%s': curves are drawn with its first material only" % ob.name)
-        self._add_tubes(ob.name, strands, mat, matrix)
+        self._add_tubes(ob.name, strands, mat, matrix, motion_key)
 
     def _light_ray_visibility(self, ob):
         """The light's Ray Visibility as extras (`prism_visible_diffuse` / `_glossy` /
@@ -1827,7 +1839,10 @@ class Exporter:
             tan_y = half * h / w if fit == "HORIZONTAL" else half
             proj = {"type": "perspective", "perspective": {"yfov": 2.0 * math.atan(tan_y), "znear": max(c.clip_start, 1e-4)}}
         self.cameras.append(dict(name=cam_ob.name, **proj))
-        self._child({"name": cam_ob.name, "camera": 0, "matrix": _matrix(_unscaled(cam_ob.matrix_world))})
+        cam_node = {"name": cam_ob.name, "camera": 0, "matrix": _matrix(_unscaled(cam_ob.matrix_world))}
+        if self.motion is not None and self.motion.camera:
+            cam_node["extras"] = {"prism_motion": [_matrix(_unscaled(m)) for m in self.motion.camera]}
+        self._child(cam_node)
         block = {}
         if panorama is not None:
             if c.dof.use_dof:
@@ -2035,15 +2050,18 @@ class Exporter:
             if not inst.show_self:
                 continue
             if ob.type in {"MESH", "CURVE", "SURFACE", "FONT", "META"}:
-                self._add_mesh_object(ob, matrix, inst.is_instance)
+                self._add_mesh_object(ob, matrix, inst.is_instance, motion.instance_key(inst))
             elif ob.type == "LIGHT":
                 self._add_light(ob, matrix)
             elif ob.type == "CURVES":
-                self._add_curves_object(ob, matrix)
+                self._add_curves_object(ob, matrix, motion.instance_key(inst))
             elif ob.type in {"POINTCLOUD", "VOLUME"} and not inst.is_instance:
                 self.warnings.append("object '%s': %s objects are not rendered yet" % (ob.name, ob.type.lower()))
-        if getattr(self.scene.render, "use_motion_blur", False):
-            self.warnings.append("motion blur is not rendered yet: the scene is rendered at the current frame")
+        if self.motion is not None:
+            self.warnings.extend(self.motion.warnings)
+            if self.hair_objects:
+                self.warnings.append("motion blur: particle hair is shown at the current frame (not blurred) on moving objects: "
+                                     + ", ".join(sorted(set(self.hair_objects))))
         self._add_camera()
         if self.unsupported_normals:
             self.warnings.insert(
@@ -2127,11 +2145,15 @@ def render_settings(scene):
     return out
 
 
-def export_scene(depsgraph, out_dir, name="scene"):
-    """Writes <out_dir>/<name>.gltf/.bin/.materials.json; returns (gltf, json, warnings, triangles)."""
+def export_scene(depsgraph, out_dir, name="scene", engine=None):
+    """Writes <out_dir>/<name>.gltf/.bin/.materials.json; returns (gltf, json, warnings, triangles).
+    With motion blur on, the scene is first evaluated over the shutter (`motion.sample`, with
+    `engine.frame_set` inside a render)."""
+    movement = motion.sample(depsgraph, engine)
     scene = depsgraph.scene_eval
     w, h = render_size(scene)
     ex = Exporter(depsgraph, out_dir, name, w, h)
+    ex.motion = movement
     gltf_path, json_path = ex.run(render_settings(scene))
     return gltf_path, json_path, ex.warnings, ex.n_triangles
 

@@ -443,13 +443,15 @@ impl<'a> SeparableBssrdf<'a> {
     }
 
     /// Finds an exit point around `po` on surfaces of material `material` with probe rays.
-    /// `frame` is the shading frame at `po` (normal = frame.n).
+    /// `frame` is the shading frame at `po` (normal = frame.n); probes see the scene at shutter
+    /// time `time`.
     #[allow(clippy::too_many_arguments)]
     pub fn sample_probe(
         &self,
         geometry: &Geometry,
         material: u32,
         po: Vec3,
+        time: f32,
         frame: &Frame,
         u_axis: f32,
         u_disk: Vec2,
@@ -500,7 +502,7 @@ impl<'a> SeparableBssrdf<'a> {
         let mut steps = 0;
         while remaining > 0.0 && count < MAX_PROBE_HITS && steps < 4 * MAX_PROBE_HITS {
             steps += 1;
-            let Some(hit) = geometry.intersect(&Ray::new(origin, vz), remaining) else {
+            let Some(hit) = geometry.intersect(&Ray::new_at(origin, vz, time), remaining) else {
                 break;
             };
             let sp = geometry.surface_point(&hit);

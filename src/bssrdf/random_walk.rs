@@ -104,7 +104,7 @@ pub fn walk(
                 }
                 let u = sampler.next_2d();
                 let dir = sample_hg(ray.dir, g, u.x, u.y);
-                ray = Ray::new(ray.at(t), dir);
+                ray = Ray::new_at(ray.at(t), dir, ray.time);
                 // Russian roulette (checked every 4th event: the weight needs exp/ln).
                 if event >= RR_START && event % 4 == 0 {
                     let w_max = weight(&log_f, &log_p).max_component();

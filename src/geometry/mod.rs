@@ -3,26 +3,42 @@
 //! nodes is stored once.
 
 pub mod bvh_cache;
+pub mod motion;
 pub mod shapes;
 mod triangle;
 pub mod wide_bvh;
 
+pub use motion::MotionTransform;
 pub use triangle::intersect_triangle;
 
 use glam::{Affine3A, Mat3, Vec2, Vec3, Vec3A, Vec4};
 use obvhs::{aabb::Aabb, cwbvh::CwBvh, ray::Ray as BvhRay, BvhBuildParams};
 use rayon::prelude::*;
+use std::borrow::Cow;
+use std::sync::Arc;
 
-/// A ray with an (unnormalised allowed) direction and a parametric extent [0, t_max).
+/// A ray with an (unnormalised allowed) direction and a parametric extent [0, t_max), at a
+/// normalised shutter time (0 = open, 1 = closed) that places moving instances
+/// (`motion`); every ray of a camera path carries the path's time.
 #[derive(Clone, Copy, Debug)]
 pub struct Ray {
     pub origin: Vec3,
     pub dir: Vec3,
+    pub time: f32,
 }
 
 impl Ray {
+    /// A ray at shutter time 0.5 (the only time a scene without motion has).
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
-        Ray { origin, dir }
+        Ray {
+            origin,
+            dir,
+            time: 0.5,
+        }
+    }
+    /// A ray at shutter time `time`.
+    pub fn new_at(origin: Vec3, dir: Vec3, time: f32) -> Self {
+        Ray { origin, dir, time }
     }
     pub fn at(&self, t: f32) -> Vec3 {
         self.origin + self.dir * t
@@ -307,15 +323,37 @@ struct BlasHit {
     instance: u32,
 }
 
-/// A mesh placed in the world.
-pub struct Instance {
-    pub mesh: u32,
+/// Where an instance is at one time: its transform and what derives from it.
+#[derive(Clone, Copy, Debug)]
+pub struct Placement {
     pub object_to_world: Affine3A,
     pub world_to_object: Affine3A,
     /// Inverse transpose of the linear part: transforms normals.
     pub normal_to_world: Mat3,
     /// Odd-handed transform (negative determinant): winding and geometric normal flip.
     pub flips_handedness: bool,
+}
+
+impl Placement {
+    pub fn new(object_to_world: Affine3A) -> Self {
+        let m3 = Mat3::from(object_to_world.matrix3);
+        Placement {
+            object_to_world,
+            world_to_object: object_to_world.inverse(),
+            normal_to_world: m3.inverse().transpose(),
+            flips_handedness: m3.determinant() < 0.0,
+        }
+    }
+}
+
+/// A mesh placed in the world.
+pub struct Instance {
+    pub mesh: u32,
+    /// The placement at shutter time 0.5 (the only one without motion); what is not traced at
+    /// a time (light selection's estimates, volume grids) uses it.
+    pub placement: Placement,
+    /// The placement over the shutter of a moving instance (transform motion blur).
+    pub motion: Option<Arc<MotionTransform>>,
     /// False for meshes that stand for lights (Blender area lights are not geometry): shadow
     /// rays pass through them.
     pub casts_shadows: bool,
@@ -330,13 +368,10 @@ pub struct Instance {
 
 impl Instance {
     pub fn new(mesh: u32, object_to_world: Affine3A) -> Self {
-        let m3 = Mat3::from(object_to_world.matrix3);
         Instance {
             mesh,
-            object_to_world,
-            world_to_object: object_to_world.inverse(),
-            normal_to_world: m3.inverse().transpose(),
-            flips_handedness: m3.determinant() < 0.0,
+            placement: Placement::new(object_to_world),
+            motion: None,
             casts_shadows: true,
             camera_visible: true,
             holdout: false,
@@ -359,6 +394,25 @@ impl Instance {
         self.light_visibility = v;
         self
     }
+
+    /// Moves the instance over the shutter (`motion`'s keys replace the transform); a motion
+    /// whose keys are all equal leaves it static.
+    pub fn with_motion(mut self, motion: MotionTransform) -> Self {
+        if !motion.is_static() {
+            self.placement = Placement::new(motion.at(0.5));
+            self.motion = Some(Arc::new(motion));
+        }
+        self
+    }
+
+    /// The placement at shutter time `time`.
+    #[inline]
+    pub fn placement_at(&self, time: f32) -> Cow<'_, Placement> {
+        match &self.motion {
+            None => Cow::Borrowed(&self.placement),
+            Some(m) => Cow::Owned(Placement::new(m.at(time))),
+        }
+    }
 }
 
 /// Closest-hit record in world space.
@@ -370,6 +424,8 @@ pub struct Hit {
     /// Barycentric weights of vertices 1 and 2.
     pub b1: f32,
     pub b2: f32,
+    /// The ray's shutter time.
+    pub time: f32,
 }
 
 /// Everything the shading code needs about a surface point, in world space.
@@ -394,6 +450,8 @@ pub struct SurfacePoint {
     pub b2: f32,
     /// World-space area of the triangle (for light pdfs).
     pub area: f32,
+    /// Shutter time at which the instance was placed here.
+    pub time: f32,
 }
 
 /// All geometry of a scene: the instances whose mesh no other instance uses flattened into
@@ -444,7 +502,7 @@ impl FlatLevel {
             .map(|&(i, p)| {
                 let inst = &instances[i as usize];
                 let t = &meshes[inst.mesh as usize].tris[p as usize];
-                let m = &inst.object_to_world;
+                let m = &inst.placement.object_to_world;
                 let v0 = m.transform_point3(t.v0);
                 TriangleEdges {
                     v0,
@@ -529,7 +587,11 @@ impl Geometry {
         }
         let flattened: Vec<bool> = instances
             .iter()
-            .map(|inst| layout == BvhLayout::Flattened && uses[inst.mesh as usize] == 1)
+            .map(|inst| {
+                layout == BvhLayout::Flattened
+                    && uses[inst.mesh as usize] == 1
+                    && inst.motion.is_none()
+            })
             .collect();
         let mut needs_bvh = vec![false; meshes.len()];
         for (inst, &flat) in instances.iter().zip(&flattened) {
@@ -561,10 +623,12 @@ impl Geometry {
             .instances
             .iter()
             .map(|inst| {
-                transform_aabb(
-                    &self.meshes[inst.mesh as usize].aabb(),
-                    &inst.object_to_world,
-                )
+                let b = self.meshes[inst.mesh as usize].aabb();
+                match &inst.motion {
+                    None => transform_aabb(&b, &inst.placement.object_to_world),
+                    // Moving instances are under the top level with the box they sweep.
+                    Some(m) => m.bounds(&b),
+                }
             })
             .collect();
         self.bounds = aabbs.iter().fold(Aabb::empty(), |b, a| b.union(a));
@@ -591,11 +655,9 @@ impl Geometry {
         let mut flat_moved = false;
         for &(i, m) in moves {
             let inst = &mut self.instances[i as usize];
-            let moved = Instance::new(inst.mesh, m)
-                .with_visibility(inst.casts_shadows, inst.camera_visible)
-                .with_holdout(inst.holdout)
-                .with_light_visibility(inst.light_visibility);
-            *inst = moved;
+            // The new transform replaces any motion: the viewport shows one time.
+            inst.placement = Placement::new(m);
+            inst.motion = None;
             flat_moved |= self.flattened[i as usize];
         }
         if flat_moved {
@@ -650,6 +712,7 @@ impl Geometry {
             prim: best.prim,
             b1: best.b1,
             b2: best.b2,
+            time: ray.time,
         })
     }
 
@@ -660,9 +723,10 @@ impl Geometry {
         self.tlas.ray_traverse(world, &mut rh, |r, id| {
             let inst_id = self.tlas_order[id];
             let inst = &self.instances[inst_id as usize];
+            let to_object = inst.placement_at(ray.time).world_to_object;
             let local = bvh_ray(
-                inst.world_to_object.transform_point3(ray.origin),
-                inst.world_to_object.transform_vector3(ray.dir),
+                to_object.transform_point3(ray.origin),
+                to_object.transform_vector3(ray.dir),
                 r.tmax,
             );
             let before = *best;
@@ -694,9 +758,10 @@ impl Geometry {
             if !inst.casts_shadows {
                 return f32::INFINITY;
             }
+            let to_object = inst.placement_at(ray.time).world_to_object;
             let local = bvh_ray(
-                inst.world_to_object.transform_point3(ray.origin),
-                inst.world_to_object.transform_vector3(ray.dir),
+                to_object.transform_point3(ray.origin),
+                to_object.transform_vector3(ray.dir),
                 t_max,
             );
             if self.meshes[inst.mesh as usize].occluded(&local) {
@@ -711,7 +776,7 @@ impl Geometry {
 
     /// World-space surface data at a hit.
     pub fn surface_point(&self, hit: &Hit) -> SurfacePoint {
-        self.surface_point_at(hit.instance, hit.prim, hit.b1, hit.b2)
+        self.surface_point_at(hit.instance, hit.prim, hit.b1, hit.b2, hit.time)
     }
 
     /// What a shading graph reads at `sp` (see `crate::shading::ShadingInputs`); `wo` points
@@ -752,9 +817,10 @@ impl Geometry {
         out.normal = sp.ns * flip;
         out.true_normal = sp.ng * flip;
         (out.tangent, out.bitangent) = self.normal_map_frame(sp);
-        out.object = inst.world_to_object.transform_point3(sp.p);
-        out.normal_to_world = Mat3::from(inst.world_to_object.matrix3).transpose();
-        out.object_normal = inst
+        let placement = inst.placement_at(sp.time);
+        out.object = placement.world_to_object.transform_point3(sp.p);
+        out.normal_to_world = Mat3::from(placement.world_to_object.matrix3).transpose();
+        out.object_normal = placement
             .object_to_world
             .matrix3
             .transpose()
@@ -770,7 +836,7 @@ impl Geometry {
     pub fn volume_inputs(&self, instance: u32, p: Vec3) -> crate::shading::ShadingInputs {
         let inst = &self.instances[instance as usize];
         let mesh = &self.meshes[inst.mesh as usize];
-        let object = inst.world_to_object.transform_point3(p);
+        let object = inst.placement.world_to_object.transform_point3(p);
         crate::shading::ShadingInputs {
             position: p,
             object,
@@ -790,7 +856,7 @@ impl Geometry {
                 if i & 2 == 0 { lo.y } else { hi.y },
                 if i & 4 == 0 { lo.z } else { hi.z },
             );
-            inst.object_to_world.transform_point3(c)
+            inst.placement.object_to_world.transform_point3(c)
         })
     }
 
@@ -807,13 +873,14 @@ impl Geometry {
         let (wo, camera_ray) = (centre.incoming, centre.camera_ray);
         let inst = &self.instances[sp.instance as usize];
         let mesh = &self.meshes[inst.mesh as usize];
+        let placement = inst.placement_at(sp.time);
         let [v0, v1, v2] = mesh
             .vertices(sp.prim as usize)
-            .map(|v| inst.object_to_world.transform_point3(v));
+            .map(|v| placement.object_to_world.transform_point3(v));
         let e1 = (v1 - v0).length().max(1e-30);
         let e2 = (v2 - v0).length().max(1e-30);
-        let sx = self.surface_point_at(sp.instance, sp.prim, sp.b1 + step / e1, sp.b2);
-        let sy = self.surface_point_at(sp.instance, sp.prim, sp.b1, sp.b2 + step / e2);
+        let sx = self.surface_point_at(sp.instance, sp.prim, sp.b1 + step / e1, sp.b2, sp.time);
+        let sy = self.surface_point_at(sp.instance, sp.prim, sp.b1, sp.b2 + step / e2, sp.time);
         let mut dx = self.shading_inputs(&sx, wo, camera_ray);
         let mut dy = self.shading_inputs(&sy, wo, camera_ray);
         // The offset points belong to the same surface side as `sp`.
@@ -830,18 +897,27 @@ impl Geometry {
         }
     }
 
-    /// World-space surface data at barycentrics (b1, b2) of a triangle of an instance.
-    pub fn surface_point_at(&self, instance: u32, prim: u32, b1: f32, b2: f32) -> SurfacePoint {
+    /// World-space surface data at barycentrics (b1, b2) of a triangle of an instance placed
+    /// at shutter time `time`.
+    pub fn surface_point_at(
+        &self,
+        instance: u32,
+        prim: u32,
+        b1: f32,
+        b2: f32,
+        time: f32,
+    ) -> SurfacePoint {
         let inst = &self.instances[instance as usize];
+        let placement = inst.placement_at(time);
         let mesh = &self.meshes[inst.mesh as usize];
         let [i0, i1, i2] = mesh.indices[prim as usize];
         let b0 = 1.0 - b1 - b2;
         let [v0, v1, v2] = mesh.vertices(prim as usize);
         let p_obj = v0 * b0 + v1 * b1 + v2 * b2;
-        let p = inst.object_to_world.transform_point3(p_obj);
-        let w0 = inst.object_to_world.transform_point3(v0);
-        let e1 = inst.object_to_world.transform_point3(v1) - w0;
-        let e2 = inst.object_to_world.transform_point3(v2) - w0;
+        let p = placement.object_to_world.transform_point3(p_obj);
+        let w0 = placement.object_to_world.transform_point3(v0);
+        let e1 = placement.object_to_world.transform_point3(v1) - w0;
+        let e2 = placement.object_to_world.transform_point3(v2) - w0;
         let cross = e1.cross(e2);
         let area = 0.5 * cross.length();
         // The world-space cross product already accounts for mirroring transforms.
@@ -849,7 +925,7 @@ impl Geometry {
         let ns = match &mesh.normals {
             Some(n) => {
                 let n_obj = n[i0 as usize] * b0 + n[i1 as usize] * b1 + n[i2 as usize] * b2;
-                let n = (inst.normal_to_world * n_obj).normalize_or(ng);
+                let n = (placement.normal_to_world * n_obj).normalize_or(ng);
                 if n.is_finite() {
                     n
                 } else {
@@ -892,6 +968,7 @@ impl Geometry {
             b1,
             b2,
             area,
+            time,
         }
     }
 
@@ -919,6 +996,7 @@ impl Geometry {
     /// T is Gram-Schmidt orthonormalised against the interpolated ns.
     pub fn normal_map_frame(&self, sp: &SurfacePoint) -> (Vec3, Vec3) {
         let inst = &self.instances[sp.instance as usize];
+        let placement = inst.placement_at(sp.time);
         let mesh = &self.meshes[inst.mesh as usize];
         let [i0, i1, i2] = mesh.indices[sp.prim as usize];
         let (b1, b2) = (sp.b1, sp.b2);
@@ -934,19 +1012,19 @@ impl Geometry {
             if t0 != Vec4::ZERO && t1 != Vec4::ZERO && t2 != Vec4::ZERO {
                 let t = t0 * b0 + t1 * b1 + t2 * b2;
                 let mut sign = if t.w < 0.0 { -1.0 } else { 1.0 };
-                if inst.flips_handedness {
+                if placement.flips_handedness {
                     sign = -sign;
                 }
-                let t_world = Mat3::from(inst.object_to_world.matrix3) * t.truncate();
+                let t_world = Mat3::from(placement.object_to_world.matrix3) * t.truncate();
                 if let Some(frame) = orthonormal(t_world, sign) {
                     return frame;
                 }
             }
         }
         let [v0, v1, v2] = mesh.vertices(sp.prim as usize);
-        let w0 = inst.object_to_world.transform_point3(v0);
-        let e1 = inst.object_to_world.transform_point3(v1) - w0;
-        let e2 = inst.object_to_world.transform_point3(v2) - w0;
+        let w0 = placement.object_to_world.transform_point3(v0);
+        let e1 = placement.object_to_world.transform_point3(v1) - w0;
+        let e2 = placement.object_to_world.transform_point3(v2) - w0;
         let (d1, d2) = match &mesh.uvs {
             Some(uvs) => {
                 let t0 = uvs[i0 as usize];

@@ -104,7 +104,11 @@ impl<'a> PathTracer<'a> {
         SegmentMedium::collect(
             media,
             |m| scene.materials.get(m as usize).and_then(|x| x.interior()),
-            |i| scene.geometry.instances[i as usize].world_to_object,
+            |i| {
+                scene.geometry.instances[i as usize]
+                    .placement
+                    .world_to_object
+            },
             w,
         )
     }
@@ -321,7 +325,13 @@ impl<'a> PathTracer<'a> {
             return SampledSpectrum::ZERO;
         };
         *rays += 1;
-        let shadow = self.transmittance(Ray::new(origin, ls.wi), ls.distance, media, w, sampler);
+        let shadow = self.transmittance(
+            Ray::new_at(origin, ls.wi, ctx.time),
+            ls.distance,
+            media,
+            w,
+            sampler,
+        );
         if shadow.is_black() {
             return SampledSpectrum::ZERO;
         }
@@ -430,7 +440,7 @@ impl<'a> PathTracer<'a> {
             if !(remaining > 0.0) {
                 return t;
             }
-            ray = Ray::new(origin, ray.dir);
+            ray = Ray::new_at(origin, ray.dir, ray.time);
         }
         SampledSpectrum::ZERO
     }
@@ -474,6 +484,7 @@ impl<'a> PathTracer<'a> {
         let mut prev_ctx = ShadingContext {
             p: ray.origin,
             n: None,
+            time: ray.time,
         };
         let selection = self.selection;
         // The volumes the ray travels inside (also coloured glass), entered at the camera.
@@ -664,7 +675,7 @@ impl<'a> PathTracer<'a> {
                 rays += 1;
                 let origin = offset_ray_origin(sp.p, sp.ng, ray.dir);
                 camera_offset += (origin - ray.origin).dot(ray.dir);
-                ray = Ray::new(origin, ray.dir);
+                ray = Ray::new_at(origin, ray.dir, ray.time);
                 next_hit = geometry.intersect(&ray, f32::INFINITY);
             }
             if beta.is_black() {
@@ -685,7 +696,11 @@ impl<'a> PathTracer<'a> {
                 if depth == self.max_depth {
                     break;
                 }
-                let ctx = ShadingContext { p, n: None };
+                let ctx = ShadingContext {
+                    p,
+                    n: None,
+                    time: ray.time,
+                };
                 let u = sampler.light();
                 let c = beta
                     * self.sample_direct(&ctx, u, &alive, &media, &mis, sampler, &mut rays, |wi| {
@@ -707,7 +722,7 @@ impl<'a> PathTracer<'a> {
                 if !self.russian_roulette(depth, &mut beta, &mis, eta_scale, sampler) {
                     break;
                 }
-                ray = Ray::new(p, wi);
+                ray = Ray::new_at(p, wi, ray.time);
                 continue;
             }
             let Some(hit) = next_hit else {
@@ -894,6 +909,7 @@ impl<'a> PathTracer<'a> {
             let ctx = ShadingContext {
                 p: sp.p,
                 n: (!transmissive).then_some(ng),
+                time: ray.time,
             };
             let (u_light2, u_light) = sampler.light();
             if !bsdf.is_specular() && walk_exit.is_none() {
@@ -932,7 +948,7 @@ impl<'a> PathTracer<'a> {
                             self.media_across(&media, hit.instance, sp.material, ls.wi, sp.ng)
                         };
                         let shadow = self.transmittance(
-                            Ray::new(origin, ls.wi),
+                            Ray::new_at(origin, ls.wi, ctx.time),
                             ls.distance,
                             &shadow_media,
                             &alive,
@@ -1033,9 +1049,16 @@ impl<'a> PathTracer<'a> {
                 let bssrdf = ss.bssrdf(&alive);
                 let (u_axis, u_disk, u_hit) = sampler.subsurface_probe();
                 rays += 1;
-                let Some(probe) =
-                    bssrdf.sample_probe(geometry, sp.material, sp.p, &frame, u_axis, u_disk, u_hit)
-                else {
+                let Some(probe) = bssrdf.sample_probe(
+                    geometry,
+                    sp.material,
+                    sp.p,
+                    sp.time,
+                    &frame,
+                    u_axis,
+                    u_disk,
+                    u_hit,
+                ) else {
                     break;
                 };
                 beta *= probe.weight;
@@ -1088,6 +1111,7 @@ impl<'a> PathTracer<'a> {
                 let exit_ctx = ShadingContext {
                     p: p_exit,
                     n: Some(ng_i),
+                    time: ray.time,
                 };
                 let u = sampler.exit_light();
                 let c = beta
@@ -1135,7 +1159,7 @@ impl<'a> PathTracer<'a> {
                 break;
             }
             let (p, n, dir) = next;
-            ray = Ray::new(offset_ray_origin(p, n, dir), dir);
+            ray = Ray::new_at(offset_ray_origin(p, n, dir), dir, ray.time);
         }
         PathSample {
             radiance: l,

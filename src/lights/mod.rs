@@ -281,9 +281,9 @@ impl Lights {
             let two_sided = mat.double_sided();
             let sides = if two_sided { 2.0 } else { 1.0 };
             instance_base[ii] = lights.len() as u32;
-            let xf = &inst.object_to_world;
+            let xf = &inst.placement.object_to_world;
             for prim in 0..mesh.triangle_count() as u32 {
-                let sp = geometry.surface_point_at(ii as u32, prim, 1.0 / 3.0, 1.0 / 3.0);
+                let sp = geometry.surface_point_at(ii as u32, prim, 1.0 / 3.0, 1.0 / 3.0, 0.5);
                 // A graph's emission: its value at the triangle's centre stands for the
                 // triangle (the estimate only steers light selection; the pdf stays exact).
                 let rgb = if graph_emission {
@@ -298,12 +298,29 @@ impl Lights {
                     prim,
                 });
                 power.push(luminance(rgb) * sp.area * PI * sides);
+                let (lo, hi, cos_theta_o) = match &inst.motion {
+                    None => (
+                        v[0].min(v[1]).min(v[2]),
+                        hi_of(&v),
+                        if two_sided { -1.0 } else { 1.0 },
+                    ),
+                    // A moving emitter: the box it sweeps, facing every way (it may turn), so
+                    // the tree's estimate is never zero where the light reaches at some time.
+                    Some(m) => {
+                        let o = mesh.vertices(prim as usize);
+                        let swept = m.bounds(&obvhs::aabb::Aabb::new(
+                            o[0].min(o[1]).min(o[2]).into(),
+                            hi_of(&o).into(),
+                        ));
+                        (swept.min.into(), swept.max.into(), -1.0)
+                    }
+                };
                 bounds.push(LightBounds {
-                    lo: v[0].min(v[1]).min(v[2]),
-                    hi: v[0].max(v[1]).max(v[2]),
+                    lo,
+                    hi,
                     phi: luminance(rgb) * sp.area,
                     axis: sp.ng,
-                    cos_theta_o: if two_sided { -1.0 } else { 1.0 },
+                    cos_theta_o,
                     cos_theta_e: mat.emission_cos_cutoff(),
                 });
             }
@@ -775,7 +792,7 @@ impl Lights {
         let mut sample = match &self.lights[index] {
             Light::Triangle { instance, prim } => {
                 let (b1, b2) = sampling::sample_uniform_triangle(u);
-                let sp = geometry.surface_point_at(*instance, *prim, b1, b2);
+                let sp = geometry.surface_point_at(*instance, *prim, b1, b2, ctx.time);
                 let d = sp.p - p;
                 let dist2 = d.length_squared();
                 if dist2 <= 0.0 || sp.area <= 0.0 {
@@ -940,6 +957,11 @@ fn luminance_of(s: &RgbIlluminantSpectrum) -> f32 {
     } else {
         0.0
     }
+}
+
+/// Component-wise maximum of a triangle's vertices.
+fn hi_of(v: &[Vec3; 3]) -> Vec3 {
+    v[0].max(v[1]).max(v[2])
 }
 
 #[cfg(test)]

@@ -36,6 +36,8 @@ pub struct LightBounds {
 pub struct ShadingContext {
     pub p: Vec3,
     pub n: Option<Vec3>,
+    /// The path's shutter time: where moving emitters are sampled.
+    pub time: f32,
 }
 
 /// cos(max(0, a - b)) from the sines and cosines of a and b (angles in [0, pi]).
@@ -527,18 +529,21 @@ mod tests {
         let ctx = ShadingContext {
             p: Vec3::ZERO,
             n: Some(Vec3::Z),
+            time: 0.5,
         };
         assert!((b.importance(&ctx) - 2.0).abs() < 1e-5);
         // Behind a reflecting surface: nothing.
         let below = ShadingContext {
             p: Vec3::ZERO,
             n: Some(-Vec3::Z),
+            time: 0.5,
         };
         assert_eq!(b.importance(&below), 0.0);
         // A transmitting surface receives from both sides.
         let both = ShadingContext {
             p: Vec3::ZERO,
             n: None,
+            time: 0.5,
         };
         assert!((b.importance(&both) - 2.0).abs() < 1e-5);
     }
@@ -557,10 +562,12 @@ mod tests {
         let front = ShadingContext {
             p: Vec3::new(0.0, 0.0, 3.0),
             n: None,
+            time: 0.5,
         };
         let behind = ShadingContext {
             p: Vec3::new(0.0, 0.0, -3.0),
             n: None,
+            time: 0.5,
         };
         assert!(b.importance(&front) > 0.0);
         assert_eq!(b.importance(&behind), 0.0);
@@ -590,6 +597,7 @@ mod tests {
         let ctx = ShadingContext {
             p: Vec3::new(0.3, -0.2, 0.0),
             n: Some(Vec3::Z),
+            time: 0.5,
         };
         let mut cut = [0f32; 8];
         let k = tree.cut_importances(&ctx, &mut cut);

@@ -28,7 +28,7 @@
 //!
 //! | group | 0-1 | 2 | 3 |
 //! | --- | --- | --- | --- |
-//! | camera | pixel filter offset | - | - |
+//! | camera | pixel filter offset | shutter time (scenes with motion only) | - |
 //! | lens | point on the lens | - | - |
 //! | wavelength | hero wavelength: position within a quarter / which quarter | - | - |
 //! | per bounce `light` | point on the light | light choice | material component |
@@ -334,6 +334,11 @@ impl Sampler {
         let [a, b] = self.dims::<2>(GROUP_CAMERA, 0);
         let [c, d] = self.dims::<2>(GROUP_LENS, 0);
         (Vec2::new(a, b), Vec2::new(c, d))
+    }
+
+    /// The camera path's shutter time in [0, 1) (motion blur).
+    pub fn shutter_time(&mut self) -> f32 {
+        self.dims::<1>(GROUP_CAMERA, 2)[0]
     }
 
     /// The hero wavelength's primary samples: (position, choice) — see

@@ -7,7 +7,7 @@ use super::desc::{
 };
 use super::material::Material;
 use crate::error::{PrismError, Result};
-use crate::geometry::{BvhLayout, Geometry, Instance, Mesh};
+use crate::geometry::{BvhLayout, Geometry, Instance, Mesh, MotionTransform};
 use crate::lights::envmap::EnvironmentMap;
 use crate::lights::{Lights, World};
 use glam::{Affine3A, Mat4, Vec3};
@@ -36,6 +36,12 @@ struct ShadingDescs {
 }
 
 impl Scene {
+    /// Whether anything moves during the shutter (then each camera path samples a time).
+    pub fn has_motion(&self) -> bool {
+        motion_of(&self.camera.motion).is_some_and(|m| !m.is_static())
+            || self.geometry.instances.iter().any(|i| i.motion.is_some())
+    }
+
     /// Builds acceleration structures and light tables. Fails (as bad input) only for scenes
     /// that cannot produce an image: no camera, no light at all.
     pub fn build(desc: SceneDesc) -> Result<Scene> {
@@ -53,8 +59,9 @@ impl Scene {
             camera,
             world,
             render,
-            warnings,
+            mut warnings,
             instance_visibility,
+            instance_motion,
         } = desc;
         let camera = camera.ok_or_else(|| PrismError::input("the scene has no camera"))?;
 
@@ -109,6 +116,7 @@ impl Scene {
             mesh_map[mi] = runtime_meshes.len() as u32;
             runtime_meshes.push(mesh);
         }
+        let mut motion_warnings = Vec::new();
         let (runtime_instances, instance_names): (Vec<Instance>, Vec<String>) = instances
             .iter()
             .enumerate()
@@ -119,13 +127,23 @@ impl Scene {
                 }
                 let affine = invertible(inst.object_to_world)?;
                 let vis = instance_visibility.get(i).copied().unwrap_or_default();
-                let instance = Instance::new(mesh, affine)
+                let mut instance = Instance::new(mesh, affine)
                     .with_visibility(vis.casts_shadows, vis.camera_visible)
                     .with_holdout(vis.holdout)
                     .with_light_visibility(vis.light_visibility);
+                if let Some(keys) = instance_motion.get(i).filter(|k| !k.is_empty()) {
+                    match motion_of(keys) {
+                        Some(m) => instance = instance.with_motion(m),
+                        None => motion_warnings.push(format!(
+                            "object '{}': its motion has a singular or non-finite transform; rendered without motion blur",
+                            inst.name
+                        )),
+                    }
+                }
                 Some((instance, inst.name.clone()))
             })
             .unzip();
+        warnings.append(&mut motion_warnings);
         let geometry = Geometry::with_layout(runtime_meshes, runtime_instances, layout);
         let shading = ShadingDescs {
             materials,
@@ -213,18 +231,33 @@ impl Scene {
     pub fn camera_for(&self, width: u32, height: u32) -> Camera {
         let to_world = Affine3A::from_mat4(self.camera.camera_to_world);
         if let Some(p) = self.camera.panorama {
-            return Camera::panoramic(to_world, p, width, height);
+            return self.with_camera_motion(Camera::panoramic(to_world, p, width, height));
         }
         let camera = match self.camera.orthographic {
             Some(mag) => Camera::orthographic(to_world, mag.y, width, height),
             None => Camera::new(to_world, self.camera.yfov, width, height),
         }
         .with_shift(self.camera.shift);
-        match self.camera.lens {
+        let camera = match self.camera.lens {
             Some(l) => camera.with_thin_lens(l.aperture_radius, l.focus_distance),
             None => camera,
+        };
+        self.with_camera_motion(camera)
+    }
+
+    /// The camera moving as `camera.motion` says (unchanged without motion).
+    fn with_camera_motion(&self, camera: Camera) -> Camera {
+        match motion_of(&self.camera.motion) {
+            Some(m) if self.camera.motion.len() >= 2 => camera.with_motion(m),
+            _ => camera,
         }
     }
+}
+
+/// A motion over the shutter from its keys; `None` when a key is singular or not finite.
+fn motion_of(keys: &[Mat4]) -> Option<MotionTransform> {
+    let affine: Option<Vec<Affine3A>> = keys.iter().map(|&m| invertible(m)).collect();
+    MotionTransform::new(affine?)
 }
 
 /// The affine form of an object-to-world matrix; `None` when it is singular or not finite.
@@ -316,7 +349,7 @@ fn estimate_density_bounds(geometry: &Geometry, materials: &mut [Material]) {
                             let k = cell * DENSITY_SAMPLES_PER_CELL + j;
                             let u = glam::Vec3::new(unit(k, 1), unit(k, 2), unit(k, 3));
                             let object = MajorantGrid::cell_point(lo, hi, cell as usize, u);
-                            let world = inst.object_to_world.transform_point3(object);
+                            let world = inst.placement.object_to_world.transform_point3(object);
                             let inputs = geometry.volume_inputs(ii as u32, world);
                             field.graph.volume_density(&inputs).unwrap_or(0.0)
                         })

@@ -12,7 +12,7 @@
 //! concentric square-to-disk map of the sampler's lens dimensions.
 
 use super::desc::PanoramaDesc;
-use crate::geometry::Ray;
+use crate::geometry::{MotionTransform, Ray};
 use crate::math::sampling::sample_uniform_disk_concentric;
 use glam::{Affine3A, Vec2, Vec3};
 
@@ -81,6 +81,8 @@ pub struct Camera {
     focus_distance: f32,
     width: u32,
     height: u32,
+    /// The camera's placement over the shutter (motion blur), else `camera_to_world` always.
+    motion: Option<std::sync::Arc<MotionTransform>>,
 }
 
 impl Camera {
@@ -99,6 +101,7 @@ impl Camera {
             focus_distance: 1.0,
             width,
             height,
+            motion: None,
         }
     }
 
@@ -116,6 +119,7 @@ impl Camera {
             focus_distance: 1.0,
             width,
             height,
+            motion: None,
         }
     }
 
@@ -134,6 +138,7 @@ impl Camera {
             focus_distance: 1.0,
             width,
             height,
+            motion: None,
         }
     }
 
@@ -161,6 +166,21 @@ impl Camera {
         self
     }
 
+    /// Moves the camera over the shutter (`motion`'s keys replace its transform); a motion
+    /// whose keys are all equal leaves it still.
+    pub fn with_motion(mut self, motion: MotionTransform) -> Self {
+        if !motion.is_static() {
+            self.camera_to_world = motion.at(0.5);
+            self.motion = Some(std::sync::Arc::new(motion));
+        }
+        self
+    }
+
+    /// Whether the camera moves during the shutter.
+    pub fn has_motion(&self) -> bool {
+        self.motion.is_some()
+    }
+
     pub fn is_orthographic(&self) -> bool {
         matches!(self.projection, Projection::Orthographic { .. })
     }
@@ -186,13 +206,28 @@ impl Camera {
     /// `u_lens` in [0,1)^2 picks the point on the lens (unused without a lens). `None` where the
     /// film sees nothing (outside a fisheye's image circle).
     pub fn generate_ray(&self, raster: Vec2, u_lens: Vec2) -> Option<Ray> {
+        self.generate_ray_at(raster, u_lens, 0.5)
+    }
+
+    /// [`Camera::generate_ray`] at normalised shutter time `time`: the ray starts from where
+    /// the camera is then and carries the time for the rest of the path.
+    pub fn generate_ray_at(&self, raster: Vec2, u_lens: Vec2, time: f32) -> Option<Ray> {
+        let moved;
+        let camera_to_world = match &self.motion {
+            None => &self.camera_to_world,
+            Some(m) => {
+                moved = m.at(time);
+                &moved
+            }
+        };
         let u = raster.x / self.width as f32;
         let v = 1.0 - raster.y / self.height as f32;
         if let Projection::Panorama(p) = &self.projection {
             let dir = panorama_direction(p, u, v)?;
-            return Some(Ray::new(
-                self.camera_to_world.transform_point3(Vec3::ZERO),
-                self.camera_to_world.transform_vector3(dir).normalize() + Vec3::ZERO,
+            return Some(Ray::new_at(
+                camera_to_world.transform_point3(Vec3::ZERO),
+                camera_to_world.transform_vector3(dir).normalize() + Vec3::ZERO,
+                time,
             ));
         }
         let ndc_x = 2.0 * u - 1.0;
@@ -232,9 +267,10 @@ impl Camera {
         // `+ 0.0` turns -0.0 components into +0.0: the BVH traversal (obvhs) misses flat
         // geometry with rays that have a -0.0 direction component, which an orthographic
         // camera's axis-aligned rays often have.
-        Some(Ray::new(
-            self.camera_to_world.transform_point3(origin),
-            self.camera_to_world.transform_vector3(dir).normalize() + Vec3::ZERO,
+        Some(Ray::new_at(
+            camera_to_world.transform_point3(origin),
+            camera_to_world.transform_vector3(dir).normalize() + Vec3::ZERO,
+            time,
         ))
     }
 }

@@ -336,6 +336,9 @@ pub struct CameraDesc {
     /// A panoramic projection (material JSON `camera.projection`) instead of the file's
     /// perspective or orthographic one.
     pub panorama: Option<PanoramaDesc>,
+    /// Camera motion blur: `camera_to_world` at equally spaced times over the shutter (empty:
+    /// the camera does not move).
+    pub motion: Vec<Mat4>,
 }
 
 /// Cycles' panoramic cameras. The view axis is the camera's -Z, up its +Y.
@@ -447,6 +450,9 @@ pub struct SceneDesc {
     pub warnings: Vec<String>,
     /// Ray visibility of `instances[i]` (shorter than `instances`: the rest are default).
     pub instance_visibility: Vec<InstanceVisibility>,
+    /// Transform motion blur: `instances[i]`'s object-to-world at equally spaced times over
+    /// the shutter (at least two; shorter than `instances` or empty: the rest do not move).
+    pub instance_motion: Vec<Vec<Mat4>>,
 }
 
 /// Ray visibility of an instance, from glTF node extras (the Blender add-on writes them for

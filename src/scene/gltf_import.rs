@@ -334,6 +334,8 @@ struct CameraCandidate {
     camera_name: Option<String>,
     camera_index: usize,
     world: Mat4,
+    /// World transforms over the shutter (`prism_motion`), empty when still.
+    motion: Vec<Mat4>,
 }
 
 struct Importer<'d> {
@@ -600,6 +602,11 @@ impl<'d> Importer<'d> {
             ));
         }
         let world = parent * local;
+        let motion: Vec<Mat4> = self
+            .node_motion(&node)?
+            .into_iter()
+            .map(|l| parent * l)
+            .collect();
         let node_name = node
             .name()
             .map(str::to_string)
@@ -654,18 +661,25 @@ impl<'d> Importer<'d> {
                 .clone()
                 .or_else(|| self.doc.as_json().meshes[mesh.index()].weights.clone())
                 .unwrap_or_default();
-            let transforms = match self.gpu_instances(index)? {
-                Some(locals) => locals.into_iter().map(|l| world * l).collect(),
+            let gpu_locals = self.gpu_instances(index)?;
+            let transforms = match &gpu_locals {
+                Some(locals) => locals.iter().map(|l| world * *l).collect(),
                 None => vec![world],
             };
+            let locals = gpu_locals.unwrap_or_else(|| vec![Mat4::IDENTITY]);
             for prim in mesh.primitives() {
                 if let Some(m) = self.mesh_for(&mesh, &prim, &weights)? {
-                    for &object_to_world in &transforms {
+                    for (&object_to_world, local) in transforms.iter().zip(&locals) {
+                        let i = self.scene.instances.len();
                         if visibility != InstanceVisibility::default() {
-                            let i = self.scene.instances.len();
                             let vis = &mut self.scene.instance_visibility;
                             vis.resize(i + 1, InstanceVisibility::default());
                             vis[i] = visibility;
+                        }
+                        if !motion.is_empty() {
+                            let moves = &mut self.scene.instance_motion;
+                            moves.resize(i + 1, Vec::new());
+                            moves[i] = motion.iter().map(|m| *m * *local).collect();
                         }
                         self.scene.instances.push(InstanceDesc {
                             mesh: m,
@@ -682,6 +696,7 @@ impl<'d> Importer<'d> {
                 camera_name: cam.name().map(str::to_string),
                 camera_index: cam.index(),
                 world,
+                motion: motion.clone(),
             });
         }
         // Read the light index from the JSON ourselves: `Node::light()` unwraps.
@@ -694,6 +709,42 @@ impl<'d> Importer<'d> {
             self.light(li, &node_name, world)?;
         }
         Ok(world)
+    }
+
+    /// The node's local transforms over the shutter from its extras' `prism_motion` (written
+    /// by the Blender add-on for motion blur): an array of at least two column-major 4x4
+    /// matrices (as glTF's `matrix`) at equally spaced times from shutter open to close.
+    /// Empty when the node has none.
+    fn node_motion(&self, node: &gltf::Node) -> Result<Vec<Mat4>, String> {
+        let Some(raw) = node.extras().as_ref() else {
+            return Ok(Vec::new());
+        };
+        let Ok(extras) = serde_json::from_str::<serde_json::Value>(raw.get()) else {
+            return Ok(Vec::new());
+        };
+        let Some(value) = extras.get("prism_motion") else {
+            return Ok(Vec::new());
+        };
+        let label = Self::node_label(node);
+        let bad = || {
+            format!(
+                "{label}: extras.prism_motion must be an array of at least two arrays of 16 finite numbers (column-major 4x4 matrices)"
+            )
+        };
+        let keys = value.as_array().ok_or_else(bad)?;
+        if keys.len() < 2 {
+            return Err(bad());
+        }
+        keys.iter()
+            .map(|k| {
+                let nums = k.as_array().filter(|a| a.len() == 16).ok_or_else(bad)?;
+                let mut m = [0f32; 16];
+                for (dst, v) in m.iter_mut().zip(nums) {
+                    *dst = v.as_f64().filter(|x| x.is_finite()).ok_or_else(bad)? as f32;
+                }
+                Ok(Mat4::from_cols_array(&m))
+            })
+            .collect()
     }
 
     /// EXT_mesh_gpu_instancing: the node's per-instance TRANSLATION / ROTATION / SCALE as
@@ -1001,7 +1052,28 @@ impl<'d> Importer<'d> {
             }
         }
         // Remove scale from the camera frame (glTF cameras ignore it); keep the position.
-        let w = cand.world;
+        let camera_to_world = Self::camera_frame(cand.world, &name)?;
+        let motion = cand
+            .motion
+            .iter()
+            .map(|&w| Self::camera_frame(w, &name))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok((
+            CameraDesc {
+                name,
+                camera_to_world,
+                yfov,
+                aspect,
+                orthographic,
+                motion,
+                ..Default::default()
+            },
+            warnings,
+        ))
+    }
+
+    /// A camera node's world transform without its scale (glTF cameras ignore it).
+    fn camera_frame(w: Mat4, name: &str) -> Result<Mat4, String> {
         let axes = [
             w.x_axis.truncate(),
             w.y_axis.truncate(),
@@ -1018,17 +1090,7 @@ impl<'d> Importer<'d> {
             axes[2].normalize().extend(0.0),
             w.w_axis,
         );
-        Ok((
-            CameraDesc {
-                name,
-                camera_to_world,
-                yfov,
-                aspect,
-                orthographic,
-                ..Default::default()
-            },
-            warnings,
-        ))
+        Ok(camera_to_world)
     }
 
     // ---------------------------------------------------------------- accessors

@@ -97,6 +97,9 @@ if [ "$WHICH" = all ] || [ "$WHICH" = bpy ]; then
     echo "== particle hair and Curves objects vs Cycles in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_hair.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== object and camera motion blur vs Cycles in the bpy wheel"
+    .venv-bpy/bin/python tests/addon/test_motion_blur.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
     echo "== the rendered viewport's renderer (prism serve): each kind of edit vs F12 renders in the bpy wheel"
     .venv-bpy/bin/python tests/addon/test_serve.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
@@ -116,6 +119,9 @@ if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
     [ "${PIPESTATUS[0]}" = 0 ]
     echo "== soft lights vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
     blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_lights.py 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== object and camera motion blur vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
+    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_motion_blur.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
     echo "== render border, Film Transparent, holdouts vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
     blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_pipeline.py 2>&1 | filter
