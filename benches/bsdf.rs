@@ -55,6 +55,7 @@ fn bench_bsdf(c: &mut Criterion) {
                 ior: 1.5,
                 energy_compensation: true,
                 coat: prism::bsdf::Coat::NONE,
+                sheen: prism::bsdf::Sheen::NONE,
                 iridescence: None,
             }),
             false,

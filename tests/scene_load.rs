@@ -1142,6 +1142,7 @@ fn unsupported_optional_extensions_are_named_in_one_warning() {
     let dir = test_dir("unsupported_ext");
     let mut b = GltfBuilder::basic();
     b.use_ext("KHR_materials_anisotropy");
+    b.use_ext("KHR_materials_diffuse_transmission");
     b.use_ext("KHR_materials_sheen");
     b.use_ext("KHR_texture_transform");
     let s = load(&b.write_gltf(&dir.join("t.gltf")));
@@ -1152,8 +1153,9 @@ fn unsupported_optional_extensions_are_named_in_one_warning() {
         .collect();
     assert_eq!(hits.len(), 1, "{:?}", s.warnings);
     assert!(
-        hits[0].contains("KHR_materials_anisotropy, KHR_materials_sheen")
-            && !hits[0].contains("KHR_texture_transform"),
+        hits[0].contains("KHR_materials_anisotropy, KHR_materials_diffuse_transmission")
+            && !hits[0].contains("KHR_texture_transform")
+            && !hits[0].contains("KHR_materials_sheen"),
         "{}",
         hits[0]
     );
@@ -1199,6 +1201,54 @@ fn vertex_colours_and_extra_uv_sets_are_loaded() {
     );
 }
 
+/// KHR_materials_sheen's factors reach the material (its textures: tests/layer_textures.rs); a
+/// colour out of [0, 1] and a texture that does not exist are one-line errors.
+#[test]
+fn sheen_is_read() {
+    let dir = test_dir("sheen");
+    let mut b = GltfBuilder::basic();
+    b.use_ext("KHR_materials_sheen");
+    let velvet = b.material(json!({
+        "name": "Velvet",
+        "extensions": { "KHR_materials_sheen": {
+            "sheenColorFactor": [0.9, 0.4, 0.2], "sheenRoughnessFactor": 0.6 } }
+    }));
+    let q = b.quad_mesh("V", Some(velvet));
+    b.root(json!({ "name": "V", "mesh": q }));
+    let s = load(&b.write_gltf(&dir.join("v.gltf")));
+    let m = &s.materials[velvet].gltf;
+    assert_eq!(m.sheen_color, Vec3::new(0.9, 0.4, 0.2));
+    assert_eq!(m.sheen_roughness, 0.6);
+    assert!(s
+        .warnings
+        .iter()
+        .all(|w| !w.contains("extensions not supported")));
+    let mut bad = GltfBuilder::basic();
+    bad.use_ext("KHR_materials_sheen");
+    let m = bad.material(json!({ "name": "Bad", "extensions": {
+        "KHR_materials_sheen": { "sheenColorFactor": [1.2, 0.0, 0.0] } } }));
+    let q = bad.quad_mesh("B", Some(m));
+    bad.root(json!({ "name": "B", "mesh": q }));
+    let e = input_error(load_scene(
+        &bad.write_gltf(&dir.join("bad.gltf")),
+        None,
+        None,
+    ));
+    assert!(
+        e.contains("KHR_materials_sheen.sheenColorFactor must be three numbers in [0, 1]"),
+        "{e}"
+    );
+    let mut missing = GltfBuilder::basic();
+    missing.use_ext("KHR_materials_sheen");
+    let m = missing.material(json!({ "name": "Missing", "extensions": {
+        "KHR_materials_sheen": { "sheenColorFactor": [1.0, 1.0, 1.0],
+                                 "sheenColorTexture": { "index": 3 } } } }));
+    let q = missing.quad_mesh("M", Some(m));
+    missing.root(json!({ "name": "M", "mesh": q }));
+    let e = input_error(load_scene(&missing.write_gltf(&dir.join("missing.gltf")), None, None));
+    assert!(e.contains("sheenColorTexture") && e.contains("index 3"), "{e}");
+}
+
 /// KHR_materials_clearcoat (+ the add-on's coat extras) and KHR_materials_iridescence reach the
 /// material; their textures are named in a warning; out-of-range values are one-line errors.
 #[test]
@@ -1212,7 +1262,7 @@ fn clearcoat_and_iridescence_are_read() {
         "extras": { "prism_coat_ior": 1.6, "prism_coat_tint": [0.9, 0.5, 0.2] },
         "extensions": {
             "KHR_materials_clearcoat": { "clearcoatFactor": 0.8, "clearcoatRoughnessFactor": 0.2,
-                                         "clearcoatTexture": { "index": 0 } },
+                                         "clearcoatNormalTexture": { "index": 0 } },
             "KHR_materials_iridescence": { "iridescenceFactor": 1.0, "iridescenceIor": 1.4,
                                            "iridescenceThicknessMaximum": 520.0 }
         }
@@ -1228,7 +1278,7 @@ fn clearcoat_and_iridescence_are_read() {
         (1.0, 1.4, 520.0)
     );
     assert!(
-        s.warnings.iter().any(|w| w.contains("clearcoat textures")),
+        s.warnings.iter().any(|w| w.contains("clearcoatNormalTexture")),
         "{:?}",
         s.warnings
     );

@@ -330,6 +330,7 @@ def convert_material(mat):
             m["specular"] = 2.0 * _val(node, "Specular")  # 3.x: 0.5 = F0 0.04
         sss = _principled_subsurface(node, m)
         _principled_coat(node, m)
+        _principled_sheen(node, m)
         m["specular_tint"] = _principled_specular_tint(node, m["base"])
         # Thin Film (4.2+): exact per wavelength in Prism, on the dielectric (not the metal).
         thickness = _val(node, "Thin Film Thickness", default=0.0)
@@ -444,9 +445,47 @@ def _principled_coat(node, m):
         ior, tint = 1.5, [1.0, 1.0, 1.0]
     else:
         return
+    sock = node.inputs.get("Coat Weight") or node.inputs.get("Clearcoat")
+    if sock.is_linked:
+        weight = 1.0  # the graph's coat_weight replaces it; the IOR and tint still apply
     if weight > 0.0:
         m["coat"] = (min(float(weight), 1.0), min(max(float(roughness), 0.0), 1.0), max(float(ior), 1.0),
                      [max(float(c), 0.0) for c in tint])
+
+
+# Cycles' Sheen Roughness -> the roughness of Prism's (Charlie) sheen whose directional albedo
+# is closest to Cycles' (microfibre) sheen's, at 0, 0.1, ..., 1.0 (weighted least squares over
+# the view angle; bench/sheen_albedo.py measures both in a white furnace). From 0.2 to 0.8 the
+# albedos then agree within 5%; Cycles' roughest sheens reflect more than any Charlie lobe (0.8x
+# of Cycles' albedo at 0.9, 0.7x at 1.0).
+_SHEEN_ROUGHNESS = [0.0, 0.03, 0.081, 0.167, 0.293, 0.44, 0.595, 0.769, 1.0, 1.0, 1.0]
+
+
+def _sheen_roughness(r):
+    x = min(max(float(r), 0.0), 1.0) * 10.0
+    i = min(int(x), 9)
+    f = x - i
+    return _SHEEN_ROUGHNESS[i] * (1.0 - f) + _SHEEN_ROUGHNESS[i + 1] * f
+
+
+def _principled_sheen(node, m):
+    """Principled Sheen (4.x: Sheen Weight, Roughness, Tint) into m["sheen"] = (colour rgb =
+    weight x tint, roughness) or None; written as KHR_materials_sheen, the roughness mapped onto
+    the Charlie sheen's (`_SHEEN_ROUGHNESS`). Blender 3.x's Sheen (the Disney model's grazing
+    tint, no roughness) is not translated (warned)."""
+    if node.inputs.get("Sheen Weight") is None:
+        return
+    weight = float(_val(node, "Sheen Weight"))
+    if not weight > 0.0:
+        return
+    tint = _rgb(_val(node, "Sheen Tint", default=(1, 1, 1, 1)))
+    blender_roughness = float(_val(node, "Sheen Roughness", default=0.5))
+    color = [min(max(weight * float(c), 0.0), 1.0) for c in tint]
+    if max(color) > 0.0:
+        m["sheen"] = (color, _sheen_roughness(blender_roughness))
+        if blender_roughness > 0.85:
+            m["approximation"] = ("Sheen Roughness %.2f is rendered with up to 30%% less sheen than Cycles shows "
+                                  "(Prism's sheen matches Cycles' from 0.2 to 0.8)" % blender_roughness)
 
 
 def _normal_map(node):
@@ -1051,6 +1090,11 @@ class Exporter:
                     gb.bind_const("emission", _rgb(e_col.default_value))
                 if "emission_strength" not in gb.inputs:
                     gb.bind_const("emission_strength", float(e_str.default_value) if e_str is not None else 1.0)
+            # Coat and Sheen from textures (4.x; 3.x's Clearcoat too).
+            bind("coat_weight", S("Coat Weight", "Clearcoat"))
+            bind("coat_roughness", S("Coat Roughness", "Clearcoat Roughness"))
+            bind("coat_tint", S("Coat Tint"))
+            self._graph_sheen(gb, node, handled)
             alpha = S("Alpha")
             if alpha is not None and not bind("alpha", alpha) and float(alpha.default_value) < 1.0:
                 gb.bind_const("alpha", float(alpha.default_value))
@@ -1083,6 +1127,29 @@ class Exporter:
             handled.add("Weight")
             self._linked_warnings(name, node, handled)
         return gb.result()
+
+    def _graph_sheen(self, gb, node, handled):
+        """Principled Sheen Weight x Tint from textures as the graph's `sheen_color`. A linked
+        Sheen Roughness is used unmapped (the Cycles-matching mapping of _SHEEN_ROUGHNESS
+        applies to values only): warned."""
+        weight, tint = node.inputs.get("Sheen Weight"), node.inputs.get("Sheen Tint")
+        if weight is None or tint is None:
+            return
+        wv, tv = gb.value(weight, ()), gb.value(tint, ())
+        if not (isinstance(wv, dict) or isinstance(tv, dict)):
+            return
+        handled.update((weight.identifier, tint.identifier))
+        if not isinstance(wv, dict):
+            wv = [float(wv)] * 3
+        n = "__sheen_color"
+        gb.nodes[n] = {"type": "vector_math", "operation": "multiply", "inputs": {"a": wv, "b": tv}}
+        gb.bind_const("sheen_color", {"node": n, "output": "vector"})
+        rough = node.inputs.get("Sheen Roughness")
+        if rough is not None and rough.is_linked:
+            handled.add(rough.identifier)
+            if gb.bind("sheen_roughness", rough):
+                gb.warn(node, "a linked Sheen Roughness is used as Prism's sheen roughness, not mapped to match "
+                              "Cycles' sheen (values are)")
 
     def _mixed_graph(self, name, root, m):
         """A Mix / Add Shader tree as graph closures: the tree flattened into weighted leaves
@@ -1250,10 +1317,11 @@ class Exporter:
         checks = [] if own_material else [
             ("Coat Weight", lambda v: v > 0.0, "Coat (inside a Mix/Add Shader)"),
             ("Clearcoat", lambda v: v > 0.0, "Clearcoat (inside a Mix/Add Shader)"),
+            ("Sheen Weight", lambda v: v > 0.0, "Sheen (inside a Mix/Add Shader)"),
         ]
         checks += [
-            ("Sheen Weight", lambda v: v > 0.0, "Sheen"),
-            ("Sheen", lambda v: v > 0.0, "Sheen"),
+            # Blender 3.x's Sheen (the Disney model): 4.x's Sheen Weight is exported.
+            ("Sheen", lambda v: v > 0.0, "Sheen (Blender 3.x's model)"),
             ("Anisotropic", lambda v: v > 0.0, "Anisotropic"),
         ]
         metallic = node.inputs.get("Metallic")
@@ -1369,6 +1437,11 @@ class Exporter:
             weight, roughness, ior, tint = coat
             ext["KHR_materials_clearcoat"] = {"clearcoatFactor": weight, "clearcoatRoughnessFactor": roughness}
             g["extras"] = {"prism_coat_ior": ior, "prism_coat_tint": tint}
+        sheen = m.get("sheen")
+        if sheen is not None:
+            ext["KHR_materials_sheen"] = {"sheenColorFactor": sheen[0], "sheenRoughnessFactor": sheen[1]}
+            if (m.get("transmission") or 0.0) > 0.0:
+                self.warnings.append("material '%s': Sheen on a transmissive Principled BSDF is not rendered" % name)
         if ext:
             g["extensions"] = ext
         self.materials.append(g)

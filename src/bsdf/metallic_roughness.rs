@@ -44,6 +44,7 @@ use super::energy::{
 };
 use super::fresnel::{reflect, schlick_weight};
 use super::microfacet::TrowbridgeReitz;
+use super::sheen::Sheen;
 use super::{BsdfSample, LobeFlags, MetallicRoughnessBsdf};
 use crate::math::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
 use crate::math::{sqr, INV_PI, PI};
@@ -191,6 +192,45 @@ impl MetallicRoughnessBsdf {
     /// has the rest): each lobe's estimated albedo over the total, with the Fresnel terms at
     /// the macro-surface angle. A lobe that vanishes gets exactly 0.
     fn lobe_probabilities(&self, cos_o: f32, layers: Option<&Layers>) -> (f32, f32) {
+        let (w_coat, w_spec, w_cos) = self.lobe_weights(cos_o, layers);
+        let total = w_coat.max(0.0) + w_spec.max(0.0) + w_cos.max(0.0);
+        if !(total > 0.0) || !total.is_finite() {
+            return (0.0, 0.0);
+        }
+        let p_coat = if w_coat > 0.0 { w_coat / total } else { 0.0 };
+        let p_spec = if w_spec > 0.0 { w_spec / total } else { 0.0 };
+        if w_cos > 0.0 {
+            (p_coat, p_spec)
+        } else {
+            // No cosine-weighted lobe: the two others share everything.
+            let s = p_coat + p_spec;
+            (p_coat / s, p_spec / s)
+        }
+    }
+
+    /// Probability of sampling the sheen lobe at `cos_o` (the layers below get the rest, in
+    /// the proportions of `lobe_probabilities`): its albedo against theirs, dimmed by it.
+    fn sheen_probability(&self, cos_o: f32, layers: Option<&Layers>) -> f32 {
+        if !self.sheen.is_present() {
+            return 0.0;
+        }
+        let w_sheen = self.sheen.albedo_estimate(cos_o);
+        let (w_coat, w_spec, w_cos) = self.lobe_weights(cos_o, layers);
+        let below = (w_coat.max(0.0) + w_spec.max(0.0) + w_cos.max(0.0))
+            * self.sheen.below(cos_o, cos_o, false);
+        let total = w_sheen + below;
+        if !(total > 0.0) || !total.is_finite() {
+            return 0.0;
+        }
+        if below > 0.0 {
+            w_sheen / total
+        } else {
+            1.0
+        }
+    }
+
+    /// Estimated albedos (coat, base GGX, cosine-weighted lobes) at `cos_o`.
+    fn lobe_weights(&self, cos_o: f32, layers: Option<&Layers>) -> (f32, f32, f32) {
         let m = self.metallic();
         let (fd, fc) = self.fresnels(cos_o);
         let coat = &self.coat;
@@ -217,19 +257,7 @@ impl MetallicRoughnessBsdf {
                     }
                     None => (1.0 - m) * ((SampledSpectrum::ONE - fd) * self.base_color).average(),
                 };
-        let total = w_coat.max(0.0) + w_spec.max(0.0) + w_cos.max(0.0);
-        if !(total > 0.0) || !total.is_finite() {
-            return (0.0, 0.0);
-        }
-        let p_coat = if w_coat > 0.0 { w_coat / total } else { 0.0 };
-        let p_spec = if w_spec > 0.0 { w_spec / total } else { 0.0 };
-        if w_cos > 0.0 {
-            (p_coat, p_spec)
-        } else {
-            // No cosine-weighted lobe: the two others share everything.
-            let s = p_coat + p_spec;
-            (p_coat / s, p_spec / s)
-        }
+        (w_coat, w_spec, w_cos)
     }
 
     /// The factor on the base below the coat (1 without a coat): what the coat lets through
@@ -391,6 +419,12 @@ impl MetallicRoughnessBsdf {
             f += SampledSpectrum::splat(self.coat.eval(wo, wi, h, self.energy_compensation));
             pdf += p_coat * self.coat.pdf(wo, h);
         }
+        if self.sheen.is_present() {
+            let p_sheen = self.sheen_probability(wo.z, layers);
+            f = f * self.sheen.below(wo.z, wi.z, !self.energy_compensation)
+                + self.sheen.eval(wo, wi);
+            pdf = (1.0 - p_sheen) * pdf + p_sheen * Sheen::PDF;
+        }
         if !f.is_finite() || !pdf.is_finite() {
             return (SampledSpectrum::ZERO, 0.0);
         }
@@ -429,6 +463,7 @@ impl MetallicRoughnessBsdf {
             * share
             * (1.0 - self.metallic())
             * self.below_coat(wo.z, wo.dot(h).clamp(0.0, 1.0))
+            * self.sheen.below(wo.z, wi.z, !self.energy_compensation)
     }
 
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -443,9 +478,30 @@ impl MetallicRoughnessBsdf {
         let layers = self.layers(wo.z);
         let (p_coat, p_spec) = self.lobe_probabilities(wo.z, layers.as_ref());
         let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
-        // A Dirac lobe's sample: weight albedo / (cos pdf).
+        // The sheen on top first; the layers below share the rest of `uc`.
+        let p_sheen = self.sheen_probability(wo.z, layers.as_ref());
+        let below_sheen = self.sheen.below(wo.z, wo.z, !self.energy_compensation);
+        if uc < p_sheen {
+            let wi = Sheen::sample(u);
+            let (f, pdf) = self.eval_pdf_with(wo, wi, layers.as_ref());
+            return (pdf > 0.0 && wi.z > 0.0).then_some(BsdfSample {
+                wi,
+                f,
+                pdf,
+                flags: LobeFlags::sample(false, false),
+                eta: SampledSpectrum::ONE,
+                pdf_wavelengths: SampledSpectrum::splat(pdf),
+            });
+        }
+        let uc = if p_sheen > 0.0 {
+            ((uc - p_sheen) / (1.0 - p_sheen)).min(1.0 - f32::EPSILON)
+        } else {
+            uc
+        };
+        // A Dirac lobe's sample: weight albedo / (cos pdf), under the sheen.
         let dirac = |albedo: SampledSpectrum, p: f32| {
-            let f = albedo / wo.z;
+            let f = albedo * below_sheen / wo.z;
+            let p = p * (1.0 - p_sheen);
             f.is_finite().then_some(BsdfSample {
                 wi: mirror,
                 f,
@@ -578,6 +634,7 @@ mod tests {
             ior: 0.0,
             energy_compensation: false,
             coat: Coat::NONE,
+            sheen: Sheen::NONE,
             iridescence: None,
         };
         assert_eq!(b.dielectric_f0(), SampledSpectrum::ONE);
@@ -605,6 +662,7 @@ mod tests {
             ior: 1.5,
             energy_compensation: true,
             coat: Coat::NONE,
+            sheen: Sheen::NONE,
             iridescence: None,
         };
         let schlick = |c: f32| base.map(|f| f + (1.0 - f) * schlick_weight(c));

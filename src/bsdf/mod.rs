@@ -13,11 +13,13 @@ pub mod energy;
 pub mod fresnel;
 pub mod metallic_roughness;
 pub mod microfacet;
+pub mod sheen;
 pub mod thin_film;
 
 pub use coat::Coat;
 pub use fresnel::{fresnel_dielectric, fresnel_schlick, refract};
 pub use microfacet::TrowbridgeReitz;
+pub use sheen::Sheen;
 pub use thin_film::ThinFilm;
 
 use crate::spectrum::SampledSpectrum;
@@ -190,6 +192,8 @@ pub struct MetallicRoughnessBsdf {
     pub energy_compensation: bool,
     /// A clear coat over all of it (`coat.rs`; `Coat::NONE` for none).
     pub coat: Coat,
+    /// A sheen over the coat and all below (`sheen.rs`; `Sheen::NONE` for none).
+    pub sheen: Sheen,
     /// A thin film on the dielectric specular layer (`thin_film.rs`; metals ignore it).
     pub iridescence: Option<Iridescence>,
 }
@@ -336,6 +340,9 @@ impl Bsdf {
                 let mut flags = r.with(kind(b.distribution().effectively_smooth()));
                 if b.coat.is_present() {
                     flags = flags.with(kind(b.coat.is_smooth()));
+                }
+                if b.sheen.is_present() {
+                    flags = flags.with(LobeFlags::GLOSSY);
                 }
                 if b.has_diffuse_base() {
                     flags = flags.with(LobeFlags::DIFFUSE);

@@ -112,6 +112,19 @@ pub struct GltfMaterialDesc {
     /// Colour after one vertical pass through the coat (extras `prism_coat_tint`, Blender's
     /// Coat Tint; white otherwise).
     pub coat_tint: Vec3,
+    /// KHR_materials_sheen `sheenColorFactor` (linear RGB; black = no sheen; Blender's Sheen
+    /// Weight x Sheen Tint).
+    pub sheen_color: Vec3,
+    /// `sheenRoughnessFactor` (perceptual; Blender's Sheen Roughness).
+    pub sheen_roughness: f32,
+    /// `clearcoatTexture` (R multiplies the coat factor) and `clearcoatRoughnessTexture` (G
+    /// multiplies its roughness), linear.
+    pub coat_texture: Option<TextureRef>,
+    pub coat_roughness_texture: Option<TextureRef>,
+    /// `sheenColorTexture` (sRGB, RGB multiplies the colour) and `sheenRoughnessTexture` (A
+    /// multiplies the roughness, linear).
+    pub sheen_color_texture: Option<TextureRef>,
+    pub sheen_roughness_texture: Option<TextureRef>,
     /// KHR_materials_iridescence `iridescenceFactor` (0 = none; Blender's Thin Film: 1).
     pub iridescence: f32,
     /// `iridescenceIor` (default 1.3; Blender's Thin Film IOR).
@@ -157,6 +170,12 @@ impl Default for GltfMaterialDesc {
             coat_roughness: 0.0,
             coat_ior: 1.5,
             coat_tint: Vec3::ONE,
+            sheen_color: Vec3::ZERO,
+            sheen_roughness: 0.0,
+            coat_texture: None,
+            coat_roughness_texture: None,
+            sheen_color_texture: None,
+            sheen_roughness_texture: None,
             iridescence: 0.0,
             iridescence_ior: 1.3,
             iridescence_thickness: 400.0,

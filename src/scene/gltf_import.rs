@@ -230,6 +230,7 @@ const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_materials_emissive_strength",
     "KHR_materials_ior",
     "KHR_materials_iridescence",
+    "KHR_materials_sheen",
     "KHR_materials_specular",
     "KHR_materials_transmission",
     "KHR_materials_volume",
@@ -1929,6 +1930,7 @@ impl<'d> Importer<'d> {
         // add-on adds Blender's Coat IOR and Tint as material extras.
         let (mut coat, mut coat_roughness) = (0.0f32, 0.0f32);
         let mut coat_textures = false;
+        let (mut coat_texture, mut coat_roughness_texture) = (None, None);
         if let Some(c) = m
             .extensions()
             .and_then(|ext| ext.get("KHR_materials_clearcoat"))
@@ -1947,13 +1949,58 @@ impl<'d> Importer<'d> {
             };
             coat = number("clearcoatFactor", 0.0)?;
             coat_roughness = number("clearcoatRoughnessFactor", 0.0)?;
-            coat_textures = [
-                "clearcoatTexture",
-                "clearcoatRoughnessTexture",
-                "clearcoatNormalTexture",
-            ]
-            .iter()
-            .any(|k| c.get(*k).is_some());
+            coat_textures = c.get("clearcoatNormalTexture").is_some();
+            if let Some(info) = c.get("clearcoatTexture") {
+                coat_texture =
+                    self.json_texture(info, ColorSpace::Linear, &label, "clearcoatTexture")?;
+            }
+            if let Some(info) = c.get("clearcoatRoughnessTexture") {
+                coat_roughness_texture = self.json_texture(
+                    info,
+                    ColorSpace::Linear,
+                    &label,
+                    "clearcoatRoughnessTexture",
+                )?;
+            }
+        }
+        // KHR_materials_sheen (not parsed by the gltf crate): colour and roughness factors.
+        let (mut sheen_color, mut sheen_roughness) = (Vec3::ZERO, 0.0f32);
+        let (mut sheen_color_texture, mut sheen_roughness_texture) = (None, None);
+        if let Some(c) = m
+            .extensions()
+            .and_then(|ext| ext.get("KHR_materials_sheen"))
+        {
+            if let Some(v) = c.get("sheenColorFactor") {
+                let rgb = v
+                    .as_array()
+                    .filter(|a| a.len() == 3)
+                    .and_then(|a| {
+                        a.iter()
+                            .map(|x| x.as_f64().map(|x| x as f32).filter(|x| (0.0..=1.0).contains(x)))
+                            .collect::<Option<Vec<f32>>>()
+                    })
+                    .ok_or_else(|| {
+                        format!("{label}: KHR_materials_sheen.sheenColorFactor must be three numbers in [0, 1], got {v}")
+                    })?;
+                sheen_color = Vec3::new(rgb[0], rgb[1], rgb[2]);
+            }
+            if let Some(v) = c.get("sheenRoughnessFactor") {
+                sheen_roughness = v
+                    .as_f64()
+                    .map(|x| x as f32)
+                    .filter(|x| (0.0..=1.0).contains(x))
+                    .ok_or_else(|| {
+                        format!("{label}: KHR_materials_sheen.sheenRoughnessFactor must be a number in [0, 1], got {v}")
+                    })?;
+            }
+            if let Some(info) = c.get("sheenColorTexture") {
+                sheen_color_texture =
+                    self.json_texture(info, ColorSpace::Srgb, &label, "sheenColorTexture")?;
+            }
+            if let Some(info) = c.get("sheenRoughnessTexture") {
+                sheen_roughness_texture =
+                    self.json_texture(info, ColorSpace::Linear, &label, "sheenRoughnessTexture")?;
+            }
         }
         // KHR_materials_iridescence (not parsed by the gltf crate): a thin film of one thickness
         // (the maximum: the extension's thickness where no texture varies it).
@@ -2077,7 +2124,7 @@ impl<'d> Importer<'d> {
             ignored.extend(slots.iter().filter(|s| s.1).map(|s| s.0));
         }
         if coat_textures {
-            ignored.push("clearcoat textures");
+            ignored.push("clearcoatNormalTexture");
         }
         if iridescence_texture {
             ignored.push("iridescence textures (the maximum thickness is used)");
@@ -2163,6 +2210,12 @@ impl<'d> Importer<'d> {
             coat_roughness,
             coat_ior,
             coat_tint: Vec3::from_array(coat_tint),
+            sheen_color,
+            sheen_roughness,
+            coat_texture,
+            coat_roughness_texture,
+            sheen_color_texture,
+            sheen_roughness_texture,
             iridescence,
             iridescence_ior,
             iridescence_thickness,
@@ -2202,6 +2255,44 @@ impl<'d> Importer<'d> {
     /// A texture slot of a material: texture, TEXCOORD set and optional KHR_texture_transform.
     /// `None` (with a warning) when the texture has no image the renderer decodes: the slot's
     /// factor alone then applies, as in a viewer without the image's extension.
+    /// A textureInfo the gltf crate leaves as JSON (inside KHR_materials_* objects): its index,
+    /// texCoord and KHR_texture_transform.
+    fn json_texture(
+        &mut self,
+        info: &serde_json::Value,
+        space: ColorSpace,
+        label: &str,
+        slot: &str,
+    ) -> Result<Option<TextureRef>, String> {
+        let index =
+            info.get("index").and_then(|v| v.as_u64()).ok_or_else(|| {
+                format!("{label}: {slot}.index must be a texture index, got {info}")
+            })? as usize;
+        let n = self.doc.as_json().textures.len();
+        let texture = self
+            .doc
+            .textures()
+            .nth(index)
+            .ok_or_else(|| out_of_range(&format!("{label}: {slot}"), index, n, "textures"))?;
+        let tex_coord = match info.get("texCoord") {
+            None => 0,
+            Some(v) => v.as_u64().filter(|&t| t < 256).ok_or_else(|| {
+                format!("{label}: {slot}.texCoord must be a TEXCOORD set number, got {v}")
+            })? as u32,
+        };
+        let transform = match info
+            .get("extensions")
+            .and_then(|e| e.get("KHR_texture_transform"))
+        {
+            Some(v) => Some(
+                parse_texture_transform(v)
+                    .map_err(|e| format!("{label}: {slot}: KHR_texture_transform: {e}"))?,
+            ),
+            None => None,
+        };
+        self.texture_slot(texture, tex_coord, transform, space, label, slot)
+    }
+
     fn texture_slot(
         &mut self,
         texture: gltf::Texture,

@@ -6,7 +6,7 @@ use super::desc::{
 };
 use super::texture::sample_texture;
 use crate::bsdf::{
-    Bsdf, Coat, DielectricBsdf, DiffuseBsdf, Iridescence, MetallicRoughnessBsdf, ThinFilm,
+    Bsdf, Coat, DielectricBsdf, DiffuseBsdf, Iridescence, MetallicRoughnessBsdf, Sheen, ThinFilm,
     TranslucentBsdf,
 };
 use crate::bssrdf::SubsurfaceMaterial;
@@ -54,6 +54,8 @@ pub struct Material {
     energy_compensation: bool,
     /// The clear coat (weight 0: none).
     coat: MaterialCoat,
+    /// The sheen (None: none).
+    sheen: Option<MaterialSheen>,
     /// A thin film and its weight (KHR_materials_iridescence): on the dielectric interface of
     /// transmissive surfaces and on the specular layer of opaque ones.
     thin_film: Option<(ThinFilm, f32)>,
@@ -150,6 +152,7 @@ impl Material {
                 ior: g.coat_ior,
                 tint: RgbAlbedoSpectrum::new(g.coat_tint),
             },
+            sheen: MaterialSheen::new(g.sheen_color, g.sheen_roughness),
             emission,
             spread: Spread::new(g.emission_spread),
             interior,
@@ -160,6 +163,10 @@ impl Material {
                 g.base_color_texture,
                 g.metallic_roughness_texture,
                 g.emissive_texture,
+                g.coat_texture,
+                g.coat_roughness_texture,
+                g.sheen_color_texture,
+                g.sheen_roughness_texture,
             ]
             .iter()
             .flatten()
@@ -580,9 +587,12 @@ impl Material {
                 energy_compensation: self.energy_compensation,
             });
         }
+        let coat = self.coat_at(textures, uv, inputs, &get, w);
+        let sheen = self.sheen_at(textures, uv, inputs, &get, w);
         if metallic <= 0.0
             && specular <= 0.0
-            && !(self.coat.weight > 0.0)
+            && !coat.is_present()
+            && !sheen.is_present()
             && self.thin_film.is_none()
         {
             return Bsdf::Diffuse(DiffuseBsdf { reflectance: base });
@@ -595,9 +605,128 @@ impl Material {
             specular_color: self.specular_color.sample(w),
             ior: g.ior,
             energy_compensation: self.energy_compensation,
-            coat: self.coat.sample(w),
+            coat,
+            sheen,
             iridescence: self.iridescence(w),
         })
+    }
+
+    /// The coat at a shading point: the glTF factors times `clearcoatTexture` (R) and
+    /// `clearcoatRoughnessTexture` (G), or what the shading graph drives.
+    fn coat_at(
+        &self,
+        textures: &[TextureDesc],
+        uv: Vec2,
+        inputs: Option<&ShadingInputs>,
+        get: &impl Fn(MaterialInput) -> Option<Vec4>,
+        w: &SampledWavelengths,
+    ) -> Coat {
+        let g = &self.gltf;
+        let (weight_in, roughness_in, tint_in) = (
+            get(MaterialInput::CoatWeight),
+            get(MaterialInput::CoatRoughness),
+            get(MaterialInput::CoatTint),
+        );
+        let textured = g.coat_texture.is_some() || g.coat_roughness_texture.is_some();
+        if weight_in.is_none() && roughness_in.is_none() && tint_in.is_none() && !textured {
+            return self.coat.sample(w);
+        }
+        let mut weight = self.coat.weight;
+        if let Some(t) = g.coat_texture {
+            weight *= lookup_at(textures, &t, uv, inputs).x;
+        }
+        if let Some(v) = weight_in {
+            weight = v.x;
+        }
+        if !(weight > 0.0) {
+            return Coat::NONE;
+        }
+        let mut roughness = g.coat_roughness;
+        if let Some(t) = g.coat_roughness_texture {
+            roughness *= lookup_at(textures, &t, uv, inputs).y;
+        }
+        if let Some(v) = roughness_in {
+            roughness = v.x;
+        }
+        let alpha = roughness_to_alpha(roughness);
+        Coat {
+            weight: weight.clamp(0.0, 1.0),
+            alpha: if alpha < MIN_ALPHA { 0.0 } else { alpha },
+            ior: self.coat.ior,
+            tint: match tint_in {
+                Some(c) => RgbAlbedoSpectrum::new(c.xyz().clamp(Vec3::ZERO, Vec3::ONE)).sample(w),
+                None => self.coat.tint.sample(w),
+            },
+        }
+    }
+
+    /// The sheen at a shading point: the glTF factors times `sheenColorTexture` (RGB) and
+    /// `sheenRoughnessTexture` (A), or what the shading graph drives.
+    fn sheen_at(
+        &self,
+        textures: &[TextureDesc],
+        uv: Vec2,
+        inputs: Option<&ShadingInputs>,
+        get: &impl Fn(MaterialInput) -> Option<Vec4>,
+        w: &SampledWavelengths,
+    ) -> Sheen {
+        let g = &self.gltf;
+        let (color_in, roughness_in) = (
+            get(MaterialInput::SheenColor),
+            get(MaterialInput::SheenRoughness),
+        );
+        let textured = g.sheen_color_texture.is_some() || g.sheen_roughness_texture.is_some();
+        if color_in.is_none() && roughness_in.is_none() && !textured {
+            return self.sheen.as_ref().map_or(Sheen::NONE, |s| s.sample(w));
+        }
+        let mut rgb = g.sheen_color;
+        if let Some(t) = g.sheen_color_texture {
+            rgb *= lookup_at(textures, &t, uv, inputs).xyz();
+        }
+        if let Some(c) = color_in {
+            rgb = c.xyz();
+        }
+        let mut roughness = g.sheen_roughness;
+        if let Some(t) = g.sheen_roughness_texture {
+            roughness *= lookup_at(textures, &t, uv, inputs).w;
+        }
+        if let Some(v) = roughness_in {
+            roughness = v.x;
+        }
+        MaterialSheen::new(rgb, roughness).map_or(Sheen::NONE, |s| s.sample(w))
+    }
+}
+
+/// A material's sheen, its colour upsampled once.
+#[derive(Clone, Debug)]
+struct MaterialSheen {
+    color: RgbAlbedoSpectrum,
+    scale: f32,
+    roughness: f32,
+}
+
+impl MaterialSheen {
+    /// None for a black (or invalid) colour.
+    fn new(rgb: Vec3, roughness: f32) -> Option<MaterialSheen> {
+        let rgb = rgb.clamp(Vec3::ZERO, Vec3::ONE);
+        let scale = rgb.max_element();
+        (scale > 0.0 && rgb.is_finite()).then(|| MaterialSheen {
+            color: RgbAlbedoSpectrum::new(rgb),
+            scale,
+            roughness: if roughness.is_finite() {
+                roughness.clamp(0.0, 1.0)
+            } else {
+                0.5
+            },
+        })
+    }
+
+    fn sample(&self, w: &SampledWavelengths) -> Sheen {
+        Sheen {
+            color: self.color.sample(w),
+            scale: self.scale,
+            roughness: self.roughness,
+        }
     }
 }
 

@@ -573,6 +573,13 @@ pub enum MaterialInput {
     /// 1: the closure is Blender's Refraction BSDF (the dielectric's refraction alone, tinted
     /// by `base_color`, with the material's IOR and `roughness`).
     Refraction,
+    /// Principled Coat Weight, Roughness and Tint (the material's coat, textured).
+    CoatWeight,
+    CoatRoughness,
+    CoatTint,
+    /// Principled Sheen: its colour (Weight x Tint) and the (Charlie) roughness.
+    SheenColor,
+    SheenRoughness,
 }
 
 pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
@@ -588,9 +595,14 @@ pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
     ("translucent", MaterialInput::Translucent, F),
     ("volume_density", MaterialInput::VolumeDensity, F),
     ("refraction", MaterialInput::Refraction, F),
+    ("coat_weight", MaterialInput::CoatWeight, F),
+    ("coat_roughness", MaterialInput::CoatRoughness, F),
+    ("coat_tint", MaterialInput::CoatTint, C),
+    ("sheen_color", MaterialInput::SheenColor, C),
+    ("sheen_roughness", MaterialInput::SheenRoughness, F),
 ];
 
-pub const N_MATERIAL_INPUTS: usize = 12;
+pub const N_MATERIAL_INPUTS: usize = 17;
 
 impl MaterialInput {
     pub fn index(self) -> usize {

@@ -153,6 +153,32 @@ def test_specular_tint_matches_cycles():
     compare_principled("tint", TINTED, 0.03)
 
 
+# Sheen (4.x): velvet-like dark bases under white and tinted sheens of three roughnesses, one
+# over a coat.
+SHEENED = [
+    ("SheenVelvet", (0.3, 0.02, 0.05), {"Roughness": 0.8, "Sheen Weight": 1.0, "Sheen Roughness": 0.5}),
+    ("SheenTint", (0.2, 0.2, 0.2), {"Roughness": 0.6, "Sheen Weight": 1.0, "Sheen Roughness": 0.3,
+                                    "Sheen Tint": (0.9, 0.7, 0.3, 1.0)}),
+    ("SheenRough", (0.02, 0.05, 0.3), {"Roughness": 0.5, "Sheen Weight": 0.7, "Sheen Roughness": 0.75}),
+    ("SheenCoat", (0.5, 0.5, 0.5), {"Roughness": 0.5, "Sheen Weight": 1.0, "Sheen Roughness": 0.5,
+                                    "Coat Weight": 1.0, "Coat Roughness": 0.1}),
+]
+
+
+def test_sheen_matches_cycles():
+    """Principled Sheen over dark bases (where it shows most), tinted, rough, and over a coat.
+    Prism's sheen is the Charlie lobe of KHR_materials_sheen, Cycles' the microfibre model of
+    Zeltner et al. 2022 (src/bsdf/sheen.rs), with Blender's Sheen Roughness mapped to the
+    Charlie roughness of equal albedo (export.py's _SHEEN_ROUGHNESS). The two lobes spread the
+    same albedo differently (Charlie more towards grazing retro-reflection): measured 1.03 / 1.13
+    / 1.09 on the dark red velvet, whose green and blue are mostly sheen (its sheen alone 1.3x
+    Cycles'), 0.99-1.02 on the others; the bound is 15%. Without the sheen the velvet's green is
+    0.57 of Cycles'; without the roughness mapping 1.36."""
+    if bpy.app.version < (4, 0, 0):
+        return  # Sheen Weight / Roughness / Tint are Blender 4.x inputs
+    compare_principled("sheen", SHEENED, 0.15)
+
+
 def compare_principled(label, spheres, tol):
     sc = scene(spheres)
     boxes = {name: pixel_box(sc, name) for name, _ in SPHERES}

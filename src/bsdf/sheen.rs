@@ -1,0 +1,320 @@
+//! Sheen: the soft, retro-reflective rim of velvet and other fabrics (Blender's Principled
+//! Sheen, `KHR_materials_sheen`), a layer over the whole material.
+//!
+//! The lobe is the "Charlie" microfibre sheen of Estevez & Kulla 2017 ("Production Friendly
+//! Microfacet Sheen BRDF"), the model `KHR_materials_sheen` specifies:
+//!
+//! ```text
+//! D(h)     = (2 + 1/alpha) sin(theta_h)^(1/alpha) / (2 pi)              (fibres lying flat)
+//! V        = 1 / ((1 + Lambda(mu_o) + Lambda(mu_i)) 4 mu_o mu_i)       (their shadowing)
+//! sheen    = colour D V
+//! ```
+//!
+//! with alpha = roughness^2 and the paper's fitted Lambda (its eq. 3 and table 1: a curve
+//! L(x) = a / (1 + b x^c) + d x + e whose five constants blend between two fits by
+//! (1 - alpha)^2; Lambda(mu) = exp(L(mu)) below mu = 1/2 and exp(2 L(1/2) - L(1 - mu)) above).
+//!
+//! The material below is scaled by what the sheen does not reflect, `1 - max(colour) E`, with E
+//! the lobe's directional albedo (colour 1), tabulated here over (mu, roughness) by numerical
+//! integration at first use. Two forms, as for the coat (`coat.rs`):
+//!
+//! - energy-conserving (Cycles' Principled, the default): E at `wo` alone. A white base under a
+//!   sheen of colour c reflects exactly c E + (1 - c E) = 1, but the product is not reciprocal;
+//! - the extension's (`"model": "gltf"`): `min(1 - c E(mu_o), 1 - c E(mu_i))`, reciprocal, at
+//!   most 1, and up to 10% darker than 1 for rough sheens (the base is dimmed by the grazing
+//!   side's larger albedo).
+//!
+//! Cycles (4.x) uses a different fibre model for its Sheen (Zeltner et al. 2022, fitted to a
+//! simulated fibre volume); both brighten grazing views by similar amounts, and the layering
+//! (a sheen over the coat over the base, the base dimmed by the sheen's albedo) is the same.
+//! `tests/addon/test_energy_parity.py` measures how far the two are apart.
+//!
+//! Sampling: uniform over the hemisphere (the lobe is broad and strongest at grazing angles,
+//! where cosine-weighted sampling would be thin).
+
+use crate::math::{INV_PI, PI};
+use crate::spectrum::SampledSpectrum;
+use glam::{Vec2, Vec3};
+use std::sync::OnceLock;
+
+/// Sheen parameters; a black colour is no sheen.
+#[derive(Clone, Copy, Debug)]
+pub struct Sheen {
+    /// Weight x tint, per wavelength.
+    pub color: SampledSpectrum,
+    /// The largest RGB component of weight x tint (the extension's max3(sheenColor)): what
+    /// dims the layers below, the same for every wavelength.
+    pub scale: f32,
+    /// Perceptual roughness in [0, 1] (alpha = roughness^2).
+    pub roughness: f32,
+}
+
+/// Smallest alpha evaluated: the lobe's exponent 1/alpha stays finite.
+const MIN_ALPHA: f32 = 1e-3;
+
+impl Sheen {
+    pub const NONE: Sheen = Sheen {
+        color: SampledSpectrum::ZERO,
+        scale: 0.0,
+        roughness: 0.5,
+    };
+
+    #[inline]
+    pub fn is_present(&self) -> bool {
+        self.scale > 0.0
+    }
+
+    #[inline]
+    fn alpha(&self) -> f32 {
+        let r = if self.roughness.is_nan() {
+            0.5
+        } else {
+            self.roughness.clamp(0.0, 1.0)
+        };
+        (r * r).max(MIN_ALPHA)
+    }
+
+    /// The lobe with colour 1 (f without the cosine), `wo` and `wi` in the upper hemisphere.
+    /// The fitted shadowing lets the smoothest sheens reflect a few percent more than they
+    /// receive at grazing views (E up to 1.03 at roughness 0.1): the lobe is divided by
+    /// max(1, E(mu_o), E(mu_i)), which keeps it reciprocal and its albedo at most 1.
+    #[inline]
+    pub(super) fn lobe(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let excess = albedo(self.roughness, wo.z)
+            .max(albedo(self.roughness, wi.z))
+            .max(1.0);
+        charlie(self.alpha(), wo, wi) / excess
+    }
+
+    /// f(wo, wi) of the sheen itself.
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        if !(self.is_present() && wo.z > 0.0 && wi.z > 0.0) {
+            return SampledSpectrum::ZERO;
+        }
+        self.color * self.lobe(wo, wi)
+    }
+
+    /// The factor on everything below the sheen for the pair (`cos_o`, `cos_i`): the
+    /// extension's reciprocal form when `reciprocal`, else Cycles' (see the module doc).
+    pub fn below(&self, cos_o: f32, cos_i: f32, reciprocal: bool) -> f32 {
+        if !self.is_present() {
+            return 1.0;
+        }
+        let c = self.scale.min(1.0);
+        let mut e = lobe_albedo(self.roughness, cos_o);
+        if reciprocal {
+            e = e.max(lobe_albedo(self.roughness, cos_i));
+        }
+        (1.0 - c * e).max(0.0)
+    }
+
+    /// The sheen's albedo at `cos_o`, averaged over the wavelengths (its share when choosing
+    /// which lobe to sample).
+    pub fn albedo_estimate(&self, cos_o: f32) -> f32 {
+        if !self.is_present() {
+            return 0.0;
+        }
+        self.scale.min(1.0) * lobe_albedo(self.roughness, cos_o)
+    }
+
+    /// A direction uniformly over the upper hemisphere, and its density.
+    pub fn sample(u: Vec2) -> Vec3 {
+        let z = u.x;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = 2.0 * PI * u.y;
+        Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    }
+
+    pub const PDF: f32 = 0.5 * INV_PI;
+}
+
+/// The Charlie lobe D V (colour 1) for `alpha`, both directions above the surface.
+fn charlie(alpha: f32, wo: Vec3, wi: Vec3) -> f32 {
+    let (mu_o, mu_i) = (wo.z, wi.z);
+    if !(mu_o > 0.0 && mu_i > 0.0) {
+        return 0.0;
+    }
+    let h = (wo + wi).normalize_or_zero();
+    if h == Vec3::ZERO {
+        return 0.0;
+    }
+    let sin2 = (1.0 - h.z * h.z).max(0.0);
+    let inv = 1.0 / alpha;
+    let d = (2.0 + inv) * sin2.powf(0.5 * inv) * (0.5 * INV_PI);
+    let v = 1.0 / ((1.0 + lambda(mu_o, alpha) + lambda(mu_i, alpha)) * 4.0 * mu_o * mu_i);
+    let f = d * v;
+    if f.is_finite() {
+        f
+    } else {
+        0.0
+    }
+}
+
+/// Estevez & Kulla's fitted L(x) (their table 1), blended by (1 - alpha)^2.
+fn fitted_l(x: f32, alpha: f32) -> f32 {
+    let t = (1.0 - alpha) * (1.0 - alpha);
+    let mix = |lo: f32, hi: f32| lo + (hi - lo) * t;
+    let a = mix(21.5473, 25.3245);
+    let b = mix(3.82987, 3.32435);
+    let c = mix(0.19823, 0.16801);
+    let d = mix(-1.97760, -1.27393);
+    let e = mix(-4.32054, -4.85967);
+    a / (1.0 + b * x.max(0.0).powf(c)) + d * x + e
+}
+
+/// The shadowing term Lambda at cosine `mu` (the paper's eq. 3, symmetric about mu = 1/2 in
+/// log space so that it is smooth there).
+fn lambda(mu: f32, alpha: f32) -> f32 {
+    if mu < 0.5 {
+        fitted_l(mu, alpha).exp()
+    } else {
+        (2.0 * fitted_l(0.5, alpha) - fitted_l(1.0 - mu, alpha)).exp()
+    }
+}
+
+const TABLE_MU: usize = 32;
+const TABLE_ROUGHNESS: usize = 32;
+
+/// Directional albedos over (roughness, mu) nodes (both from 0 to 1): the fitted Charlie lobe's
+/// E, and that of the lobe `Sheen::lobe` evaluates (divided by max(1, E(mu_o), E(mu_i))).
+struct Tables {
+    charlie: Vec<f32>,
+    lobe: Vec<f32>,
+}
+
+fn tables() -> &'static Tables {
+    static TABLES: OnceLock<Tables> = OnceLock::new();
+    TABLES.get_or_init(|| {
+        use rayon::prelude::*;
+        let node = |k: usize| {
+            let (ri, mi) = (k / TABLE_MU, k % TABLE_MU);
+            let r = ri as f32 / (TABLE_ROUGHNESS - 1) as f32;
+            let mu = (mi as f32 / (TABLE_MU - 1) as f32).max(1e-3);
+            (r, mu)
+        };
+        let n = TABLE_ROUGHNESS * TABLE_MU;
+        let charlie: Vec<f32> = (0..n)
+            .into_par_iter()
+            .map(|k| {
+                let (r, mu) = node(k);
+                integrate_albedo(alpha_of(r), mu, 64, 64, |_| 1.0)
+            })
+            .collect();
+        let lobe = (0..n)
+            .into_par_iter()
+            .map(|k| {
+                let (r, mu) = node(k);
+                let e_o = lookup(&charlie, r, mu);
+                integrate_albedo(alpha_of(r), mu, 64, 64, |mu_i| {
+                    1.0 / e_o.max(lookup(&charlie, r, mu_i)).max(1.0)
+                })
+            })
+            .collect();
+        Tables { charlie, lobe }
+    })
+}
+
+/// alpha for perceptual roughness `r`.
+fn alpha_of(r: f32) -> f32 {
+    (r * r).max(MIN_ALPHA)
+}
+
+/// int lobe(wo, wi) weight(mu_i) mu_i dwi for `alpha` at cosine `mu`, by the midpoint rule
+/// with `n_mu` x `n_phi` nodes (mirror symmetry in the azimuth halves them).
+fn integrate_albedo(
+    alpha: f32,
+    mu: f32,
+    n_mu: usize,
+    n_phi: usize,
+    weight: impl Fn(f32) -> f32,
+) -> f32 {
+    let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+    let mut sum = 0.0f64;
+    for i in 0..n_mu {
+        // Midpoints in s with mu_i = s^2 (dmu = 2 s ds): denser towards grazing, where the
+        // lobe is strongest.
+        let s = (i as f32 + 0.5) / n_mu as f32;
+        let mu_i = s * s;
+        let jac = 2.0 * s / n_mu as f32;
+        let sin_i = (1.0 - mu_i * mu_i).max(0.0).sqrt();
+        let mut ring = 0.0f64;
+        for j in 0..n_phi {
+            let phi = PI * (j as f32 + 0.5) / n_phi as f32;
+            let wi = Vec3::new(sin_i * phi.cos(), sin_i * phi.sin(), mu_i);
+            ring += f64::from(charlie(alpha, wo, wi));
+        }
+        // Both halves of the azimuth: 2 x (pi / n_phi) per node.
+        sum += ring * f64::from(2.0 * PI / n_phi as f32) * f64::from(mu_i * jac * weight(mu_i));
+    }
+    sum as f32
+}
+
+/// Bilinear lookup of a (roughness, mu) table.
+fn lookup(t: &[f32], roughness: f32, mu: f32) -> f32 {
+    let r = if roughness.is_nan() {
+        0.5
+    } else {
+        roughness.clamp(0.0, 1.0)
+    } * (TABLE_ROUGHNESS - 1) as f32;
+    let m = mu.clamp(0.0, 1.0) * (TABLE_MU - 1) as f32;
+    let (r0, m0) = (
+        (r as usize).min(TABLE_ROUGHNESS - 2),
+        (m as usize).min(TABLE_MU - 2),
+    );
+    let (fr, fm) = (r - r0 as f32, m - m0 as f32);
+    let at = |ri: usize, mi: usize| t[ri * TABLE_MU + mi];
+    let lo = at(r0, m0) * (1.0 - fm) + at(r0, m0 + 1) * fm;
+    let hi = at(r0 + 1, m0) * (1.0 - fm) + at(r0 + 1, m0 + 1) * fm;
+    lo * (1.0 - fr) + hi * fr
+}
+
+/// The fitted Charlie lobe's directional albedo at perceptual `roughness` (up to 1.03).
+pub fn albedo(roughness: f32, mu: f32) -> f32 {
+    lookup(&tables().charlie, roughness, mu)
+}
+
+/// The directional albedo of the lobe `Sheen` evaluates (at most 1).
+pub fn lobe_albedo(roughness: f32, mu: f32) -> f32 {
+    lookup(&tables().lobe, roughness, mu).min(1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lambda_is_continuous_at_one_half() {
+        for alpha in [0.01, 0.25, 1.0] {
+            let (a, b) = (lambda(0.4999, alpha), lambda(0.5001, alpha));
+            assert!((a - b).abs() < 1e-2 * a.max(1e-3), "{alpha}: {a} vs {b}");
+        }
+    }
+
+    #[test]
+    fn the_lobe_is_reciprocal() {
+        let wo = Vec3::new(0.6, 0.1, 0.79).normalize();
+        let wi = Vec3::new(-0.3, 0.7, 0.2).normalize();
+        for alpha in [0.05, 0.3, 1.0] {
+            let (a, b) = (charlie(alpha, wo, wi), charlie(alpha, wi, wo));
+            assert!((a - b).abs() <= 1e-6 * a.abs().max(1.0), "{a} vs {b}");
+        }
+    }
+
+    /// The table against a finer integration; E at most a few percent above 1 (the fitted
+    /// shadowing's excess, which `Sheen::lobe` divides out).
+    #[test]
+    fn tabulated_albedo_matches_a_fine_integration() {
+        for r in [0.1f32, 0.3, 0.5, 0.8, 1.0] {
+            for mu in [0.05f32, 0.3, 0.6, 1.0] {
+                let fine = integrate_albedo(alpha_of(r), mu, 512, 512, |_| 1.0);
+                let got = albedo(r, mu);
+                assert!(
+                    (got - fine).abs() < 0.01 + 0.03 * fine,
+                    "r {r} mu {mu}: table {got}, fine {fine}"
+                );
+                assert!(fine <= 1.05, "r {r} mu {mu}: albedo {fine}");
+                assert!(lobe_albedo(r, mu) <= 1.0 && lobe_albedo(r, mu) <= got + 1e-6);
+            }
+        }
+    }
+}
