@@ -476,6 +476,9 @@ def _principled_sheen(node, m):
     if node.inputs.get("Sheen Weight") is None:
         return
     weight = float(_val(node, "Sheen Weight"))
+    linked = node.inputs["Sheen Weight"].is_linked or node.inputs["Sheen Tint"].is_linked
+    if linked:
+        weight = 1.0  # the graph's sheen_color replaces the colour; the roughness still applies
     if not weight > 0.0:
         return
     tint = _rgb(_val(node, "Sheen Tint", default=(1, 1, 1, 1)))
