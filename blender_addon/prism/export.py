@@ -1260,10 +1260,13 @@ class Exporter:
                 if isinstance(ev, dict) or isinstance(sv, dict) or (max(ev[:3]) > 0.0 and sv > 0.0):
                     closures.append({"kind": "emission", "weight": weight,
                                      "inputs": {"emission": ev, "emission_strength": sv}})
+                self._leaf_layers(name, leaf, inputs, gb, node_name, V)
                 self._principled_warnings(name, leaf, {"Base Color", "Metallic", "Roughness", "Specular IOR Level",
                                                         "Specular", "Transmission Weight", "Transmission",
                                                         "Emission Color", "Emission", "Emission Strength", "IOR",
-                                                        "Normal"})
+                                                        "Normal", "Coat Weight", "Coat Roughness", "Coat Tint",
+                                                        "Clearcoat", "Clearcoat Roughness", "Sheen Weight",
+                                                        "Sheen Tint", "Sheen Roughness"})
             else:
                 self.warnings.append(
                     "material '%s': shader '%s' (%s) inside a Mix/Add Shader is not supported; its share renders black"
@@ -1291,6 +1294,42 @@ class Exporter:
             return None
         return {"version": 1, "world_up": "z", "nodes": gb.nodes, "closures": closures}
 
+    def _leaf_layers(self, name, leaf, inputs, gb, node_name, V):
+        """A Principled leaf's Coat and Sheen as its closure's inputs (`coat_weight`,
+        `coat_roughness`, `coat_tint`, `sheen_color`, `sheen_roughness`). The coat's IOR is the
+        material's (1.5): another value is warned about."""
+        cw = _socket(leaf, "Coat Weight", "Clearcoat")
+        if cw is not None:
+            wv = V(cw, 0.0)
+            if isinstance(wv, dict) or wv > 0.0:
+                inputs["coat_weight"] = wv
+                inputs["coat_roughness"] = V(_socket(leaf, "Coat Roughness", "Clearcoat Roughness"), 0.03)
+                tint = _socket(leaf, "Coat Tint")
+                if tint is not None:
+                    inputs["coat_tint"] = V(tint, [1.0, 1.0, 1.0])
+                if abs(float(_val(leaf, "Coat IOR", default=1.5)) - 1.5) > 1e-3:
+                    self.warnings.append("material '%s': Coat IOR inside a Mix/Add Shader is rendered as 1.5" % name)
+        sw = _socket(leaf, "Sheen Weight")
+        if sw is None:
+            return
+        wv, tv = V(sw, 0.0), V(_socket(leaf, "Sheen Tint"), [1.0, 1.0, 1.0])
+        if isinstance(wv, dict) or isinstance(tv, dict):
+            n = node_name("sheen_color")
+            a = wv if isinstance(wv, dict) else [float(wv)] * 3
+            gb.nodes[n] = {"type": "vector_math", "operation": "multiply", "inputs": {"a": a, "b": tv}}
+            inputs["sheen_color"] = {"node": n, "output": "vector"}
+        elif wv > 0.0:
+            inputs["sheen_color"] = [min(max(float(wv) * float(c), 0.0), 1.0) for c in tv[:3]]
+        else:
+            return
+        rv = V(_socket(leaf, "Sheen Roughness"), 0.5)
+        if isinstance(rv, dict):
+            inputs["sheen_roughness"] = rv
+            self.warnings.append("material '%s': a linked Sheen Roughness is used as Prism's sheen roughness, not "
+                                 "mapped to match Cycles' sheen (values are)" % name)
+        else:
+            inputs["sheen_roughness"] = _sheen_roughness(rv)
+
     def _graph_normal(self, gb, node, m, handled):
         """The shader's Normal input through the graph (Bump nodes, ...) unless it is the
         tangent-space normal map the glTF path carries."""
@@ -1313,16 +1352,12 @@ class Exporter:
     def _principled_warnings(self, name, node, handled, own_material=False):
         """Names the Principled inputs Prism does not render yet (linked or set away from their
         neutral value): never a silent drop. `own_material`: the node is the material's surface
-        (not a Mix/Add Shader leaf), whose Coat and Specular Tint values are exported."""
+        (not a Mix/Add Shader leaf), whose Specular Tint and Thin Film are exported (Coat and
+        Sheen are exported for both)."""
         handled = set(handled)
         # Inputs the exporter translates from their values (subsurface, IOR) are handled when unlinked.
         self._linked_warnings(name, node, handled)
-        checks = [] if own_material else [
-            ("Coat Weight", lambda v: v > 0.0, "Coat (inside a Mix/Add Shader)"),
-            ("Clearcoat", lambda v: v > 0.0, "Clearcoat (inside a Mix/Add Shader)"),
-            ("Sheen Weight", lambda v: v > 0.0, "Sheen (inside a Mix/Add Shader)"),
-        ]
-        checks += [
+        checks = [
             # Blender 3.x's Sheen (the Disney model): 4.x's Sheen Weight is exported.
             ("Sheen", lambda v: v > 0.0, "Sheen (Blender 3.x's model)"),
             ("Anisotropic", lambda v: v > 0.0, "Anisotropic"),
