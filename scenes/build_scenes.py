@@ -20,6 +20,9 @@ Scenes (1 unit = 1 m; the subsurface presets are in mm^-1, so their scale is 100
                     table method) and one random walk (noise-per-second benchmark)
   many_lights       a 10 m x 10 m hall lit by 400 small coloured emissive panels and 4 point lights
                     (light-selection benchmark)
+  node_setups       the shading-graph test's grid of tiles, one per everyday Blender node setup (textures on
+                    Roughness / Metallic, Noise -> Color Ramp, Mix / Add Shaders, Translucent, Transparent,
+                    Bump, normal maps, ...; tests/addon/node_setups.py), under a white world and a side sun
   soap_bubble       three soap bubbles (Principled Thin Film 250 / 420 / 700 nm, IOR 1.33, on thin shells
                     of IOR 1) before a dark wall, under two soft lights: thin-film interference computed
                     exactly per wavelength
@@ -295,8 +298,17 @@ def soap_bubble():
     settings(sc, 480, 270, 256)
 
 
+def node_setups():
+    sys.path.insert(0, os.path.join(REPO, "tests", "addon"))
+    import node_setups as setups_module
+
+    sc, _tiles, _rows = setups_module.build_scene()
+    sc.render.engine = "PRISM"
+    settings(sc, sc.render.resolution_x, sc.render.resolution_y, 64, max_depth=8)
+
+
 SCENES = {f.__name__: f for f in (sss_vs_diffuse, sss_presets, rough_glass, diamond, rgb_vs_spectral, everyday,
-                                  sss_cornell, many_lights, soap_bubble)}
+                                  sss_cornell, many_lights, soap_bubble, node_setups)}
 
 
 def main():
