@@ -1597,6 +1597,7 @@ fn thin_film_on_a_white_base_stays_near_one() {
 fn visible_parts_add_up_to_the_whole() {
     use prism::scene::desc::RayVisibility;
     let only = |d, g, t| RayVisibility {
+        volume: true,
         diffuse: d,
         glossy: g,
         transmission: t,

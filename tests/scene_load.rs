@@ -1245,8 +1245,15 @@ fn sheen_is_read() {
                                  "sheenColorTexture": { "index": 3 } } } }));
     let q = missing.quad_mesh("M", Some(m));
     missing.root(json!({ "name": "M", "mesh": q }));
-    let e = input_error(load_scene(&missing.write_gltf(&dir.join("missing.gltf")), None, None));
-    assert!(e.contains("sheenColorTexture") && e.contains("index 3"), "{e}");
+    let e = input_error(load_scene(
+        &missing.write_gltf(&dir.join("missing.gltf")),
+        None,
+        None,
+    ));
+    assert!(
+        e.contains("sheenColorTexture") && e.contains("index 3"),
+        "{e}"
+    );
 }
 
 /// KHR_materials_clearcoat (+ the add-on's coat extras) and KHR_materials_iridescence reach the
@@ -1278,7 +1285,9 @@ fn clearcoat_and_iridescence_are_read() {
         (1.0, 1.4, 520.0)
     );
     assert!(
-        s.warnings.iter().any(|w| w.contains("clearcoatNormalTexture")),
+        s.warnings
+            .iter()
+            .any(|w| w.contains("clearcoatNormalTexture")),
         "{:?}",
         s.warnings
     );

@@ -1773,15 +1773,11 @@ class Exporter:
 
     def _light_ray_visibility(self, ob):
         """The light's Ray Visibility as extras (`prism_visible_diffuse` / `_glossy` /
-        `_transmission`, written when off); Volume Scatter off is warned about (volume
-        scattering sees every light)."""
+        `_transmission` / `_volume_scatter`, written when off)."""
         out = {}
-        for kind in ("diffuse", "glossy", "transmission"):
+        for kind in ("diffuse", "glossy", "transmission", "volume_scatter"):
             if not getattr(ob, "visible_" + kind, True):
                 out["prism_visible_" + kind] = False
-        if not getattr(ob, "visible_volume_scatter", True):
-            self.warnings.append("light '%s': ray visibility volume scatter off is not supported; volumes see the light"
-                                 % ob.name)
         return out
 
     def _is_holdout(self, ob):

@@ -38,6 +38,8 @@ impl LobeFlags {
     pub const GLOSSY: LobeFlags = LobeFlags(8);
     /// A Dirac lobe: `f / pdf` is the weight, light sampling cannot reach its directions.
     pub const SPECULAR: LobeFlags = LobeFlags(16);
+    /// Scattering in a volume (a phase function), for lights' Volume Scatter visibility.
+    pub const VOLUME: LobeFlags = LobeFlags(32);
 
     /// The union.
     #[inline]
@@ -76,6 +78,8 @@ pub struct RayVisibility {
     pub diffuse: bool,
     pub glossy: bool,
     pub transmission: bool,
+    /// Scattering in volumes (Blender's Volume Scatter).
+    pub volume: bool,
 }
 
 impl RayVisibility {
@@ -83,17 +87,20 @@ impl RayVisibility {
         diffuse: true,
         glossy: true,
         transmission: true,
+        volume: true,
     };
 
     pub fn is_all(&self) -> bool {
         *self == RayVisibility::ALL
     }
 
-    /// Whether a path whose last scattering was a lobe of `flags` sees the light: glossy and
-    /// specular transmission is Transmission, other diffuse lobes (diffuse reflection and
-    /// translucency) Diffuse, the rest Glossy.
+    /// Whether a path whose last scattering was a lobe of `flags` sees the light: a volume's
+    /// phase function is Volume Scatter, glossy and specular transmission Transmission, other
+    /// diffuse lobes (diffuse reflection and translucency) Diffuse, the rest Glossy.
     pub fn sees(&self, flags: LobeFlags) -> bool {
-        if flags.contains(LobeFlags::DIFFUSE) {
+        if flags.contains(LobeFlags::VOLUME) {
+            self.volume
+        } else if flags.contains(LobeFlags::DIFFUSE) {
             self.diffuse
         } else if flags.contains(LobeFlags::TRANSMISSION) {
             self.transmission

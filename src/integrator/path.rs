@@ -306,6 +306,7 @@ impl<'a> PathTracer<'a> {
         mis: &SpectralMis,
         sampler: &mut Sampler,
         rays: &mut u32,
+        seen_by: Option<LobeFlags>,
         scatter: impl Fn(glam::Vec3) -> Option<(f32, f32, glam::Vec3)>,
     ) -> SampledSpectrum {
         let scene = self.scene;
@@ -321,6 +322,9 @@ impl<'a> PathTracer<'a> {
         ) else {
             return SampledSpectrum::ZERO;
         };
+        if seen_by.is_some_and(|fl| !ls.visibility.sees(fl)) {
+            return SampledSpectrum::ZERO;
+        }
         let Some((f, pdf, origin)) = scatter(ls.wi) else {
             return SampledSpectrum::ZERO;
         };
@@ -475,9 +479,9 @@ impl<'a> PathTracer<'a> {
         let mut prev_bsdf_density = 0.0f32;
         let mut prev_denominator = 1.0f32;
         let mut specular_bounce = true;
-        // The lobe of the last BSDF scattering, for lights that some kinds of scattering do not
-        // see (Blender's light Ray Visibility); None after the camera, a volume scattering or a
-        // subsurface exit, which see every light.
+        // The lobe of the last scattering (`LobeFlags::VOLUME` in a volume), for lights that
+        // some kinds of scattering do not see (Blender's light Ray Visibility); None after the
+        // camera or a subsurface exit, which see every light.
         let mut last_lobe: Option<LobeFlags> = None;
         // Where the BSDF sample that produced `ray` was taken (light-selection probabilities
         // for MIS depend on the shading point).
@@ -703,10 +707,20 @@ impl<'a> PathTracer<'a> {
                 };
                 let u = sampler.light();
                 let c = beta
-                    * self.sample_direct(&ctx, u, &alive, &media, &mis, sampler, &mut rays, |wi| {
-                        let f = phase.eval(ray.dir.dot(wi));
-                        (f > 0.0).then_some((f, f, p))
-                    });
+                    * self.sample_direct(
+                        &ctx,
+                        u,
+                        &alive,
+                        &media,
+                        &mis,
+                        sampler,
+                        &mut rays,
+                        Some(LobeFlags::VOLUME),
+                        |wi| {
+                            let f = phase.eval(ray.dir.dot(wi));
+                            (f > 0.0).then_some((f, f, p))
+                        },
+                    );
                 l += c;
                 if depth == 0 {
                     l_direct += c;
@@ -715,7 +729,7 @@ impl<'a> PathTracer<'a> {
                 let wi = phase.sample(ray.dir, u_lobe, u_dir.x, u_dir.y);
                 let pdf = phase.eval(ray.dir.dot(wi));
                 specular_bounce = false;
-                last_lobe = None;
+                last_lobe = Some(LobeFlags::VOLUME);
                 prev_denominator = mis.denominator();
                 prev_bsdf_density = mis.bsdf_density(SampledSpectrum::splat(pdf));
                 prev_ctx = ctx;
@@ -1123,6 +1137,7 @@ impl<'a> PathTracer<'a> {
                         &mis,
                         sampler,
                         &mut rays,
+                        None,
                         |wi| {
                             let cos = frame_i.to_local(wi).z;
                             let f = lobe.eval(cos);

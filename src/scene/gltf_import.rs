@@ -648,6 +648,7 @@ impl<'d> Importer<'d> {
                     diffuse: flag("prism_visible_diffuse").unwrap_or(true),
                     glossy: flag("prism_visible_glossy").unwrap_or(true),
                     transmission: flag("prism_visible_transmission").unwrap_or(true),
+                    volume: flag("prism_visible_volume_scatter").unwrap_or(true),
                 },
             };
             if node_json.skin.is_some() {
@@ -926,6 +927,7 @@ impl<'d> Importer<'d> {
             diffuse: flag("prism_visible_diffuse", true)?,
             glossy: flag("prism_visible_glossy", true)?,
             transmission: flag("prism_visible_transmission", true)?,
+            volume: flag("prism_visible_volume_scatter", true)?,
         };
         let directional = kind == PunctualKind::Directional;
         self.scene.lights.push(PunctualLightDesc {
