@@ -92,7 +92,7 @@ impl PixelFilter {
             let weights: Vec<f32> = (0..TABLE_BINS)
                 .map(|i| Self::profile(kind, width, (i as f32 + 0.5) * bin))
                 .collect();
-            DiscreteDistribution::new(&weights)
+            DiscreteDistribution::new(&weights).with_guide_table()
         });
         Ok(PixelFilter {
             kind,

@@ -1,10 +1,16 @@
 /// Piecewise-constant discrete distribution over `n` items, sampled by inverting its CDF
-/// (binary search). Used to pick lights in proportion to their power.
+/// (binary search, or a guide table for hot small tables). Used to pick lights in proportion
+/// to their power, texels of an environment map, offsets of the pixel filter.
 #[derive(Clone, Debug, Default)]
 pub struct DiscreteDistribution {
     /// cdf[i] = sum of weights of items < i, normalised; len n + 1.
     cdf: Vec<f32>,
     pmf: Vec<f32>,
+    /// Optional guide table (Chen & Asau 1974, "On generating random variates from an
+    /// empirical distribution"): guide[k] is the item that u = k / n falls in, so the item of
+    /// any u in [k / n, (k + 1) / n) is found by a short forward scan from guide[k] instead of
+    /// a binary search. Empty: binary search. Either way the same item is chosen.
+    guide: Vec<u32>,
 }
 
 impl DiscreteDistribution {
@@ -38,7 +44,28 @@ impl DiscreteDistribution {
             };
             cdf.push(if i + 1 == n { 1.0 } else { acc as f32 });
         }
-        DiscreteDistribution { cdf, pmf }
+        DiscreteDistribution {
+            cdf,
+            pmf,
+            guide: Vec::new(),
+        }
+    }
+
+    /// Adds a guide table of `len()` entries (one u32 per item): sampling then costs O(1) on
+    /// average (the pixel filter samples twice per camera ray).
+    pub fn with_guide_table(mut self) -> Self {
+        let n = self.pmf.len();
+        self.guide = (0..n)
+            .map(|k| self.search(k as f32 / n as f32) as u32)
+            .collect();
+        self
+    }
+
+    /// First item i with cdf[i + 1] > u (skipping zero-probability items), at most n - 1.
+    #[inline]
+    fn search(&self, u: f32) -> usize {
+        let n = self.pmf.len();
+        self.cdf[1..].partition_point(|&c| c <= u).min(n - 1)
     }
 
     pub fn len(&self) -> usize {
@@ -56,8 +83,21 @@ impl DiscreteDistribution {
     /// Returns (index, probability, u remapped to [0,1) within the chosen item for reuse).
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
         let n = self.pmf.len();
-        // First i with cdf[i + 1] > u, skipping zero-probability items.
-        let i = self.cdf[1..].partition_point(|&c| c <= u).min(n - 1);
+        let i = if self.guide.is_empty() {
+            self.search(u)
+        } else {
+            // u is about k / n or above: its item is guide[k] or a few after. (Rounding of
+            // u * n can put u just below k / n: step back where cdf[i] > u.)
+            let k = ((u * n as f32) as usize).min(n - 1);
+            let mut i = self.guide[k] as usize;
+            while i > 0 && self.cdf[i] > u {
+                i -= 1;
+            }
+            while i + 1 < n && self.cdf[i + 1] <= u {
+                i += 1;
+            }
+            i
+        };
         let (lo, hi) = (self.cdf[i], self.cdf[i + 1]);
         let u_remapped = if hi > lo {
             ((u - lo) / (hi - lo)).clamp(0.0, 0.999_999_94)
@@ -71,6 +111,31 @@ impl DiscreteDistribution {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The guide table picks exactly the item the binary search picks, for every u (also at
+    /// the boundaries and through zero-probability items).
+    #[test]
+    fn guide_table_matches_binary_search() {
+        let weights: Vec<f32> = (0..97)
+            .map(|i| {
+                if i % 7 == 3 {
+                    0.0
+                } else {
+                    ((i * 37) % 11) as f32 + 0.1
+                }
+            })
+            .collect();
+        let plain = DiscreteDistribution::new(&weights);
+        let guided = plain.clone().with_guide_table();
+        for k in 0..100_000u32 {
+            let u = (k as f32 / 100_000.0).min(0.999_999_94);
+            assert_eq!(plain.sample(u), guided.sample(u), "u = {u}");
+        }
+        for i in 0..=97 {
+            let u = plain.cdf[i].min(0.999_999_94);
+            assert_eq!(plain.sample(u), guided.sample(u), "cdf[{i}] = {u}");
+        }
+    }
 
     #[test]
     fn samples_in_proportion() {
