@@ -106,7 +106,9 @@ impl EnvironmentMap {
             let row_sum: f64 = weights.iter().map(|&x| x as f64).sum();
             integral += row_sum * (sin_theta * cell_solid_angle) as f64;
             row_weights.push((row_sum * sin_theta as f64) as f32);
-            columns.push(DiscreteDistribution::new(&weights));
+            // Guide tables: two lookups per light sample on the world, O(1) instead of two
+            // binary searches over the map's width and height (the same texel either way).
+            columns.push(DiscreteDistribution::new(&weights).with_guide_table());
         }
         EnvironmentMap {
             width: w,
@@ -114,7 +116,7 @@ impl EnvironmentMap {
             texels,
             cos_rot: rotation_z.cos(),
             sin_rot: rotation_z.sin(),
-            rows: DiscreteDistribution::new(&row_weights),
+            rows: DiscreteDistribution::new(&row_weights).with_guide_table(),
             columns,
             luminance_integral: integral as f32,
         }

@@ -81,6 +81,7 @@ impl DiscreteDistribution {
     }
 
     /// Returns (index, probability, u remapped to [0,1) within the chosen item for reuse).
+    #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
         let n = self.pmf.len();
         let i = if self.guide.is_empty() {
