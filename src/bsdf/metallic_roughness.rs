@@ -187,37 +187,37 @@ impl MetallicRoughnessBsdf {
         Some(schlick * (SampledSpectrum::ONE - self.specular_color.clamp_zero()) * norm)
     }
 
-    /// Probabilities of sampling the coat lobe and the base's GGX lobe at `cos_o` (the
-    /// cosine-weighted branch, which samples the diffuse and every multiple-scattering lobe,
-    /// has the rest): each lobe's estimated albedo over the total, with the Fresnel terms at
-    /// the macro-surface angle. A lobe that vanishes gets exactly 0.
-    fn lobe_probabilities(&self, cos_o: f32, layers: Option<&Layers>) -> (f32, f32) {
+    /// Probabilities of sampling the sheen lobe (`sheen_probability`), then, among the layers
+    /// below it, the coat lobe and the base's GGX lobe at `cos_o` (the cosine-weighted branch,
+    /// which samples the diffuse and every multiple-scattering lobe, has the rest): each lobe's
+    /// estimated albedo over the total, with the Fresnel terms at the macro-surface angle. A
+    /// lobe that vanishes gets exactly 0.
+    fn all_lobe_probabilities(&self, cos_o: f32, layers: Option<&Layers>) -> (f32, f32, f32) {
         let (w_coat, w_spec, w_cos) = self.lobe_weights(cos_o, layers);
         let total = w_coat.max(0.0) + w_spec.max(0.0) + w_cos.max(0.0);
+        let p_sheen = self.sheen_probability(cos_o, total);
         if !(total > 0.0) || !total.is_finite() {
-            return (0.0, 0.0);
+            return (p_sheen, 0.0, 0.0);
         }
         let p_coat = if w_coat > 0.0 { w_coat / total } else { 0.0 };
         let p_spec = if w_spec > 0.0 { w_spec / total } else { 0.0 };
         if w_cos > 0.0 {
-            (p_coat, p_spec)
+            (p_sheen, p_coat, p_spec)
         } else {
             // No cosine-weighted lobe: the two others share everything.
             let s = p_coat + p_spec;
-            (p_coat / s, p_spec / s)
+            (p_sheen, p_coat / s, p_spec / s)
         }
     }
 
-    /// Probability of sampling the sheen lobe at `cos_o` (the layers below get the rest, in
-    /// the proportions of `lobe_probabilities`): its albedo against theirs, dimmed by it.
-    fn sheen_probability(&self, cos_o: f32, layers: Option<&Layers>) -> f32 {
+    /// Probability of sampling the sheen lobe at `cos_o` (the layers below get the rest): its
+    /// albedo against `below_total`, the estimated albedo of the layers below, dimmed by it.
+    fn sheen_probability(&self, cos_o: f32, below_total: f32) -> f32 {
         if !self.sheen.is_present() {
             return 0.0;
         }
         let w_sheen = self.sheen.albedo_estimate(cos_o);
-        let (w_coat, w_spec, w_cos) = self.lobe_weights(cos_o, layers);
-        let below = (w_coat.max(0.0) + w_spec.max(0.0) + w_cos.max(0.0))
-            * self.sheen.below(cos_o, cos_o, false);
+        let below = below_total.max(0.0) * self.sheen.below(cos_o, cos_o, false);
         let total = w_sheen + below;
         if !(total > 0.0) || !total.is_finite() {
             return 0.0;
@@ -385,7 +385,7 @@ impl MetallicRoughnessBsdf {
         let smooth = distrib.effectively_smooth();
         let vdoth = wo.dot(h).clamp(0.0, 1.0);
         let (fd, fc) = self.fresnels(vdoth);
-        let (p_coat, p_spec) = self.lobe_probabilities(wo.z, layers);
+        let (p_sheen, p_coat, p_spec) = self.all_lobe_probabilities(wo.z, layers);
         let mut pdf = (1.0 - p_coat - p_spec).max(0.0) * cosine_hemisphere_pdf(wi.z);
         let (mut dielectric, mut conductor) = match layers {
             Some(l) => {
@@ -420,10 +420,9 @@ impl MetallicRoughnessBsdf {
             pdf += p_coat * self.coat.pdf(wo, h);
         }
         if self.sheen.is_present() {
-            let p_sheen = self.sheen_probability(wo.z, layers);
             f = f * self.sheen.below(wo.z, wi.z, !self.energy_compensation)
                 + self.sheen.eval(wo, wi);
-            pdf = (1.0 - p_sheen) * pdf + p_sheen * Sheen::PDF;
+            pdf = (1.0 - p_sheen) * pdf + p_sheen * Sheen::pdf();
         }
         if !f.is_finite() || !pdf.is_finite() {
             return (SampledSpectrum::ZERO, 0.0);
@@ -476,10 +475,9 @@ impl MetallicRoughnessBsdf {
         }
         let distrib = self.distribution();
         let layers = self.layers(wo.z);
-        let (p_coat, p_spec) = self.lobe_probabilities(wo.z, layers.as_ref());
+        let (p_sheen, p_coat, p_spec) = self.all_lobe_probabilities(wo.z, layers.as_ref());
         let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
         // The sheen on top first; the layers below share the rest of `uc`.
-        let p_sheen = self.sheen_probability(wo.z, layers.as_ref());
         let below_sheen = self.sheen.below(wo.z, wo.z, !self.energy_compensation);
         if uc < p_sheen {
             let wi = Sheen::sample(u);
@@ -642,8 +640,8 @@ mod tests {
         assert_eq!(fd, SampledSpectrum::ONE);
         // The diffuse lobe gets (1 - F) = 0 of the light, so only the GGX lobe is sampled.
         assert_eq!(
-            b.lobe_probabilities(0.7, b.layers(0.7).as_ref()),
-            (0.0, 1.0)
+            b.all_lobe_probabilities(0.7, b.layers(0.7).as_ref()),
+            (0.0, 0.0, 1.0)
         );
     }
 

@@ -32,6 +32,7 @@
 //! Sampling: uniform over the hemisphere (the lobe is broad and strongest at grazing angles,
 //! where cosine-weighted sampling would be thin).
 
+use crate::math::sampling::{sample_uniform_hemisphere, uniform_hemisphere_pdf};
 use crate::math::{INV_PI, PI};
 use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
@@ -117,15 +118,15 @@ impl Sheen {
         self.scale.min(1.0) * lobe_albedo(self.roughness, cos_o)
     }
 
-    /// A direction uniformly over the upper hemisphere, and its density.
+    /// A direction uniformly over the upper hemisphere (density `Sheen::pdf`).
     pub fn sample(u: Vec2) -> Vec3 {
-        let z = u.x;
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        Vec3::new(r * phi.cos(), r * phi.sin(), z)
+        sample_uniform_hemisphere(u)
     }
 
-    pub const PDF: f32 = 0.5 * INV_PI;
+    #[inline]
+    pub fn pdf() -> f32 {
+        uniform_hemisphere_pdf()
+    }
 }
 
 /// The Charlie lobe D V (colour 1) for `alpha`, both directions above the surface.
