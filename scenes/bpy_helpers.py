@@ -40,14 +40,21 @@ def material(name, kind="ShaderNodeBsdfDiffuse", color=(0.8, 0.8, 0.8), **inputs
     nt = mat.node_tree
     nt.nodes.clear()
     out = nt.nodes.new("ShaderNodeOutputMaterial")
+    node = shader_node(nt, kind, color, **inputs)
+    nt.links.new(node.outputs[0], out.inputs["Surface"])
+    return mat
+
+
+def shader_node(nt, kind, color=(0.8, 0.8, 0.8), **inputs):
+    """A new shader node of `kind` in node tree `nt`, 'Color' / 'Base Color' set to `color`,
+    other inputs by name."""
     node = nt.nodes.new(kind)
     for key in ("Color", "Base Color"):
         if key in node.inputs:
             node.inputs[key].default_value = (*color, 1.0)
     for k, v in inputs.items():
         node.inputs[k].default_value = v
-    nt.links.new(node.outputs[0], out.inputs["Surface"])
-    return mat
+    return node
 
 
 def mesh_object(name, build, mat, location=(0, 0, 0), rotation=(0, 0, 0), scale=(1, 1, 1), smooth=False):

@@ -459,6 +459,8 @@ def _principled_coat(node, m):
 # albedos then agree within 5%; Cycles' roughest sheens reflect more than any Charlie lobe (0.8x
 # of Cycles' albedo at 0.9, 0.7x at 1.0).
 _SHEEN_ROUGHNESS = [0.0, 0.03, 0.081, 0.167, 0.293, 0.44, 0.595, 0.769, 1.0, 1.0, 1.0]
+_SHEEN_ROUGH_WARNING = ("Sheen Roughness %.2f is rendered with up to 30%% less sheen than Cycles shows "
+                        "(Prism's sheen matches Cycles' from 0.2 to 0.8)")
 
 
 def _sheen_roughness(r):
@@ -487,8 +489,7 @@ def _principled_sheen(node, m):
     if max(color) > 0.0:
         m["sheen"] = (color, _sheen_roughness(blender_roughness))
         if blender_roughness > 0.85:
-            m["approximation"] = ("Sheen Roughness %.2f is rendered with up to 30%% less sheen than Cycles shows "
-                                  "(Prism's sheen matches Cycles' from 0.2 to 0.8)" % blender_roughness)
+            m["approximation"] = _SHEEN_ROUGH_WARNING % blender_roughness
 
 
 def _normal_map(node):
@@ -1329,6 +1330,8 @@ class Exporter:
                                  "mapped to match Cycles' sheen (values are)" % name)
         else:
             inputs["sheen_roughness"] = _sheen_roughness(rv)
+            if float(rv) > 0.85:
+                self.warnings.append("material '%s': %s" % (name, _SHEEN_ROUGH_WARNING % float(rv)))
 
     def _graph_normal(self, gb, node, m, handled):
         """The shader's Normal input through the graph (Bump nodes, ...) unless it is the

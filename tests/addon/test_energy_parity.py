@@ -267,12 +267,7 @@ def test_layers_in_mix_leaves_match_cycles():
         mix = nt.nodes.new("ShaderNodeMixShader")
         mix.inputs[0].default_value = fac
         for slot, (kind, color, inputs) in zip((1, 2), (a, b)):
-            node = nt.nodes.new(kind)
-            for key in ("Color", "Base Color"):
-                if key in node.inputs:
-                    node.inputs[key].default_value = (*color, 1.0)
-            for k, v in inputs.items():
-                node.inputs[k].default_value = v
+            node = C.shader_node(nt, kind, color, **inputs)
             nt.links.new(node.outputs[0], mix.inputs[slot])
         nt.links.new(mix.outputs[0], out.inputs["Surface"])
     boxes = {name: pixel_box(sc, name) for name, _ in SPHERES}
