@@ -349,6 +349,55 @@ fn subsurface_weight_mixes_with_the_gltf_surface() {
     );
 }
 
+/// A Mix / Add Shader tree with a subsurface leaf (material JSON graph closures of kind
+/// "subsurface" beside BSDF leaves): the image is linear in the leaves' weights. With A the
+/// slab of subsurface alone and B the slab of the BSDF leaf alone, the mixture of weights
+/// (0.5, 0.5) renders (A + B) / 2, (0.3, 0.7) renders 0.3 A + 0.7 B, and a subsurface leaf of
+/// weight 0.3 alone (the rest absorbed, as a Mix with an emission or holdout leaf) 0.3 A. The
+/// graph's weights replace the sidecar's constant `weight`.
+#[test]
+fn subsurface_leaf_of_a_mixture_is_weighted_like_the_other_leaves() {
+    use prism::shading::parse::{parse_graph, NoImages};
+    let with_closures = |closures: serde_json::Value| {
+        let desc = SubsurfaceDesc {
+            weight: 0.9, // ignored: the graph decides
+            ..subsurface(Vec3::splat(0.01), Vec3::splat(0.99), "table")
+        };
+        let mut scene = slab_scene(&desc);
+        let graph = parse_graph(
+            &serde_json::json!({ "version": 1, "nodes": {}, "closures": closures }),
+            "graph",
+            &mut NoImages,
+        )
+        .unwrap_or_else(|e| panic!("{}: {}", e.path, e.msg));
+        scene.materials[0].graph = Some(std::sync::Arc::new(graph));
+        let (mean, discarded) = render_mean(scene, 128, 9);
+        assert_eq!(discarded, 0);
+        mean
+    };
+    let sss = |w: f32| serde_json::json!({ "kind": "subsurface", "weight": w });
+    let red = |w: f32| {
+        serde_json::json!({ "kind": "bsdf", "weight": w, "inputs": {
+            "base_color": [0.6, 0.1, 0.1], "metallic": 0.0, "roughness": 1.0, "specular": 0.0 } })
+    };
+    let a = with_closures(serde_json::json!([sss(1.0)]));
+    // (A graph without a subsurface leaf would leave the sidecar's weight in charge.)
+    let b = with_closures(serde_json::json!([red(1.0), sss(0.0)]));
+    eprintln!("subsurface {a}, red diffuse {b}");
+    assert!(
+        (a - b).abs().max_element() > 0.2,
+        "the leaves differ: {a} vs {b}"
+    );
+    for (ws, wb) in [(0.5, 0.5), (0.3, 0.7), (0.3, 0.0)] {
+        let mixed = with_closures(serde_json::json!([red(wb), sss(ws)]));
+        let expected = ws * a + wb * b;
+        let err = ((mixed - expected) / expected.max(Vec3::splat(0.05)))
+            .abs()
+            .max_element();
+        assert!(err < 0.03, "weights ({ws}, {wb}): {mixed} vs {expected}");
+    }
+}
+
 /// Two overlapping shells of one subsurface material (a unit sphere and a smaller sphere
 /// through its surface, as Suzanne's eyes are through her head) in a white furnace. Probes
 /// and walks find exit points on the inner sphere's surface inside the big one; light leaving

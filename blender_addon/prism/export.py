@@ -523,7 +523,7 @@ def _normal_map(node):
     return {"image": img, "scale": max(scale, 0.0), "uv_map": src.uv_map}, True
 
 
-def _principled_subsurface(node, m):
+def _principled_subsurface(node, m, weight_override=None):
     """The sidecar `subsurface` entry for a Principled BSDF with subsurface weight > 0.
 
     Cycles' three methods (measured against Cycles 5.0 in tests/addon/test_sss_parity.py):
@@ -539,7 +539,9 @@ def _principled_subsurface(node, m):
       refracted entry, no internal Fresnel reflection, diffuse exit.
     - Christensen-Burley: Prism's diffusion table ("table") with reflectance A and mean free
       path d / (4 pi), Cycles' own radius-to-mean-free-path scaling.
-    The boundary's IOR and roughness are the Principled IOR and Roughness (its specular layer)."""
+    The boundary's IOR and roughness are the Principled IOR and Roughness (its specular layer).
+    `weight_override`: the entry's weight instead of the node's Subsurface Weight (a Mix Shader
+    leaf, whose graph carries the weight)."""
     if node.inputs.get("Subsurface Weight") is not None:  # 4.x+: colour from Base Color
         weight = _val(node, "Subsurface Weight")
         radius = _val(node, "Subsurface Radius", default=(1.0, 0.2, 0.1))
@@ -555,11 +557,21 @@ def _principled_subsurface(node, m):
         radius = [r * weight for r in radius]
         eta = _val(node, "Subsurface IOR", default=1.4)
         skin = "RANDOM_WALK"  # 3.x's "Random Walk" adjusts the radius like 4.x's Skin
+    if weight_override is not None:
+        weight = weight_override
     if weight <= 0.0:
         return None
     method = getattr(node, "subsurface_method", "BURLEY")
     return _subsurface_block(method, skin, colour, radius, eta, _val(node, "Roughness", default=0.5),
                              _val(node, "Subsurface Anisotropy", default=0.0), weight)
+
+
+def _subsurface_colour_socket(node):
+    """The socket that gives a Principled BSDF's (4.x: Base Color, 3.x: Subsurface Color) or a
+    Subsurface Scattering node's (Color) subsurface colour."""
+    if node.type == "SUBSURFACE_SCATTERING":
+        return "Color"
+    return "Base Color" if node.inputs.get("Subsurface Weight") is not None else "Subsurface Color"
 
 
 def _sss_node_subsurface(node):
@@ -1215,11 +1227,32 @@ class Exporter:
         walk(root, 1.0)
         closures = []
         first = True
+        media = []  # (leaf, subsurface block): the material has one medium, the first leaf's
+
+        def subsurface_leaf(leaf, block, weight):
+            if block is None:
+                return
+            if media and media[0][1] != block:
+                self.warnings.append(
+                    "material '%s': several subsurface leaves with different settings in one Mix/Add Shader tree;"
+                    " '%s' is rendered with the medium of '%s'" % (name, leaf.name, media[0][0].name))
+            media.append((leaf, block))
+            closures.append({"kind": "subsurface", "weight": weight})
+
         for leaf, weight in leaves:
             t = leaf.type
             S = lambda *n: _socket(leaf, *n)  # noqa: E731
             V = lambda sock, default: gb.value(sock, ()) if sock is not None else default  # noqa: E731
             inputs = None
+            if t == "SUBSURFACE_SCATTERING":
+                self._subsurface_colour_warning(name, leaf, "Color")
+                subsurface_leaf(leaf, _sss_node_subsurface(leaf), weight)
+                for sock_name in ("Radius", "Scale", "IOR", "Roughness", "Anisotropy"):
+                    sock = leaf.inputs.get(sock_name)
+                    if sock is not None and sock.is_linked:
+                        self.warnings.append("material '%s': the link into '%s' of '%s' is not supported; its value is used"
+                                             % (name, sock_name, leaf.name))
+                continue
             if t == "BSDF_TRANSPARENT":
                 # The colour multiplies what passes (per wavelength, upsampled as a reflectance).
                 closures.append({"kind": "transparent", "weight": weight,
@@ -1267,7 +1300,22 @@ class Exporter:
                                                         "Emission Color", "Emission", "Emission Strength", "IOR",
                                                         "Normal", "Coat Weight", "Coat Roughness", "Coat Tint",
                                                         "Clearcoat", "Clearcoat Roughness", "Sheen Weight",
-                                                        "Sheen Tint", "Sheen Roughness"})
+                                                        "Sheen Tint", "Sheen Roughness", "Subsurface Weight",
+                                                        "Subsurface"})
+                # Subsurface Weight s splits the leaf: s of it is the subsurface medium (whose
+                # boundary is this leaf's specular layer), 1 - s the Principled BSDF, as for a
+                # Principled surface of its own (`_principled_subsurface`).
+                s_sock = S("Subsurface Weight", "Subsurface")
+                s_val = V(s_sock, 0.0)
+                if isinstance(s_val, dict) or s_val > 0.0:
+                    if not isinstance(s_val, dict):
+                        s_val = min(s_val, 1.0)
+                    block = _principled_subsurface(leaf, {"base": _rgb(S("Base Color").default_value)},
+                                                   weight_override=1.0)
+                    if block is not None:
+                        self._subsurface_colour_warning(name, leaf, _subsurface_colour_socket(leaf))
+                        subsurface_leaf(leaf, block, math("multiply", weight, s_val))
+                        weight = math("multiply", weight, math("subtract", 1.0, s_val))
             else:
                 self.warnings.append(
                     "material '%s': shader '%s' (%s) inside a Mix/Add Shader is not supported; its share renders black"
@@ -1293,7 +1341,20 @@ class Exporter:
                 % name)
         if not closures:
             return None
+        if media:
+            # The graph's subsurface leaves carry the weight (material JSON `graph`).
+            m["mixed_subsurface"] = dict(media[0][1], weight=1.0)
         return {"version": 1, "world_up": "z", "nodes": gb.nodes, "closures": closures}
+
+    def _subsurface_colour_warning(self, name, node, sock_name):
+        """The subsurface medium's colour is one RGB per material: a link into the socket
+        that gives it (a texture) is not followed."""
+        sock = node.inputs.get(sock_name)
+        if sock is not None and sock.is_linked:
+            self.warnings.append(
+                "material '%s': the subsurface colour of '%s' is not textured; the medium uses the value of its %s"
+                " socket (%s)" % (name, node.name, sock_name,
+                                  ", ".join("%.2f" % c for c in list(sock.default_value)[:3])))
 
     def _leaf_layers(self, name, leaf, inputs, gb, node_name, V):
         """A Principled leaf's Coat and Sheen as its closure's inputs (`coat_weight`,
@@ -1412,6 +1473,8 @@ class Exporter:
             ok = True
         if m.get("approximation"):
             self.warnings.append("material '%s': %s" % (name, m["approximation"]))
+        if sss is not None and surface is not None:
+            self._subsurface_colour_warning(name, surface, _subsurface_colour_socket(surface))
         if not ok:
             self.unsupported.append(name)
             node = _surface_node(mat)
@@ -1490,8 +1553,8 @@ class Exporter:
         override = prism_override(mat)
         if override is not None:
             self.material_json[name] = override
-        elif sss is not None:
-            self.material_json[name] = {"subsurface": sss}
+        elif sss is not None or m.get("mixed_subsurface") is not None:
+            self.material_json[name] = {"subsurface": sss if sss is not None else m["mixed_subsurface"]}
         if graph is not None:
             self.material_json.setdefault(name, {})["graph"] = graph
         if volume is not None:

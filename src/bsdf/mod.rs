@@ -237,6 +237,13 @@ pub struct Iridescence {
 }
 
 impl Bsdf {
+    /// Nothing scatters: the path is absorbed (a mixture's missing weight).
+    pub fn black() -> Self {
+        Bsdf::Diffuse(DiffuseBsdf {
+            reflectance: SampledSpectrum::ZERO,
+        })
+    }
+
     /// f(wo, wi) without the cosine; zero for Dirac lobes (they cannot be evaluated).
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
         match self {

@@ -13,6 +13,7 @@ use crate::bssrdf::SubsurfaceMaterial;
 use crate::geometry::{Geometry, SurfacePoint};
 use crate::lights::spread::Spread;
 use crate::media::{DensityField, Medium};
+use crate::shading::graph::{ClosurePick, InputValues};
 use crate::shading::{MaterialInput, ShadingGraph, ShadingInputs};
 use crate::spectrum::{
     RgbAlbedoSpectrum, RgbIlluminantSpectrum, SampledSpectrum, SampledWavelengths,
@@ -451,8 +452,10 @@ impl Material {
     /// subsurface medium, that medium. A partly subsurface material (`weight` < 1) picks the
     /// subsurface component with probability `weight`, else its glTF model, using `u_select`
     /// (stochastic selection of one component of a mixture keeps the estimator unbiased
-    /// without evaluating both). `inside_medium`: the path arrives from inside this material's
-    /// medium (random walk), where only the medium's boundary makes sense.
+    /// without evaluating both). When the material's graph mixes a subsurface leaf with other
+    /// closures (a Mix / Add Shader tree), the graph's pick replaces `weight`.
+    /// `inside_medium`: the path arrives from inside this material's medium (random walk),
+    /// where only the medium's boundary makes sense.
     pub fn scattering(
         &self,
         textures: &[TextureDesc],
@@ -463,12 +466,25 @@ impl Material {
         inside_medium: bool,
     ) -> (Bsdf, Option<&SubsurfaceMaterial>) {
         if let SurfaceModel::Subsurface { medium, weight, .. } = &self.model {
-            if inside_medium || u_select < *weight {
-                let u = if inside_medium {
-                    u_select
-                } else {
-                    u_select / weight
-                };
+            if inside_medium {
+                return (self.bsdf(textures, uv, inputs, w, u_select), Some(medium));
+            }
+            if let (Some(graph), Some(ctx)) = (&self.graph, inputs) {
+                if graph.has_subsurface_closure() {
+                    return match graph.pick_closure(ctx, u_select) {
+                        Some((ClosurePick::Subsurface, u)) => {
+                            (self.bsdf(textures, uv, inputs, w, u), Some(medium))
+                        }
+                        Some((ClosurePick::Bsdf(values), u)) => (
+                            self.gltf_bsdf_from(textures, uv, inputs, Some(values), w, u),
+                            None,
+                        ),
+                        None => (Bsdf::black(), None),
+                    };
+                }
+            }
+            if u_select < *weight {
+                let u = u_select / weight;
                 return (self.bsdf(textures, uv, inputs, w, u), Some(medium));
             }
             // The glTF part: reuse the leftover of `u_select` for its own choices.
@@ -523,26 +539,33 @@ impl Material {
         w: &SampledWavelengths,
         u_select: f32,
     ) -> Bsdf {
-        let g = &self.gltf;
-        let mut u_select = u_select;
-        let driven: Option<crate::shading::graph::InputValues> = match (&self.graph, inputs) {
-            (Some(graph), Some(inputs)) if graph.has_closures() => {
-                match graph.pick_closure(inputs, u_select) {
-                    Some((values, u)) => {
-                        u_select = u;
-                        Some(values)
-                    }
-                    // No BSDF closure here: nothing scatters.
-                    None => {
-                        return Bsdf::Diffuse(DiffuseBsdf {
-                            reflectance: SampledSpectrum::ZERO,
-                        })
-                    }
+        let (driven, u_select) = match (&self.graph, inputs) {
+            (Some(graph), Some(ctx)) if graph.has_closures() => {
+                match graph.pick_closure(ctx, u_select) {
+                    Some((ClosurePick::Bsdf(values), u)) => (Some(values), u),
+                    // No BSDF closure here: nothing scatters (a subsurface leaf only occurs
+                    // with a subsurface medium, which `scattering` handles).
+                    _ => return Bsdf::black(),
                 }
             }
-            (Some(graph), Some(inputs)) => Some(graph.evaluate(inputs, false)),
-            _ => None,
+            (Some(graph), Some(ctx)) => (Some(graph.evaluate(ctx, false)), u_select),
+            _ => (None, u_select),
         };
+        self.gltf_bsdf_from(textures, uv, inputs, driven, w, u_select)
+    }
+
+    /// The glTF model with the graph-driven input values `driven` (one closure's, or the
+    /// graph's inputs) over the glTF factors and textures.
+    fn gltf_bsdf_from(
+        &self,
+        textures: &[TextureDesc],
+        uv: Vec2,
+        inputs: Option<&ShadingInputs>,
+        driven: Option<InputValues>,
+        w: &SampledWavelengths,
+        u_select: f32,
+    ) -> Bsdf {
+        let g = &self.gltf;
         let get = |m: MaterialInput| driven.as_ref().and_then(|d| d[m.index()]);
         let base = match (get(MaterialInput::BaseColor), g.base_color_texture) {
             (Some(c), _) => RgbAlbedoSpectrum::new(c.xyz().clamp(Vec3::ZERO, Vec3::ONE)).sample(w),

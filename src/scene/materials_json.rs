@@ -680,6 +680,14 @@ impl Validator<'_> {
             }
             None => None,
         };
+        if graph.as_ref().is_some_and(|g| g.has_subsurface_closure())
+            && !m.contains_key("subsurface")
+        {
+            return Err(self.err(
+                &path.key("graph").key("closures"),
+                "a 'subsurface' closure needs the material's 'subsurface' entry (its medium)",
+            ));
+        }
         let ov = match (m.get("subsurface"), m.get("dielectric")) {
             (Some(s), None) => Some(MaterialOverride::Subsurface(
                 self.subsurface(s, &path.key("subsurface"))?,
@@ -1429,6 +1437,10 @@ mod tests {
     #[test]
     fn errors_are_one_line_with_paths() {
         let cases: &[(&str, &str)] = &[
+            (
+                r#"{"version":1,"materials":{"Skin":{"graph":{"version":1,"nodes":{},"closures":[{"kind":"subsurface","weight":0.5}]}}}}"#,
+                "m.json: materials.Skin.graph.closures: a 'subsurface' closure needs the material's 'subsurface' entry (its medium)",
+            ),
             (
                 r#"{"version":1,"materials":{"Skin":{"subsurface":{"sigma_a":[0.1,-0.2,0.3],"sigma_s":[1,1,1]}}}}"#,
                 "m.json: materials.Skin.subsurface.sigma_a[1]: must be non-negative, got -0.2",

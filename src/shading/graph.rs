@@ -630,6 +630,18 @@ impl MaterialInput {
 /// Values of the material inputs the graph drives at one shading point (`None`: not driven).
 pub type InputValues = [Option<Vec4>; N_MATERIAL_INPUTS];
 
+/// The leaf of a mixture that scatters at one shading point.
+// Returned by value once per shading point and never stored: boxing the inputs would cost an
+// allocation per hit for nothing.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug)]
+pub enum ClosurePick {
+    /// A BSDF leaf, with its inputs.
+    Bsdf(InputValues),
+    /// A subsurface leaf: the material's subsurface medium takes the path.
+    Subsurface,
+}
+
 /// One leaf of a Mix / Add Shader tree: a BSDF or an emission with its weight (the product of
 /// the mix factors above it) and its own inputs.
 #[derive(Clone, Debug)]
@@ -637,6 +649,9 @@ pub struct Closure {
     pub emission: bool,
     /// A Transparent BSDF leaf: its weight is the surface's transparency.
     pub transparent: bool,
+    /// A subsurface leaf (Subsurface Scattering node, a Principled leaf's subsurface share):
+    /// picked like a BSDF leaf, it hands the path to the material's subsurface medium.
+    pub subsurface: bool,
     pub weight: Source,
     pub bindings: Vec<(MaterialInput, Source)>,
 }
@@ -1002,43 +1017,53 @@ impl ShadingGraph {
         })
     }
 
-    /// For a mixture: picks one BSDF closure with probability equal to its weight (weights
-    /// summing above 1 are normalised) and returns its inputs and `u` reused within it; `None`
-    /// when `u` falls beyond the weights' sum (the path is absorbed: the mixture's missing
-    /// BSDF weight, e.g. the emission share of a Mix Shader). Stochastic selection of one
-    /// component keeps the estimator unbiased without evaluating every closure.
-    pub fn pick_closure(&self, ctx: &ShadingInputs, u: f32) -> Option<(InputValues, f32)> {
+    /// For a mixture: picks one scattering closure (BSDF or subsurface leaf) with probability
+    /// equal to its weight (weights summing above 1 are normalised) and returns it with `u`
+    /// reused within it; `None` when `u` falls beyond the weights' sum (the path is absorbed:
+    /// the mixture's missing scattering weight, e.g. the emission share of a Mix Shader).
+    /// Stochastic selection of one component keeps the estimator unbiased without evaluating
+    /// every closure.
+    pub fn pick_closure(&self, ctx: &ShadingInputs, u: f32) -> Option<(ClosurePick, f32)> {
         let ctx = &self.local(ctx);
         self.run(ctx, false, |slots| {
-            let bsdfs = || {
+            let scattering = || {
                 self.closures
                     .iter()
                     .filter(|c| !c.emission && !c.transparent)
             };
             let weight = |c: &Closure| read(&c.weight, slots, ctx).x.max(0.0);
             // A surface point is shaded only where the path did not pass through the mixture's
-            // transparent share T: given that, each BSDF's probability is its weight / (1 - T).
+            // transparent share T: given that, each leaf's probability is its weight / (1 - T).
             let coverage = 1.0 - self.transparent_share(slots, ctx);
-            let total: f32 = bsdfs().map(weight).sum::<f32>() / coverage.max(1e-6);
+            let total: f32 = scattering().map(weight).sum::<f32>() / coverage.max(1e-6);
             let scale = if total > 1.0 {
                 1.0 / (total * coverage.max(1e-6))
             } else {
                 1.0 / coverage.max(1e-6)
             };
             let mut acc = 0.0;
-            for c in bsdfs() {
+            for c in scattering() {
                 let w = weight(c) * scale;
                 if w > 0.0 && u < acc + w {
+                    let u_within = ((u - acc) / w).clamp(0.0, 1.0);
+                    if c.subsurface {
+                        return Some((ClosurePick::Subsurface, u_within));
+                    }
                     let mut values: InputValues = [None; N_MATERIAL_INPUTS];
                     for (m, s) in &c.bindings {
                         values[m.index()] = Some(read(s, slots, ctx));
                     }
-                    return Some((values, ((u - acc) / w).clamp(0.0, 1.0)));
+                    return Some((ClosurePick::Bsdf(values), u_within));
                 }
                 acc += w;
             }
             None
         })
+    }
+
+    /// Some leaf of the mixture is subsurface scattering.
+    pub fn has_subsurface_closure(&self) -> bool {
+        self.closures.iter().any(|c| c.subsurface)
     }
 
     /// For a mixture: the summed emission of its emission closures (linear RGB).

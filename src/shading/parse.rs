@@ -63,13 +63,15 @@
 //!   blender_world (Blender's convention: the colour's Y and Z negated);
 //!   inputs `strength`, `color`); `blackbody` (input `temperature` in kelvin).
 //! * `closures` (instead of or with `inputs`): a Mix / Add Shader tree flattened into its
-//!   leaves, `[{"kind": "bsdf" | "emission" | "transparent" | "translucent", "weight": <value or link>,
-//!   "inputs": {...}}]` (a transparent leaf's weight is the surface's transparency, and its
-//!   optional `base_color` the colour that multiplies what passes, per wavelength).
-//!   Each shading point picks one BSDF leaf with probability equal to its weight (the path is
-//!   absorbed with the remaining probability; weights summing above 1 are normalised) and
-//!   renders it with that leaf's inputs over the glTF defaults; emission leaves add
-//!   weight x `emission` x `emission_strength`.
+//!   leaves, `[{"kind": "bsdf" | "emission" | "transparent" | "translucent" | "subsurface",
+//!   "weight": <value or link>, "inputs": {...}}]` (a transparent leaf's weight is the
+//!   surface's transparency, and its optional `base_color` the colour that multiplies what
+//!   passes, per wavelength). Each shading point picks one BSDF or subsurface leaf with
+//!   probability equal to its weight (the path is absorbed with the remaining probability;
+//!   weights summing above 1 are normalised) and renders it with that leaf's inputs over the
+//!   glTF defaults; a subsurface leaf (no inputs) hands the path to the material's
+//!   `subsurface` medium, which the material must have, and its weight replaces that entry's
+//!   `weight`. Emission leaves add weight x `emission` x `emission_strength`.
 //! * Links must not form a cycle; nodes no input depends on are ignored. An image that cannot
 //!   be read renders magenta with a warning, as in Blender.
 
@@ -952,6 +954,7 @@ pub fn parse_graph(v: &Value, path: &str, images: &mut dyn ImageLoader) -> R<Sha
                 ("emission", 1),
                 ("transparent", 2),
                 ("translucent", 3),
+                ("subsurface", 4),
             ],
             0,
         )?;
@@ -970,6 +973,7 @@ pub fn parse_graph(v: &Value, path: &str, images: &mut dyn ImageLoader) -> R<Sha
         closures.push(super::graph::Closure {
             emission: closure_kind == 1,
             transparent: closure_kind == 2,
+            subsurface: closure_kind == 4,
             weight,
             bindings: inputs,
         });

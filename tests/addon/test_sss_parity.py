@@ -24,6 +24,11 @@ Before (add-on exporting reflectance + mfp = radius x scale, smooth boundary), t
 
 The Subsurface Scattering node (each falloff) on the same sphere: within 6%.
 
+Subsurface inside a Mix Shader tree (`_mixed_skin`): a Subsurface Scattering node mixed 0.4 with
+a blue Diffuse, and a Principled BSDF of Subsurface Weight 0.6 mixed with a red Glossy by a Layer
+Weight's Facing: 1.019 / 1.008 / 1.013, 1.015 / 1.009 / 1.018 (random walk) and 0.992 / 1.013 /
+1.017 (Burley); tolerance 8%. Before, the node's share rendered black (0.16 / 0.31 / 0.59).
+
 Direct sun light: the object's brightness with the sun minus without it must match Cycles'
 within 6% per channel (1.005 / 0.985 / 0.986; it was ~0 with Dirac-only random-walk exits).
 """
@@ -56,6 +61,8 @@ def scene(method="RANDOM_WALK", thin=False, sun=True, node="principled"):
         n.inputs["Scale"].default_value = 0.2
         if n.inputs.get("Roughness") is not None:  # the random walks' only
             n.inputs["Roughness"].default_value = 0.5
+    elif node in {"mix_sss_node", "mix_principled"}:
+        skin = _mixed_skin(method, node)
     else:
         skin = C.material("Skin", "ShaderNodeBsdfPrincipled", (0.8, 0.5, 0.4))
         n = skin.node_tree.nodes["Principled BSDF"]
@@ -77,6 +84,42 @@ def scene(method="RANDOM_WALK", thin=False, sun=True, node="principled"):
     C.camera((0.0, -5.0, 1.6), (0.0, 0.0, 0.8), lens=50.0)
     sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 96, 72, 100
     return sc
+
+
+def _mixed_skin(method, kind):
+    """A subsurface leaf inside a Mix Shader tree (Prism: graph closures of kind "subsurface").
+    - "mix_sss_node": Mix Shader, Fac 0.4, of a Subsurface Scattering node (the sphere's medium)
+      and a blue Diffuse BSDF.
+    - "mix_principled": Mix Shader of a Principled BSDF (Subsurface Weight 0.6) and a rough red
+      Glossy BSDF, the Fac from a Layer Weight node's Facing output (blend 0.3): a textured mix
+      weight, and a leaf that is part subsurface, part Principled BSDF."""
+    mat = bpy.data.materials.new("Skin")
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    nt = mat.node_tree
+    nt.nodes.clear()
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    mix = nt.nodes.new("ShaderNodeMixShader")
+    if kind == "mix_sss_node":
+        sss = C.shader_node(nt, "ShaderNodeSubsurfaceScattering", (0.8, 0.5, 0.4), Radius=(1.0, 0.35, 0.2),
+                            Scale=0.2)
+        sss.falloff = method
+        other = C.shader_node(nt, "ShaderNodeBsdfDiffuse", (0.1, 0.2, 0.7))
+        mix.inputs["Fac"].default_value = 0.4
+    else:
+        sss = C.shader_node(nt, "ShaderNodeBsdfPrincipled", (0.8, 0.5, 0.4), Roughness=0.5)
+        sss.subsurface_method = method
+        sss.inputs["Subsurface Weight"].default_value = 0.6
+        sss.inputs["Subsurface Radius"].default_value = (1.0, 0.35, 0.2)
+        sss.inputs["Subsurface Scale"].default_value = 0.2
+        other = C.shader_node(nt, "ShaderNodeBsdfGlossy", (0.8, 0.2, 0.1), Roughness=0.3)
+        lw = nt.nodes.new("ShaderNodeLayerWeight")
+        lw.inputs["Blend"].default_value = 0.3
+        nt.links.new(lw.outputs["Facing"], mix.inputs["Fac"])
+    nt.links.new(sss.outputs[0], mix.inputs[1])
+    nt.links.new(other.outputs[0], mix.inputs[2])
+    nt.links.new(mix.outputs[0], out.inputs["Surface"])
+    return mat
 
 
 def object_mean(px):
@@ -127,6 +170,17 @@ def test_subsurface_node_sphere_sun_and_world():
     for method in ("RANDOM_WALK", "BURLEY", "RANDOM_WALK_SKIN"):
         p, c = render_both("sss_node_" + method.lower(), method=method, node="sss")
         check_ratio("Subsurface Scattering node (%s) sphere, sun + world" % method, p, c, 0.06)
+        C.check(not prism.engine.LAST["warnings"], "no warnings: %s" % prism.engine.LAST["warnings"])
+
+
+def test_subsurface_inside_mix_shader():
+    """A subsurface leaf in a Mix Shader tree is the subsurface medium with the leaf's weight
+    (before: the Subsurface Scattering node's share rendered black and a Principled leaf's
+    Subsurface Weight was dropped without a warning). Measured: see the module docstring."""
+    for kind, method in (("mix_sss_node", "RANDOM_WALK"), ("mix_principled", "RANDOM_WALK"),
+                         ("mix_principled", "BURLEY")):
+        p, c = render_both("%s_%s" % (kind, method.lower()), method=method, node=kind)
+        check_ratio("%s (%s) sphere, sun + world" % (kind, method), p, c, 0.08)
         C.check(not prism.engine.LAST["warnings"], "no warnings: %s" % prism.engine.LAST["warnings"])
 
 
