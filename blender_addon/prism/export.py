@@ -1228,6 +1228,7 @@ class Exporter:
         closures = []
         first = True
         media = []  # (leaf, subsurface block): the material has one medium, the first leaf's
+        normals = []  # (leaf, the graph value driving its Normal input, or None)
 
         def subsurface_leaf(leaf, block, weight):
             if block is None:
@@ -1244,6 +1245,9 @@ class Exporter:
             S = lambda *n: _socket(leaf, *n)  # noqa: E731
             V = lambda sock, default: gb.value(sock, ()) if sock is not None else default  # noqa: E731
             inputs = None
+            if t not in {"BSDF_TRANSPARENT", "EMISSION"} and leaf.inputs.get("Normal") is not None:
+                sock = leaf.inputs["Normal"]
+                normals.append((leaf, gb.value(sock, ()) if gb._live_link(sock) is not None else None))
             if t == "SUBSURFACE_SCATTERING":
                 self._subsurface_colour_warning(name, leaf, "Color")
                 subsurface_leaf(leaf, _sss_node_subsurface(leaf), weight)
@@ -1321,9 +1325,6 @@ class Exporter:
                     "material '%s': shader '%s' (%s) inside a Mix/Add Shader is not supported; its share renders black"
                     % (name, leaf.name, leaf.bl_idname))
                 continue
-            if leaf.inputs.get("Normal") is not None and leaf.inputs["Normal"].is_linked:
-                self.warnings.append("material '%s': the Normal input of '%s' inside a Mix/Add Shader is not supported"
-                                     % (name, leaf.name))
             closures.append({"kind": "bsdf", "weight": weight, "inputs": inputs})
             if first:
                 first = False
@@ -1344,7 +1345,20 @@ class Exporter:
         if media:
             # The graph's subsurface leaves carry the weight (material JSON `graph`).
             m["mixed_subsurface"] = dict(media[0][1], weight=1.0)
-        return {"version": 1, "world_up": "z", "nodes": gb.nodes, "closures": closures}
+        graph = {"version": 1, "world_up": "z", "nodes": gb.nodes, "closures": closures}
+        # The shading normal is the material's: exact when every scattering leaf takes its Normal
+        # from the same source (the usual Bump or Normal Map feeding all the shaders).
+        linked = [(leaf, v) for leaf, v in normals if v is not None]
+        if linked:
+            if len(linked) == len(normals) and all(v == linked[0][1] for _, v in linked):
+                graph["inputs"] = {"normal": linked[0][1]}
+            else:
+                for leaf, _ in linked:
+                    self.warnings.append(
+                        "material '%s': the Normal input of '%s' inside a Mix/Add Shader is not applied: the leaves"
+                        " of the tree take their normals from different sources (Prism shades them all with one)"
+                        % (name, leaf.name))
+        return graph
 
     def _subsurface_colour_warning(self, name, node, sock_name):
         """The subsurface medium's colour is one RGB per material: a link into the socket

@@ -319,6 +319,21 @@ def setups():
     nt.links.new(bump.outputs["Normal"], sh.inputs["Normal"])
     out.append(("BumpNoise", mat))
 
+    # One Bump feeding both shaders of a Mix: the material's normal (graph `inputs.normal`
+    # beside the closures).
+    mat, nt, df, gl, mx = mix_material("MixBump", "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfGlossy", 0.4)
+    df.inputs["Color"].default_value = (0.7, 0.5, 0.3, 1.0)
+    gl.inputs["Roughness"].default_value = 0.3
+    nz = nt.nodes.new("ShaderNodeTexNoise")
+    nz.inputs["Scale"].default_value = 3.0
+    bump = nt.nodes.new("ShaderNodeBump")
+    bump.inputs["Strength"].default_value = 0.3
+    bump.inputs["Distance"].default_value = 0.3
+    nt.links.new(nz.outputs["Fac"], bump.inputs["Height"])
+    nt.links.new(bump.outputs["Normal"], df.inputs["Normal"])
+    nt.links.new(bump.outputs["Normal"], gl.inputs["Normal"])
+    out.append(("MixBump", mat))
+
     mat, nt, sh = new_material("RGBCurves")
     tex = nt.nodes.new("ShaderNodeTexImage")
     tex.image = stripes

@@ -62,7 +62,7 @@ def test_node_setups_match_cycles():
         rel = C.rel_mse(C.blur(a), C.blur(b))
         # Within 10% per channel (absolutely for channels near 0).
         ok = bool(np.all(np.abs(ma - mb) <= 0.10 * np.maximum(mb, 0.02))) and rel <= 0.03
-        if name in {"BumpNoise", "NormalMapGraph", "NormalMapObject"}:
+        if name in {"BumpNoise", "MixBump", "NormalMapGraph", "NormalMapObject"}:
             # The bump pattern itself (a flat tile would match the means too).
             la, lb = a.mean(axis=-1).ravel(), b.mean(axis=-1).ravel()
             corr = float(np.corrcoef(la, lb)[0, 1])
@@ -316,6 +316,29 @@ def test_unsupported_nodes_are_named():
     C.check(len(named) == 1, "one warning names material, node and type: %s" % warnings)
     m = px.mean(axis=(0, 1))
     C.check(m[1] > 2.0 * m[0], "the Color input's own value (green) is used: %s" % m)
+
+
+def test_mix_leaves_with_different_normals_are_warned():
+    """Leaves of a Mix Shader whose Normal inputs come from different sources (here one bumped,
+    one not) cannot share the material's one shading normal: a warning names the leaf."""
+    C.reset()
+    sc = bpy.context.scene
+    mat, nt, df, gl, mx = mix_material("HalfBumped", "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfGlossy")
+    bump = nt.nodes.new("ShaderNodeBump")
+    nz = nt.nodes.new("ShaderNodeTexNoise")
+    nt.links.new(nz.outputs["Fac"], bump.inputs["Height"])
+    nt.links.new(bump.outputs["Normal"], gl.inputs["Normal"])
+    C.mesh_object("Tile", tile_mesh, mat)
+    C.world((1.0, 1.0, 1.0), 1.0)
+    cam = C.camera((0.0, 0.0, 5.0), (0.0, 0.0, 0.0))
+    cam.data.type = "ORTHO"
+    cam.data.ortho_scale = 0.8
+    sc.render.resolution_x = sc.render.resolution_y = 16
+    C.use_prism(sc, spp=4)
+    C.render_pixels(sc, os.path.join(OUT, "half_bumped.exr"))
+    warnings = prism.engine.LAST["warnings"]
+    named = [w for w in warnings if "HalfBumped" in w and gl.name in w and "Normal" in w]
+    C.check(len(named) == 1, "one warning names the material and the bumped leaf: %s" % warnings)
 
 
 if __name__ == "__main__":
