@@ -304,6 +304,21 @@ fn chi2_cases() -> Vec<Chi2Case> {
             [0.0, roughness, 1.0],
         );
     }
+    // ... and on the conductor (Principled Thin Film on the metallic part), alone and mixed.
+    for (metallic, roughness) in [(1.0f32, 0.3f32), (0.5, 0.6)] {
+        push(
+            "metallic_roughness",
+            "thin-film metallic_roughness(metallic, roughness, specular)",
+            Target::Bsdf(filmed(metallic_roughness(
+                color(),
+                metallic,
+                roughness,
+                1.0,
+            ))),
+            wo_at(0.6),
+            [metallic, roughness, 1.0],
+        );
+    }
     // Smooth GGX limit: Dirac mirror lobe + diffuse; only the diffuse part has a density.
     for c in [0.3, 0.9] {
         let b = metallic_roughness(color(), 0.3, 0.0, 1.0);
@@ -1587,6 +1602,36 @@ fn thin_film_on_a_white_base_stays_near_one() {
         "thin film on a white base: worst |E - 1| = {:.4}",
         furnace.worst
     );
+}
+
+/// A thin film on a conductor (F82 tint white and coloured): the metal's complex IOR from F0
+/// and F82 (Gulbrandsen) under a lossless film, with the multiple-scattering term from the
+/// film's average Fresnel, reflects at most what arrives.
+#[test]
+fn thin_film_on_a_metal_conserves_energy() {
+    let mut furnace = Furnace::new(100_000, 47, false, 0.0..=1.01);
+    for roughness in [0.0f32, 0.3, 0.7] {
+        for tint in [SampledSpectrum::ONE, SampledSpectrum([1.0, 0.7, 0.5, 1.0])] {
+            let Bsdf::MetallicRoughness(b) = filmed(metallic_roughness(
+                SampledSpectrum([0.95, 0.8, 0.4, 0.9]),
+                1.0,
+                roughness,
+                1.0,
+            )) else {
+                unreachable!()
+            };
+            let b = MetallicRoughnessBsdf {
+                specular_color: tint,
+                ..b
+            };
+            for c in [0.2f32, 0.6, 1.0] {
+                furnace.check(&Bsdf::MetallicRoughness(b), wo_at(c), || {
+                    format!("roughness {roughness} tint {tint:?} cos {c}")
+                });
+            }
+        }
+    }
+    println!("thin film on a metal: worst |E - 1| = {:.4}", furnace.worst);
 }
 
 /// Light ray visibility (`Bsdf::visible_part`): the Diffuse, Glossy and Transmission parts of

@@ -1440,12 +1440,8 @@ class Exporter:
             ("Sheen", lambda v: v > 0.0, "Sheen (Blender 3.x's model)"),
             ("Anisotropic", lambda v: v > 0.0, "Anisotropic"),
         ]
-        metallic = node.inputs.get("Metallic")
         if not own_material:
             checks.append(("Thin Film Thickness", lambda v: v > 0.0, "Thin Film (inside a Mix/Add Shader)"))
-        elif metallic is not None and (metallic.is_linked or float(metallic.default_value) > 0.0):
-            checks.append(("Thin Film Thickness", lambda v: v > 0.0,
-                           "Thin Film on the metallic part (rendered on the dielectric part only)"))
         for sock_name, bad, what in checks:
             sock = node.inputs.get(sock_name)
             if sock is None or sock.is_linked:

@@ -85,7 +85,7 @@ impl MetallicRoughnessBsdf {
                 let f90 = f90 + (1.0 - f90) * film.weight.min(1.0);
                 // average = f0 + (f90 - f0) / 21.
                 let f0 = self
-                    .dielectric_fresnel_average(|mu| self.fresnels(mu).0)
+                    .fresnel_average(|mu| self.fresnels(mu).0)
                     .map(|a| ((21.0 * a - f90) / 20.0).clamp(0.0, 1.0));
                 (f0, f90)
             }
@@ -110,7 +110,7 @@ impl MetallicRoughnessBsdf {
 
     /// `2 int g(mu) mu dmu` over the hemisphere for a spectral `g` (8-point Gauss-Legendre in
     /// mu: the Airy reflectance of films up to a few hundred nm is smooth in the angle).
-    fn dielectric_fresnel_average(&self, g: impl Fn(f32) -> SampledSpectrum) -> SampledSpectrum {
+    fn fresnel_average(&self, g: impl Fn(f32) -> SampledSpectrum) -> SampledSpectrum {
         const NODES: [(f32, f32); 4] = [
             (0.183_434_64, 0.362_683_8),
             (0.525_532_4, 0.313_706_65),
@@ -161,12 +161,57 @@ impl MetallicRoughnessBsdf {
             });
         }
         let mut fc = self.base_color.map(|b| b + (1.0 - b) * w5);
-        if let Some(a) = self.f82_tint_scale() {
+        let f82 = self.f82_tint_scale();
+        if let Some(a) = f82 {
             let c = cos.clamp(0.0, 1.0);
             let edge = c * w5 * (1.0 - c);
             fc = (fc - a * edge).clamp_zero();
         }
+        if let Some(film) = self
+            .iridescence
+            .filter(|i| i.weight > 0.0 && self.metallic() > 0.0)
+        {
+            let w = film.weight.min(1.0);
+            let (n, k) = self.conductor_ior(f82);
+            fc = SampledSpectrum::from_fn(|i| {
+                let r = film
+                    .film
+                    .reflectance_conductor(cos, n[i], k[i], film.lambda[i]);
+                fc[i] + w * (r - fc[i])
+            });
+        }
         (fd, fc)
+    }
+
+    /// A complex IOR (n, k) per wavelength for the conductor, which a film over it needs (its
+    /// Airy sum runs on amplitudes, not on a Fresnel curve). The default model reads F0 (the
+    /// base colour) and F82 (the F82-tint curve at 1/7) as Gulbrandsen's reflectivity r and edge
+    /// tint g ("Artist Friendly Metallic Fresnel", JCGT 3(4), 2014, eqs. 5-6), as Cycles does for
+    /// its metallic thin film; the glTF model takes the real IOR whose F0 is the base colour,
+    /// k = 0 (KHR_materials_iridescence's reference).
+    fn conductor_ior(&self, f82: Option<SampledSpectrum>) -> (SampledSpectrum, SampledSpectrum) {
+        let r = self.base_color.map(|b| b.clamp(0.0, 0.999));
+        let sqrt_r = r.map(f32::sqrt);
+        let n_max = SampledSpectrum::from_fn(|i| (1.0 + sqrt_r[i]) / (1.0 - sqrt_r[i]));
+        if !self.energy_compensation {
+            return (n_max, SampledSpectrum::ZERO);
+        }
+        const MU: f32 = 1.0 / 7.0;
+        let w5 = schlick_weight(MU);
+        let mut g = r.map(|b| b + (1.0 - b) * w5);
+        if let Some(a) = f82 {
+            g = (g - a * (MU * w5 * (1.0 - MU))).clamp_zero();
+        }
+        let g = g.map(|v| v.min(1.0));
+        let n = SampledSpectrum::from_fn(|i| {
+            let n_min = (1.0 - r[i]) / (1.0 + r[i]);
+            n_max[i] + (n_min - n_max[i]) * g[i]
+        });
+        let k = SampledSpectrum::from_fn(|i| {
+            let k2 = (r[i] * sqr(n[i] + 1.0) - sqr(n[i] - 1.0)) / (1.0 - r[i]);
+            k2.max(0.0).sqrt()
+        });
+        (n, k)
     }
 
     /// The F82-tint model of Cycles' metallic Principled (Hoffman 2023, "Generalization of
@@ -313,6 +358,10 @@ impl MetallicRoughnessBsdf {
         if let Some(a) = self.f82_tint_scale() {
             fc_avg = (fc_avg - a * (1.0 / 126.0)).clamp_zero();
         }
+        if self.metallic() > 0.0 && self.iridescence.is_some_and(|i| i.weight > 0.0) {
+            // The film's curve is no Schlick curve: its hemispherical average by quadrature.
+            fc_avg = self.fresnel_average(|mu| self.fresnels(mu).1);
+        }
         let fms_c = fms(fc_avg);
         let ms_norm = if average.e < 1.0 - 1e-6 {
             1.0 / (PI * (1.0 - average.e))
@@ -345,7 +394,7 @@ impl MetallicRoughnessBsdf {
                     ggx_reflection_albedo(self.alpha, mu)
                 }
             };
-            let film_avg = self.dielectric_fresnel_average(|mu| {
+            let film_avg = self.fresnel_average(|mu| {
                 let a = albedo_at(mu);
                 self.film_albedo(a, fms_d)
             });

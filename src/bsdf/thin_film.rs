@@ -91,15 +91,15 @@ impl Complex {
     }
 }
 
-/// Fresnel amplitude reflection coefficients (s, p) from a medium of IOR `n_i` and cosine
-/// `cos_i` into one of `n_t`, `cos_t` (Born & Wolf sec. 1.5.2, eqs. 20a/21a; cosines complex
-/// past the critical angle).
-fn amplitudes(n_i: f64, cos_i: Complex, n_t: f64, cos_t: Complex) -> (Complex, Complex) {
-    let a = cos_i.scale(n_i);
-    let b = cos_t.scale(n_t);
+/// Fresnel amplitude reflection coefficients (s, p) from a medium of (complex) IOR `n_i` and
+/// cosine `cos_i` into one of `n_t`, `cos_t` (Born & Wolf sec. 1.5.2, eqs. 20a/21a; cosines
+/// complex past the critical angle, IOR and cosine complex in an absorbing medium, sec. 14.2).
+fn amplitudes(n_i: Complex, cos_i: Complex, n_t: Complex, cos_t: Complex) -> (Complex, Complex) {
+    let a = n_i.mul(cos_i);
+    let b = n_t.mul(cos_t);
     let r_s = a.sub(b).div(a.add(b));
-    let c = cos_i.scale(n_t);
-    let d = cos_t.scale(n_i);
+    let c = n_t.mul(cos_i);
+    let d = n_i.mul(cos_t);
     let r_p = c.sub(d).div(c.add(d));
     (r_s, r_p)
 }
@@ -114,21 +114,50 @@ impl ThinFilm {
         if !(eta > 0.0) || !eta.is_finite() || cos_i.is_nan() || !(self.ior > 0.0) {
             return 1.0;
         }
-        // IORs of the incident medium, the film and the far medium, the incident one first.
+        // IORs of the incident medium and the far medium, the incident one first.
         let (n1, n3) = if cos_i >= 0.0 {
             (1.0f64, eta as f64)
         } else {
             (eta as f64, 1.0f64)
         };
+        self.airy(n1, cos_i.abs(), Complex::real(n3), lambda_nm)
+    }
+
+    /// Reflectance of the film on a conductor of complex IOR `n + i k` (relative to the
+    /// outside, where the light arrives with cosine `cos_i` > 0): the same Airy sum with the
+    /// absorbing substrate's complex amplitudes (Born & Wolf sec. 14.4.1; the wave entering
+    /// the metal is evanescent, so nothing comes back from beyond the interface). Metals under
+    /// an oxide or oil film: Blender's Principled Thin Film on the metallic part.
+    pub fn reflectance_conductor(&self, cos_i: f32, n: f32, k: f32, lambda_nm: f32) -> f32 {
+        let valid = n > 0.0 && n.is_finite() && k >= 0.0 && k.is_finite();
+        if !valid || cos_i.is_nan() || !(self.ior > 0.0) {
+            return 1.0;
+        }
+        let n3 = Complex {
+            re: n as f64,
+            im: k as f64,
+        };
+        self.airy(1.0, cos_i.max(0.0), n3, lambda_nm)
+    }
+
+    /// The Airy sum for light from a medium of IOR `n1` at cosine `cos_1` through the film onto
+    /// a substrate of complex IOR `n3`.
+    fn airy(&self, n1: f64, cos_1: f32, n3: Complex, lambda_nm: f32) -> f32 {
         let n2 = self.ior as f64;
-        let c1 = (cos_i.abs() as f64).min(1.0);
+        let c1 = (cos_1 as f64).min(1.0);
         let sin2_1 = 1.0 - c1 * c1;
         // Snell: n1 sin1 = n2 sin2 = n3 sin3, cos = sqrt(1 - sin^2), complex past the
-        // critical angle.
-        let cos_in = |n: f64| Complex::real(1.0 - sin2_1 * (n1 / n) * (n1 / n)).sqrt();
-        let (c1, c2, c3) = (Complex::real(c1), cos_in(n2), cos_in(n3));
-        let (r12_s, r12_p) = amplitudes(n1, c1, n2, c2);
-        let (r23_s, r23_p) = amplitudes(n2, c2, n3, c3);
+        // critical angle and in an absorbing medium.
+        let cos_in = |n: Complex| {
+            let ratio = Complex::real(n1).div(n);
+            Complex::real(1.0)
+                .sub(ratio.mul(ratio).scale(sin2_1))
+                .sqrt()
+        };
+        let n2c = Complex::real(n2);
+        let (c1, c2, c3) = (Complex::real(c1), cos_in(n2c), cos_in(n3));
+        let (r12_s, r12_p) = amplitudes(Complex::real(n1), c1, n2c, c2);
+        let (r23_s, r23_p) = amplitudes(n2c, c2, n3, c3);
         // Round-trip phase through the film (complex when the wave in it is evanescent).
         let k = 4.0 * PI as f64 * n2 * self.thickness_nm.max(0.0) as f64 / lambda_nm as f64;
         let phase = c2.scale(k);
@@ -214,6 +243,86 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The unpolarised Fresnel reflectance of a bare conductor (Born & Wolf sec. 14.2), by the
+    /// classic closed form.
+    fn conductor_fresnel(cos: f32, n: f32, k: f32) -> f32 {
+        let (c2, s2) = (cos * cos, 1.0 - cos * cos);
+        let a = n * n - k * k - s2;
+        let t = (a * a + 4.0 * n * n * k * k).sqrt();
+        let a2b2 = t;
+        let a_ = (0.5 * (t + a)).sqrt();
+        let rs = (a2b2 + c2 - 2.0 * a_ * cos) / (a2b2 + c2 + 2.0 * a_ * cos);
+        let rp = rs * (a2b2 * c2 + s2 * s2 - 2.0 * a_ * cos * s2)
+            / (a2b2 * c2 + s2 * s2 + 2.0 * a_ * cos * s2);
+        0.5 * (rs + rp)
+    }
+
+    /// On a conductor, a vanishing film (thickness 0, or a film of the outside's IOR) leaves
+    /// the metal's own Fresnel reflectance; k = 0 is the dielectric case.
+    #[test]
+    fn vanishing_films_on_a_conductor_give_its_fresnel() {
+        // Gold at 550 nm (n 0.43, k 2.46) and aluminium-like (1.2, 7.0).
+        for (n, k) in [(0.43f32, 2.46f32), (1.2, 7.0), (2.9, 3.1)] {
+            for cos in [1.0f32, 0.8, 0.5, 0.2, 0.05] {
+                let plain = conductor_fresnel(cos, n, k);
+                for film in [
+                    ThinFilm {
+                        thickness_nm: 0.0,
+                        ior: 1.4,
+                    },
+                    ThinFilm {
+                        thickness_nm: 250.0,
+                        ior: 1.0,
+                    },
+                ] {
+                    let r = film.reflectance_conductor(cos, n, k, 550.0);
+                    assert!(
+                        (r - plain).abs() < 1e-5,
+                        "n {n} k {k} cos {cos} {film:?}: {r} vs {plain}"
+                    );
+                }
+            }
+        }
+        let film = ThinFilm {
+            thickness_nm: 300.0,
+            ior: 1.33,
+        };
+        for cos in [1.0f32, 0.6, 0.1] {
+            let (a, b) = (
+                film.reflectance_conductor(cos, 1.5, 0.0, 520.0),
+                film.reflectance(cos, 1.5, 520.0),
+            );
+            assert!((a - b).abs() < 1e-5, "{a} vs {b}");
+        }
+    }
+
+    /// A film on a metal shifts the phase and colours the reflection: across thicknesses the
+    /// reflectance stays in [0, 1], goes below the bare metal's (destructive interference) and
+    /// above it, and the metal's absorption keeps it from reaching 0.
+    #[test]
+    fn film_on_a_metal_interferes_and_stays_bounded() {
+        let (n, k) = (0.43f32, 2.46f32);
+        let bare = conductor_fresnel(1.0, n, k);
+        let (mut lo, mut hi) = (1.0f32, 0.0f32);
+        for d in 1..200 {
+            let film = ThinFilm {
+                thickness_nm: d as f32 * 4.0,
+                ior: 1.5,
+            };
+            for cos in [1.0f32, 0.5, 0.05] {
+                let r = film.reflectance_conductor(cos, n, k, 550.0);
+                assert!((0.0..=1.0).contains(&r), "{r}");
+            }
+            let r = film.reflectance_conductor(1.0, n, k, 550.0);
+            lo = lo.min(r);
+            hi = hi.max(r);
+        }
+        assert!(
+            lo < bare - 0.1 && hi > bare && lo > 0.05,
+            "{lo} {bare} {hi}"
+        );
     }
 
     /// A film denser than both sides (a soap film in air) can totally reflect inside itself

@@ -2131,9 +2131,6 @@ impl<'d> Importer<'d> {
         if iridescence_texture {
             ignored.push("iridescence textures (the maximum thickness is used)");
         }
-        if iridescence > 0.0 && metallic > 0.0 {
-            ignored.push("KHR_materials_iridescence on the metallic part (the film is rendered on the dielectric part only)");
-        }
         if !ignored.is_empty() {
             self.warn_once(format!(
                 "{label}: {} not supported yet and ignored",
