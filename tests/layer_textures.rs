@@ -1,10 +1,12 @@
-//! Textured coat and sheen (issue 14): `clearcoatTexture` / `clearcoatRoughnessTexture` and
-//! `sheenColorTexture` / `sheenRoughnessTexture` are read and vary the layer across a surface.
+//! Textured layers and glTF material slots (issues 12 and 14): `clearcoatTexture` /
+//! `clearcoatRoughnessTexture`, `sheenColorTexture` / `sheenRoughnessTexture`,
+//! `transmissionTexture`, `specularTexture` / `specularColorTexture` and `iridescenceTexture` /
+//! `iridescenceThicknessTexture` are read and vary their layer across a surface.
 //!
-//! The scene: a unit quad facing a camera in a uniform white world, its material black with no
-//! specular layer, so all that it reflects comes from the textured layer. A 2 x 1 texture
-//! (nearest filtering) is black on the left half and white on the right: the layer exists on
-//! the right half only.
+//! The scene: a unit quad facing a camera in a uniform white world, its material black (with
+//! no specular layer where the slot under test is not the specular layer's), so that what it
+//! reflects comes from the textured layer. A 2 x 1 texture (nearest filtering) has a chosen
+//! texel on the left half (black unless stated) and white on the right.
 
 #[path = "common/gltf_builder.rs"]
 mod gltf_builder;
@@ -21,21 +23,36 @@ const SIZE: u32 = 48;
 /// The quad with material extension `ext` (whose texture slots name texture 0) under a white
 /// world; returns the glTF path.
 fn scene(name: &str, ext_name: &str, ext: Value) -> PathBuf {
+    scene_with(
+        name,
+        json!({ "KHR_materials_specular": { "specularFactor": 0.0 }, ext_name: ext }),
+        [0, 0, 0, 65535],
+    )
+}
+
+/// The quad with the material's `extensions` (and `KHR_materials_specular` declared used), its
+/// texture 0 texel `left` on the left half and white on the right.
+fn scene_with(name: &str, extensions: Value, left: [u16; 4]) -> PathBuf {
+    scene_with_base(name, extensions, left, 0.0)
+}
+
+/// [`scene_with`] with a grey base colour of `base` (black there).
+fn scene_with_base(name: &str, extensions: Value, left: [u16; 4], base: f32) -> PathBuf {
     let dir = test_dir(name);
     let mut b = GltfBuilder::new();
-    b.use_ext(ext_name);
+    for ext in extensions.as_object().unwrap().keys() {
+        b.use_ext(ext);
+    }
     b.use_ext("KHR_materials_specular");
-    let png = png16_bytes(2, 1, &[[0, 0, 0, 65535], [65535, 65535, 65535, 65535]]);
+    let png = png16_bytes(2, 1, &[left, [65535, 65535, 65535, 65535]]);
     let img = b.image_embedded(&png, "image/png");
     // NEAREST: each half is one texel's value.
     b.texture(img, Some(json!({ "magFilter": 9728, "minFilter": 9728 })));
     let m = b.material(json!({
         "name": "Layered",
-        "pbrMetallicRoughness": { "baseColorFactor": [0.0, 0.0, 0.0, 1.0], "metallicFactor": 0.0 },
-        "extensions": {
-            "KHR_materials_specular": { "specularFactor": 0.0 },
-            ext_name: ext
-        }
+        "pbrMetallicRoughness": { "baseColorFactor": [base, base, base, 1.0], "metallicFactor": 0.0,
+                                  "roughnessFactor": 0.0 },
+        "extensions": extensions
     }));
     let pos = b.positions(&[
         [-0.5, -0.5, 0.0],
@@ -62,6 +79,12 @@ fn scene(name: &str, ext_name: &str, ext: Value) -> PathBuf {
 
 /// Mean green of the left and right thirds of the quad's middle rows.
 fn halves(path: &Path) -> (f32, f32) {
+    let (l, r) = halves_rgb(path);
+    (l[1], r[1])
+}
+
+/// Mean RGB of the left and right thirds of the quad's middle rows.
+fn halves_rgb(path: &Path) -> ([f32; 3], [f32; 3]) {
     let desc = load_scene(path, Some(&path.with_extension("materials.json")), None).expect("loads");
     assert!(
         desc.warnings.iter().all(|w| !w.contains("not supported")),
@@ -82,15 +105,17 @@ fn halves(path: &Path) -> (f32, f32) {
     let px = film.to_rgba();
     // The quad spans about +-0.5 / (3 tan 0.2) = +-0.82 of the half-image: columns 5..43.
     let mean = |cols: std::ops::Range<usize>| {
-        let mut sum = 0.0;
+        let mut sum = [0.0f32; 3];
         let mut n = 0;
         for y in 18..30 {
             for x in cols.clone() {
-                sum += px[y * SIZE as usize + x][1];
+                for (c, s) in sum.iter_mut().enumerate() {
+                    *s += px[y * SIZE as usize + x][c];
+                }
                 n += 1;
             }
         }
-        sum / n as f32
+        sum.map(|s| s / n as f32)
     };
     (mean(10..20), mean(28..38))
 }
@@ -151,4 +176,106 @@ fn clearcoat_roughness_texture_scales_the_roughness() {
     );
     let desc = load_scene(&path, None, None).unwrap();
     assert!(desc.materials[0].gltf.coat_roughness_texture.is_some());
+}
+
+#[test]
+fn specular_texture_masks_the_specular_layer() {
+    // A black dielectric reflects its Fresnel, F0 = 0.04 at IOR 1.5, of the white world; the
+    // texture's alpha multiplies the specular factor.
+    let path = scene_with(
+        "specular_texture",
+        json!({ "KHR_materials_specular": { "specularFactor": 1.0, "specularTexture": { "index": 0 } } }),
+        [65535, 65535, 65535, 0],
+    );
+    let (left, right) = halves(&path);
+    assert!(left < 0.003, "alpha 0: no specular, got {left}");
+    assert!(
+        (right - 0.04).abs() < 0.005,
+        "alpha 1: F0 0.04, got {right}"
+    );
+}
+
+#[test]
+fn specular_color_texture_tints_the_specular_layer() {
+    let path = scene_with(
+        "specular_color_texture",
+        json!({ "KHR_materials_specular": { "specularFactor": 1.0,
+                "specularColorTexture": { "index": 0 } } }),
+        [65535, 0, 0, 65535],
+    );
+    let (left, right) = halves_rgb(&path);
+    // Red texel: F0 = 0.04 x (1, 0, 0); white: 0.04 in every channel.
+    assert!(
+        (left[0] - 0.04).abs() < 0.006 && left[1] < 0.01 && left[2] < 0.01,
+        "red texel: a red-tinted reflection, got {left:?}"
+    );
+    assert!(
+        right.iter().all(|c| (c - 0.04).abs() < 0.006),
+        "white texel: F0 0.04, got {right:?}"
+    );
+}
+
+#[test]
+fn transmission_texture_masks_the_transmission() {
+    // A grey (0.5) base under the specular layer (F0 0.04). Where the texel is black the quad is
+    // opaque: the layer's 0.04 plus the diffuse base's 0.5 of the rest, about 0.52. Where it is
+    // white it transmits: the view refracts into the (one-sided) interface and sees the white
+    // world tinted by the base, with the radiance scaled by 1 / eta^2 on entering IOR 1.5:
+    // 0.04 + 0.96 x 0.5 / 2.25 = 0.253.
+    let path = scene_with_base(
+        "transmission_texture",
+        json!({ "KHR_materials_transmission": { "transmissionFactor": 1.0,
+                "transmissionTexture": { "index": 0 } } }),
+        [0, 0, 0, 65535],
+        0.5,
+    );
+    let (left, right) = halves(&path);
+    assert!(
+        (left - 0.52).abs() < 0.02,
+        "black texel: opaque, got {left}"
+    );
+    let want = 0.04 + 0.96 * 0.5 / 2.25;
+    assert!(
+        (right - want).abs() < 0.01,
+        "white texel: transmits, got {right} (want {want})"
+    );
+}
+
+#[test]
+fn iridescence_textures_vary_the_film() {
+    // A black dielectric (F0 0.04) under a 300 nm film of IOR 1.33: its reflection is coloured.
+    // Where iridescenceTexture is 0 there is no film, and where the thickness texture's G is 0
+    // the film has the minimum thickness, here 0: the plain 0.04 in every channel.
+    for (name, slot, extra) in [
+        ("iridescence_texture", "iridescenceTexture", json!({})),
+        (
+            "iridescence_thickness_texture",
+            "iridescenceThicknessTexture",
+            json!({ "iridescenceThicknessMinimum": 0.0 }),
+        ),
+    ] {
+        let mut film = json!({ "iridescenceFactor": 1.0, "iridescenceIor": 1.33,
+                               "iridescenceThicknessMaximum": 300.0 });
+        film[slot] = json!({ "index": 0 });
+        for (k, v) in extra.as_object().unwrap() {
+            film[k] = v.clone();
+        }
+        let path = scene_with(
+            name,
+            json!({ "KHR_materials_specular": { "specularFactor": 1.0 },
+                    "KHR_materials_iridescence": film }),
+            [0, 0, 0, 65535],
+        );
+        let (left, right) = halves_rgb(&path);
+        assert!(
+            left.iter().all(|c| (c - 0.04).abs() < 0.006),
+            "{slot} 0: no film, got {left:?}"
+        );
+        let spread = right.iter().cloned().fold(0.0f32, f32::max)
+            - right.iter().cloned().fold(1.0f32, f32::min);
+        assert!(
+            spread > 0.01 && right.iter().any(|c| (c - 0.04).abs() > 0.01),
+            "{slot} 1: the film colours the reflection, got {right:?}"
+        );
+    }
 }

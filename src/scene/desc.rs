@@ -132,6 +132,19 @@ pub struct GltfMaterialDesc {
     /// The film's thickness in nm: `iridescenceThicknessMaximum` (default 400; Blender's Thin
     /// Film Thickness), the extension's thickness without a thickness texture.
     pub iridescence_thickness: f32,
+    /// `iridescenceThicknessMinimum` (default 100): with `iridescence_thickness_texture`, the
+    /// thickness is mix(minimum, maximum, G).
+    pub iridescence_thickness_min: f32,
+    /// `iridescenceTexture` (R multiplies the factor) and `iridescenceThicknessTexture` (G
+    /// interpolates the thickness), linear.
+    pub iridescence_texture: Option<TextureRef>,
+    pub iridescence_thickness_texture: Option<TextureRef>,
+    /// KHR_materials_transmission `transmissionTexture` (R multiplies the factor, linear).
+    pub transmission_texture: Option<TextureRef>,
+    /// KHR_materials_specular `specularTexture` (A multiplies `specular`, linear) and
+    /// `specularColorTexture` (RGB multiplies `specular_color`, sRGB).
+    pub specular_texture: Option<TextureRef>,
+    pub specular_color_texture: Option<TextureRef>,
     /// Blender's area light Spread (extras `prism_emission_spread`, radians, full angle):
     /// the emission narrows to a cone of that angle around the normal (`crate::lights::spread`);
     /// pi (the default) is the Lambertian emitter.
@@ -179,6 +192,12 @@ impl Default for GltfMaterialDesc {
             iridescence: 0.0,
             iridescence_ior: 1.3,
             iridescence_thickness: 400.0,
+            iridescence_thickness_min: 100.0,
+            iridescence_texture: None,
+            iridescence_thickness_texture: None,
+            transmission_texture: None,
+            specular_texture: None,
+            specular_color_texture: None,
             emission_spread: std::f32::consts::PI,
             alpha_mode: AlphaMode::Opaque,
             alpha_cutoff: 0.5,

@@ -2004,11 +2004,12 @@ impl<'d> Importer<'d> {
                     self.json_texture(info, ColorSpace::Linear, &label, "sheenRoughnessTexture")?;
             }
         }
-        // KHR_materials_iridescence (not parsed by the gltf crate): a thin film of one thickness
-        // (the maximum: the extension's thickness where no texture varies it).
+        // KHR_materials_iridescence (not parsed by the gltf crate): a thin film whose thickness is
+        // the maximum, or mix(minimum, maximum, G) of the thickness texture.
         let (mut iridescence, mut iridescence_ior, mut iridescence_thickness) =
             (0.0f32, 1.3f32, 400.0f32);
-        let mut iridescence_texture = false;
+        let mut iridescence_thickness_min = 100.0f32;
+        let (mut iridescence_texture, mut iridescence_thickness_texture) = (None, None);
         if let Some(c) = m
             .extensions()
             .and_then(|ext| ext.get("KHR_materials_iridescence"))
@@ -2044,10 +2045,51 @@ impl<'d> Importer<'d> {
                 &|x| x >= 0.0,
                 "a non-negative number",
             )?;
-            iridescence_texture = ["iridescenceTexture", "iridescenceThicknessTexture"]
-                .iter()
-                .any(|k| c.get(*k).is_some());
+            iridescence_thickness_min = number(
+                "iridescenceThicknessMinimum",
+                100.0,
+                &|x| x >= 0.0,
+                "a non-negative number",
+            )?;
+            if let Some(info) = c.get("iridescenceTexture") {
+                iridescence_texture =
+                    self.json_texture(info, ColorSpace::Linear, &label, "iridescenceTexture")?;
+            }
+            if let Some(info) = c.get("iridescenceThicknessTexture") {
+                iridescence_thickness_texture = self.json_texture(
+                    info,
+                    ColorSpace::Linear,
+                    &label,
+                    "iridescenceThicknessTexture",
+                )?;
+            }
         }
+        // Textures of KHR_materials_transmission and KHR_materials_specular. (A path tracer
+        // measures the real distance through a volume: KHR_materials_volume's thickness and its
+        // texture, a rasteriser's stand-in for it, are not needed.)
+        let transmission_texture = match m.transmission().and_then(|t| t.transmission_texture()) {
+            Some(info) => {
+                self.texture_ref(&info, ColorSpace::Linear, &label, "transmissionTexture")?
+            }
+            None => None,
+        };
+        let (specular_texture, specular_color_texture) = match m.specular() {
+            Some(sp) => (
+                match sp.specular_texture() {
+                    Some(info) => {
+                        self.texture_ref(&info, ColorSpace::Linear, &label, "specularTexture")?
+                    }
+                    None => None,
+                },
+                match sp.specular_color_texture() {
+                    Some(info) => {
+                        self.texture_ref(&info, ColorSpace::Srgb, &label, "specularColorTexture")?
+                    }
+                    None => None,
+                },
+            ),
+            None => (None, None),
+        };
         let extras = m
             .extras()
             .as_ref()
@@ -2090,46 +2132,9 @@ impl<'d> Importer<'d> {
             ));
         }
         // Inputs the renderer does not model yet: reported once, never fatal.
-        // Read from the JSON: the crate's accessors would resolve (and unwrap) the texture
-        // indices, which are not checked for slots the renderer does not read.
         let mut ignored: Vec<&str> = Vec::new();
-        if let Some(ext) = m
-            .index()
-            .and_then(|i| self.doc.as_json().materials[i].extensions.as_ref())
-        {
-            let slots = [
-                (
-                    "transmissionTexture",
-                    ext.transmission
-                        .as_ref()
-                        .is_some_and(|t| t.transmission_texture.is_some()),
-                ),
-                (
-                    "specularTexture",
-                    ext.specular
-                        .as_ref()
-                        .is_some_and(|t| t.specular_texture.is_some()),
-                ),
-                (
-                    "specularColorTexture",
-                    ext.specular
-                        .as_ref()
-                        .is_some_and(|t| t.specular_color_texture.is_some()),
-                ),
-                (
-                    "thicknessTexture",
-                    ext.volume
-                        .as_ref()
-                        .is_some_and(|t| t.thickness_texture.is_some()),
-                ),
-            ];
-            ignored.extend(slots.iter().filter(|s| s.1).map(|s| s.0));
-        }
         if coat_textures {
             ignored.push("clearcoatNormalTexture");
-        }
-        if iridescence_texture {
-            ignored.push("iridescence textures (the maximum thickness is used)");
         }
         if !ignored.is_empty() {
             self.warn_once(format!(
@@ -2218,6 +2223,12 @@ impl<'d> Importer<'d> {
             iridescence,
             iridescence_ior,
             iridescence_thickness,
+            iridescence_thickness_min,
+            iridescence_texture,
+            iridescence_thickness_texture,
+            transmission_texture,
+            specular_texture,
+            specular_color_texture,
             emission_spread,
             alpha_mode,
             alpha_cutoff: if alpha_cutoff.is_finite() {

@@ -433,8 +433,26 @@ impl Material {
     }
 
     /// The thin film at the path's wavelengths, if any.
-    fn iridescence(&self, w: &SampledWavelengths) -> Option<Iridescence> {
-        self.thin_film.map(|(film, weight)| Iridescence {
+    /// The thin film at a shading point: the factor times `iridescenceTexture` (R), the
+    /// thickness mix(minimum, maximum, G) of `iridescenceThicknessTexture` where there is one.
+    fn iridescence(
+        &self,
+        textures: &[TextureDesc],
+        uv: Vec2,
+        inputs: Option<&ShadingInputs>,
+        w: &SampledWavelengths,
+    ) -> Option<Iridescence> {
+        let (mut film, mut weight) = self.thin_film?;
+        let g = &self.gltf;
+        if let Some(t) = g.iridescence_texture {
+            weight *= lookup_at(textures, &t, uv, inputs).x;
+        }
+        if let Some(t) = g.iridescence_thickness_texture {
+            let f = lookup_at(textures, &t, uv, inputs).y.clamp(0.0, 1.0);
+            film.thickness_nm = g.iridescence_thickness_min
+                + (g.iridescence_thickness - g.iridescence_thickness_min) * f;
+        }
+        (weight > 0.0).then(|| Iridescence {
             film,
             weight,
             lambda: SampledSpectrum::from_fn(|i| w.lambda[i]),
@@ -592,20 +610,26 @@ impl Material {
         if let Some(r) = get(MaterialInput::Roughness) {
             roughness = r.x.clamp(0.0, 1.0);
         }
-        let specular = get(MaterialInput::Specular).map_or(g.specular, |s| s.x.max(0.0));
+        let specular = match (get(MaterialInput::Specular), g.specular_texture) {
+            (Some(s), _) => s.x.max(0.0),
+            (None, Some(t)) => g.specular * lookup_at(textures, &t, uv, inputs).w,
+            (None, None) => g.specular,
+        };
         let alpha = roughness_to_alpha(roughness);
         // glTF transmission replaces the diffuse part of the dielectric base: we pick the
         // transmissive component with probability `transmission` (metals do not transmit).
         let refraction_only = get(MaterialInput::Refraction).is_some_and(|r| r.x > 0.5);
-        let transmission = get(MaterialInput::Transmission)
-            .map_or(g.transmission, |t| t.x.clamp(0.0, 1.0))
-            * (1.0 - metallic);
+        let transmission = match (get(MaterialInput::Transmission), g.transmission_texture) {
+            (Some(t), _) => t.x.clamp(0.0, 1.0),
+            (None, Some(t)) => g.transmission * lookup_at(textures, &t, uv, inputs).x,
+            (None, None) => g.transmission,
+        } * (1.0 - metallic);
         if refraction_only || (transmission > 0.0 && u_select < transmission) {
             return Bsdf::Dielectric(DielectricBsdf {
                 eta: SampledSpectrum::from_fn(|i| self.gltf_ior.eval(w.lambda[i])),
                 alpha: if alpha < MIN_ALPHA { 0.0 } else { alpha },
                 transmission_tint: base,
-                iridescence: self.iridescence(w),
+                iridescence: self.iridescence(textures, uv, inputs, w),
                 refraction_only,
                 energy_compensation: self.energy_compensation,
             });
@@ -625,12 +649,18 @@ impl Material {
             metallic,
             alpha: alpha.max(MIN_ALPHA),
             specular,
-            specular_color: self.specular_color.sample(w),
+            specular_color: match g.specular_color_texture {
+                Some(t) => {
+                    let texel = lookup_at(textures, &t, uv, inputs).xyz();
+                    RgbAlbedoSpectrum::new((g.specular_color * texel).max(Vec3::ZERO)).sample(w)
+                }
+                None => self.specular_color.sample(w),
+            },
             ior: g.ior,
             energy_compensation: self.energy_compensation,
             coat,
             sheen,
-            iridescence: self.iridescence(w),
+            iridescence: self.iridescence(textures, uv, inputs, w),
         })
     }
 
