@@ -279,3 +279,43 @@ fn iridescence_textures_vary_the_film() {
         );
     }
 }
+
+#[test]
+fn graph_specular_tint_and_thin_film_inputs() {
+    // A shading graph's `specular_tint` tints the F0 of the black dielectric (0.04 in red only),
+    // and its `thin_film_thickness` / `thin_film_ior` put a film on it (a coloured reflection);
+    // thickness 0 is no film.
+    let render = |name: &str, inputs: Value| {
+        let path = scene_with(
+            name,
+            json!({ "KHR_materials_specular": { "specularFactor": 1.0 } }),
+            [65535, 65535, 65535, 65535],
+        );
+        let doc = json!({ "version": 1, "world": { "color": [1.0, 1.0, 1.0], "strength": 1.0 },
+                          "materials": { "Layered": { "graph": { "version": 1, "nodes": {},
+                                                                 "inputs": inputs } } } });
+        std::fs::write(path.with_extension("materials.json"), doc.to_string()).unwrap();
+        halves_rgb(&path).1
+    };
+    let red = render(
+        "graph_specular_tint",
+        json!({ "specular_tint": [1.0, 0.0, 0.0] }),
+    );
+    assert!(
+        (red[0] - 0.04).abs() < 0.006 && red[1] < 0.005 && red[2] < 0.005,
+        "specular_tint red: {red:?}"
+    );
+    let plain = render("graph_no_film", json!({ "thin_film_thickness": 0.0 }));
+    assert!(
+        plain.iter().all(|c| (c - 0.04).abs() < 0.006),
+        "no film: {plain:?}"
+    );
+    let film = render(
+        "graph_thin_film",
+        json!({ "thin_film_thickness": 300.0, "thin_film_ior": 1.33 }),
+    );
+    assert!(
+        film.iter().any(|c| (c - 0.04).abs() > 0.01),
+        "a 300 nm film colours the reflection: {film:?}"
+    );
+}

@@ -1110,13 +1110,21 @@ class Exporter:
             bind("coat_weight", S("Coat Weight", "Clearcoat"))
             bind("coat_roughness", S("Coat Roughness", "Clearcoat Roughness"))
             bind("coat_tint", S("Coat Tint"))
+            tint = S("Specular Tint")
+            if tint is not None and tint.type == "RGBA":  # 4.x's colour (3.x: a factor)
+                bind("specular_tint", tint)
+            if bind("thin_film_thickness", S("Thin Film Thickness")) | bind("thin_film_ior", S("Thin Film IOR")):
+                if "thin_film_thickness" not in gb.inputs:
+                    gb.bind_const("thin_film_thickness", max(float(_val(node, "Thin Film Thickness")), 0.0))
+                if "thin_film_ior" not in gb.inputs:
+                    gb.bind_const("thin_film_ior", max(float(_val(node, "Thin Film IOR", default=1.33)), 1.0))
             self._graph_sheen(gb, node, handled)
             alpha = S("Alpha")
             if alpha is not None and not bind("alpha", alpha) and float(alpha.default_value) < 1.0:
                 gb.bind_const("alpha", float(alpha.default_value))
                 handled.add(alpha.identifier)
             self._graph_normal(gb, node, m, handled)
-            self._principled_warnings(name, node, handled, own_material=True)
+            self._principled_warnings(name, node, handled)
         elif t in {"BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_ANISOTROPIC", "BSDF_GLASS"}:
             if bind("base_color", S("Color")):
                 m["image"] = None
@@ -1305,7 +1313,8 @@ class Exporter:
                                                         "Normal", "Coat Weight", "Coat Roughness", "Coat Tint",
                                                         "Clearcoat", "Clearcoat Roughness", "Sheen Weight",
                                                         "Sheen Tint", "Sheen Roughness", "Subsurface Weight",
-                                                        "Subsurface"})
+                                                        "Subsurface", "Specular Tint", "Thin Film Thickness",
+                                                        "Thin Film IOR"})
                 # Subsurface Weight s splits the leaf: s of it is the subsurface medium (whose
                 # boundary is this leaf's specular layer), 1 - s the Principled BSDF, as for a
                 # Principled surface of its own (`_principled_subsurface`).
@@ -1371,9 +1380,29 @@ class Exporter:
                                   ", ".join("%.2f" % c for c in list(sock.default_value)[:3])))
 
     def _leaf_layers(self, name, leaf, inputs, gb, node_name, V):
-        """A Principled leaf's Coat and Sheen as its closure's inputs (`coat_weight`,
+        """A Principled leaf's Specular Tint, Thin Film, Coat and Sheen as its closure's inputs
+        (`specular_tint`, `thin_film_thickness`, `thin_film_ior`, `coat_weight`,
         `coat_roughness`, `coat_tint`, `sheen_color`, `sheen_roughness`). The coat's IOR is the
         material's (1.5): another value is warned about."""
+        tint = leaf.inputs.get("Specular Tint")
+        if tint is not None and tint.type == "RGBA":
+            tv = V(tint, [1.0, 1.0, 1.0])
+            if isinstance(tv, dict) or any(abs(float(c) - 1.0) > 1e-6 for c in tv[:3]):
+                inputs["specular_tint"] = tv if isinstance(tv, dict) else [max(float(c), 0.0) for c in tv[:3]]
+        elif tint is not None:  # 3.x: a factor towards the base colour's hue
+            if tint.is_linked:
+                self.warnings.append("material '%s': a linked Specular Tint factor (Blender 3.x) inside a Mix/Add"
+                                     " Shader is not supported; its value is used" % name)
+            base = _rgb(_socket(leaf, "Base Color").default_value)
+            t = _principled_specular_tint(leaf, base)
+            if t is not None and any(abs(c - 1.0) > 1e-6 for c in t):
+                inputs["specular_tint"] = t
+        film = leaf.inputs.get("Thin Film Thickness")
+        if film is not None:
+            fv = V(film, 0.0)
+            if isinstance(fv, dict) or fv > 0.0:
+                inputs["thin_film_thickness"] = fv
+                inputs["thin_film_ior"] = V(leaf.inputs.get("Thin Film IOR"), 1.33)
         cw = _socket(leaf, "Coat Weight", "Clearcoat")
         if cw is not None:
             wv = V(cw, 0.0)
@@ -1427,11 +1456,9 @@ class Exporter:
                     % (name, src.name, sock.name, node.name)
                 )
 
-    def _principled_warnings(self, name, node, handled, own_material=False):
+    def _principled_warnings(self, name, node, handled):
         """Names the Principled inputs Prism does not render yet (linked or set away from their
-        neutral value): never a silent drop. `own_material`: the node is the material's surface
-        (not a Mix/Add Shader leaf), whose Specular Tint and Thin Film are exported (Coat and
-        Sheen are exported for both)."""
+        neutral value): never a silent drop."""
         handled = set(handled)
         # Inputs the exporter translates from their values (subsurface, IOR) are handled when unlinked.
         self._linked_warnings(name, node, handled)
@@ -1440,8 +1467,6 @@ class Exporter:
             ("Sheen", lambda v: v > 0.0, "Sheen (Blender 3.x's model)"),
             ("Anisotropic", lambda v: v > 0.0, "Anisotropic"),
         ]
-        if not own_material:
-            checks.append(("Thin Film Thickness", lambda v: v > 0.0, "Thin Film (inside a Mix/Add Shader)"))
         for sock_name, bad, what in checks:
             sock = node.inputs.get(sock_name)
             if sock is None or sock.is_linked:
@@ -1451,15 +1476,6 @@ class Exporter:
                     self.warnings.append("material '%s': %s is not supported yet and is ignored" % (name, what))
             except TypeError:
                 pass
-        tint = node.inputs.get("Specular Tint")
-        if tint is not None and not tint.is_linked and not own_material:
-            v = tint.default_value
-            try:
-                coloured = any(abs(float(c) - 1.0) > 1e-6 for c in list(v)[:3])
-            except TypeError:
-                coloured = float(v) > 0.0  # 3.x: a 0..1 factor towards the base colour
-            if coloured:
-                self.warnings.append("material '%s': Specular Tint inside a Mix/Add Shader is not supported yet and is ignored" % name)
 
     def _material(self, mat):
         key = mat.name if mat is not None else None

@@ -619,6 +619,21 @@ impl Material {
         // glTF transmission replaces the diffuse part of the dielectric base: we pick the
         // transmissive component with probability `transmission` (metals do not transmit).
         let refraction_only = get(MaterialInput::Refraction).is_some_and(|r| r.x > 0.5);
+        let iridescence = match get(MaterialInput::ThinFilmThickness) {
+            // The graph's Thin Film (a Mix Shader leaf's, or a textured thickness).
+            Some(t) if t.x > 0.0 => Some(Iridescence {
+                film: ThinFilm {
+                    thickness_nm: t.x,
+                    ior: get(MaterialInput::ThinFilmIor)
+                        .map_or(self.gltf.iridescence_ior, |n| n.x)
+                        .max(1.0),
+                },
+                weight: 1.0,
+                lambda: SampledSpectrum::from_fn(|i| w.lambda[i]),
+            }),
+            Some(_) => None,
+            None => self.iridescence(textures, uv, inputs, w),
+        };
         let transmission = match (get(MaterialInput::Transmission), g.transmission_texture) {
             (Some(t), _) => t.x.clamp(0.0, 1.0),
             (None, Some(t)) => g.transmission * lookup_at(textures, &t, uv, inputs).x,
@@ -629,7 +644,7 @@ impl Material {
                 eta: SampledSpectrum::from_fn(|i| self.gltf_ior.eval(w.lambda[i])),
                 alpha: if alpha < MIN_ALPHA { 0.0 } else { alpha },
                 transmission_tint: base,
-                iridescence: self.iridescence(textures, uv, inputs, w),
+                iridescence,
                 refraction_only,
                 energy_compensation: self.energy_compensation,
             });
@@ -640,7 +655,7 @@ impl Material {
             && specular <= 0.0
             && !coat.is_present()
             && !sheen.is_present()
-            && self.thin_film.is_none()
+            && iridescence.is_none()
         {
             return Bsdf::Diffuse(DiffuseBsdf { reflectance: base });
         }
@@ -649,18 +664,19 @@ impl Material {
             metallic,
             alpha: alpha.max(MIN_ALPHA),
             specular,
-            specular_color: match g.specular_color_texture {
-                Some(t) => {
+            specular_color: match (get(MaterialInput::SpecularTint), g.specular_color_texture) {
+                (Some(c), _) => RgbAlbedoSpectrum::new(c.xyz().max(Vec3::ZERO)).sample(w),
+                (None, Some(t)) => {
                     let texel = lookup_at(textures, &t, uv, inputs).xyz();
                     RgbAlbedoSpectrum::new((g.specular_color * texel).max(Vec3::ZERO)).sample(w)
                 }
-                None => self.specular_color.sample(w),
+                (None, None) => self.specular_color.sample(w),
             },
             ior: g.ior,
             energy_compensation: self.energy_compensation,
             coat,
             sheen,
-            iridescence: self.iridescence(textures, uv, inputs, w),
+            iridescence,
         })
     }
 

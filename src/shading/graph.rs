@@ -580,6 +580,12 @@ pub enum MaterialInput {
     /// Principled Sheen: its colour (Weight x Tint) and the (Charlie) roughness.
     SheenColor,
     SheenRoughness,
+    /// Principled Specular Tint (4.x colour): the dielectric F0's tint and the metal's F82
+    /// edge tint (KHR_materials_specular's specular colour).
+    SpecularTint,
+    /// Principled Thin Film Thickness (nm; 0: no film) and IOR.
+    ThinFilmThickness,
+    ThinFilmIor,
 }
 
 pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
@@ -600,9 +606,12 @@ pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
     ("coat_tint", MaterialInput::CoatTint, C),
     ("sheen_color", MaterialInput::SheenColor, C),
     ("sheen_roughness", MaterialInput::SheenRoughness, F),
+    ("specular_tint", MaterialInput::SpecularTint, C),
+    ("thin_film_thickness", MaterialInput::ThinFilmThickness, F),
+    ("thin_film_ior", MaterialInput::ThinFilmIor, F),
 ];
 
-pub const N_MATERIAL_INPUTS: usize = 17;
+pub const N_MATERIAL_INPUTS: usize = 20;
 
 impl MaterialInput {
     pub fn index(self) -> usize {

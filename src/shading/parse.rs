@@ -22,7 +22,9 @@
 //! * `inputs` binds material inputs (`base_color`, `metallic`, `roughness`, `specular`,
 //!   `transmission`, `emission`, `emission_strength`, `alpha`, `normal`, `translucent`,
 //!   `volume_density`, `refraction`: 1 makes a closure Blender's Refraction BSDF, the
-//!   dielectric's refraction alone) to a node output or a constant; a bound input replaces the glTF
+//!   dielectric's refraction alone; `coat_weight`, `coat_roughness`, `coat_tint`,
+//!   `sheen_color`, `sheen_roughness`, `specular_tint` (Blender 4.x's colour),
+//!   `thin_film_thickness` (nm, 0: none) and `thin_film_ior`) to a node output or a constant; a bound input replaces the glTF
 //!   material's factor and texture, the others keep the glTF values. `volume_density` (a
 //!   non-negative float) multiplies the material's `volume` coefficients at each point inside
 //!   it, where the graph reads Position, Object and Generated coordinates (a heterogeneous
