@@ -1,7 +1,8 @@
 //! Textured layers and glTF material slots (issues 12 and 14): `clearcoatTexture` /
 //! `clearcoatRoughnessTexture`, `sheenColorTexture` / `sheenRoughnessTexture`,
 //! `transmissionTexture`, `specularTexture` / `specularColorTexture` and `iridescenceTexture` /
-//! `iridescenceThicknessTexture` are read and vary their layer across a surface.
+//! `iridescenceThicknessTexture` and `clearcoatNormalTexture` are read and vary their layer
+//! across a surface.
 //!
 //! The scene: a unit quad facing a camera in a uniform white world, its material black (with
 //! no specular layer where the slot under test is not the specular layer's), so that what it
@@ -38,13 +39,26 @@ fn scene_with(name: &str, extensions: Value, left: [u16; 4]) -> PathBuf {
 
 /// [`scene_with`] with a grey base colour of `base` (black there).
 fn scene_with_base(name: &str, extensions: Value, left: [u16; 4], base: f32) -> PathBuf {
+    scene_full(name, extensions, [left, [65535; 4]], base, None)
+}
+
+/// The quad with the material's `extensions`, texture 0's two texels, a grey base of `base`
+/// and, with `sun` (the light node's rotation quaternion), a black world and a directional
+/// light of irradiance 1 instead of the white world.
+fn scene_full(
+    name: &str,
+    extensions: Value,
+    texels: [[u16; 4]; 2],
+    base: f32,
+    sun: Option<[f32; 4]>,
+) -> PathBuf {
     let dir = test_dir(name);
     let mut b = GltfBuilder::new();
     for ext in extensions.as_object().unwrap().keys() {
         b.use_ext(ext);
     }
     b.use_ext("KHR_materials_specular");
-    let png = png16_bytes(2, 1, &[left, [65535, 65535, 65535, 65535]]);
+    let png = png16_bytes(2, 1, &texels);
     let img = b.image_embedded(&png, "image/png");
     // NEAREST: each half is one texel's value.
     b.texture(img, Some(json!({ "magFilter": 9728, "minFilter": 9728 })));
@@ -68,10 +82,18 @@ fn scene_with_base(name: &str, extensions: Value, left: [u16; 4], base: f32) -> 
     b.root(json!({ "name": "Quad", "mesh": mesh }));
     let cam = b.camera("Cam", 0.4, Some(1.0));
     b.root(json!({ "name": "Cam", "camera": cam, "translation": [0.0, 0.0, 3.0] }));
+    if let Some(q) = sun {
+        // 683 lux: an irradiance of 1 W/m^2 (gltf_light_intensity_to_prism).
+        let light = b.light(json!({ "type": "directional", "intensity": 683.0 }));
+        b.root(json!({ "name": "Sun", "rotation": q,
+                       "extensions": { "KHR_lights_punctual": { "light": light } } }));
+    }
     let path = b.write_gltf(&dir.join("scene.gltf"));
+    let world = if sun.is_some() { 0.0 } else { 1.0 };
     std::fs::write(
         dir.join("scene.materials.json"),
-        r#"{ "version": 1, "world": { "color": [1.0, 1.0, 1.0], "strength": 1.0 } }"#,
+        json!({ "version": 1, "world": { "color": [1.0, 1.0, 1.0], "strength": world } })
+            .to_string(),
     )
     .unwrap();
     path
@@ -317,5 +339,32 @@ fn graph_specular_tint_and_thin_film_inputs() {
     assert!(
         film.iter().any(|c| (c - 0.04).abs() > 0.01),
         "a 300 nm film colours the reflection: {film:?}"
+    );
+}
+
+#[test]
+fn clearcoat_normal_texture_tilts_the_coat() {
+    // A black base under a rough (0.3) coat, lit only by a sun 40 degrees off the view axis
+    // (towards +x): the coat's highlight peaks where its normal is the half vector, 20 degrees
+    // towards +x. The right texel of clearcoatNormalTexture tilts the coat's normal so
+    // (tangent space (sin 20, 0, cos 20); the quad's tangent is +x); the left one is flat,
+    // 20 degrees off the peak, where GGX's D is 0.4% of its peak.
+    let t = 20f32.to_radians();
+    let texel = |v: f32| (((v + 1.0) * 0.5) * 65535.0).round() as u16;
+    let flat = [texel(0.0), texel(0.0), texel(1.0), 65535];
+    let tilted = [texel(t.sin()), texel(0.0), texel(t.cos()), 65535];
+    // The light travels along -(sin 40, 0, cos 40): the node's -z turned 40 degrees about y.
+    let half = 20f32.to_radians();
+    let sun = Some([0.0, half.sin(), 0.0, half.cos()]);
+    let coat = json!({ "KHR_materials_clearcoat": { "clearcoatFactor": 1.0,
+                       "clearcoatRoughnessFactor": 0.3, "clearcoatNormalTexture": { "index": 0 } },
+                       "KHR_materials_specular": { "specularFactor": 0.0 } });
+    let path = scene_full("coat_normal_texture", coat, [flat, tilted], 0.0, sun);
+    let desc = load_scene(&path, None, None).unwrap();
+    assert!(desc.materials[0].gltf.coat_normal_texture.is_some());
+    let (left, right) = halves(&path);
+    assert!(
+        right > 0.05 && right > 20.0 * left,
+        "the tilted coat's highlight: left {left}, right {right}"
     );
 }

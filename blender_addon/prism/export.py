@@ -1110,6 +1110,9 @@ class Exporter:
             bind("coat_weight", S("Coat Weight", "Clearcoat"))
             bind("coat_roughness", S("Coat Roughness", "Clearcoat Roughness"))
             bind("coat_tint", S("Coat Tint"))
+            # Coat Normal (4.x; 3.x: Clearcoat Normal): the coat's own; unlinked, the coat keeps
+            # the surface's unperturbed normal under a bumped base (the renderer's default).
+            bind("coat_normal", S("Coat Normal", "Clearcoat Normal"))
             tint = S("Specular Tint")
             if tint is not None and tint.type == "RGBA":  # 4.x's colour (3.x: a factor)
                 bind("specular_tint", tint)

@@ -13,6 +13,13 @@
 //!   not reciprocal, as in Cycles;
 //! - the glTF spec's (`KHR_materials_clearcoat`): single scattering, the layer below scaled by
 //!   `1 - weight F(wo.h)` per direction pair, no tint.
+//!
+//! The coat has its own shading normal (`normal`, in the base's local frame): Blender's Coat
+//! Normal, glTF's `clearcoatNormalTexture`, and by default the unperturbed shading normal,
+//! so that a bump or normal map on the base leaves the coat smooth (as in Cycles and the glTF
+//! spec). The lobe, its density, its sampling and the cosines that set how much the coat lets
+//! through are taken in the coat's frame; a rotation preserves solid angle, so the densities
+//! carry over unchanged.
 
 use super::energy::{
     ggx_reflection_albedo, ggx_reflection_average, multiscatter_fresnel, ReflectionAlbedo,
@@ -20,7 +27,7 @@ use super::energy::{
 };
 use super::fresnel::{reflect, schlick_weight};
 use super::microfacet::TrowbridgeReitz;
-use crate::math::{safe_sqrt, sqr, PI};
+use crate::math::{safe_sqrt, sqr, Frame, PI};
 use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
 
@@ -33,6 +40,8 @@ pub struct Coat {
     pub ior: f32,
     /// Colour after one vertical pass through the coat.
     pub tint: SampledSpectrum,
+    /// The coat's unit normal in the base's local frame (+z: the base's normal).
+    pub normal: Vec3,
 }
 
 impl Coat {
@@ -41,7 +50,31 @@ impl Coat {
         alpha: 0.0,
         ior: 1.5,
         tint: SampledSpectrum::ONE,
+        normal: Vec3::Z,
     };
+
+    /// The frame of a coat normal that differs from the base's (None: the same, where
+    /// everything is computed as is, bit for bit).
+    #[inline]
+    fn frame(&self) -> Option<Frame> {
+        (self.normal != Vec3::Z).then(|| Frame::from_normal(self.normal))
+    }
+
+    /// `v` (base frame) in the coat's frame.
+    #[inline]
+    fn in_coat_frame(&self, v: Vec3) -> Vec3 {
+        self.frame().map_or(v, |f| f.to_local(v))
+    }
+
+    /// The cosine of `w` (base frame) with the coat's normal.
+    #[inline]
+    pub fn cos(&self, w: Vec3) -> f32 {
+        if self.normal == Vec3::Z {
+            w.z
+        } else {
+            w.dot(self.normal)
+        }
+    }
 
     #[inline]
     pub fn is_present(&self) -> bool {
@@ -123,11 +156,27 @@ impl Coat {
             .map(|t| left * (1.0 + w * (t.max(0.0).powf(depth) - 1.0)))
     }
 
-    /// The weighted coat lobe f(wo, wi) (no cosine) for `wo`, `wi` above the surface and their
+    /// The weighted coat lobe f(wo, wi) (no cosine) for `wo`, `wi` (base frame) and their
     /// half vector `h`; `multiscatter` adds the energy-compensation lobe. Zero for a smooth
-    /// coat except for its multiple scattering (which is zero too).
+    /// coat except for its multiple scattering (which is zero too), and below the coat.
     pub fn eval(&self, wo: Vec3, wi: Vec3, h: Vec3, multiscatter: bool) -> f32 {
-        let w = self.weight();
+        let cos_base = wi.z;
+        let (wo, wi, h) = (
+            self.in_coat_frame(wo),
+            self.in_coat_frame(wi),
+            self.in_coat_frame(h),
+        );
+        if !(wo.z > 0.0 && wi.z > 0.0 && cos_base > 0.0) {
+            return 0.0;
+        }
+        // The caller's estimator multiplies by the cosine with the base's normal; the coat's
+        // lobe is projected onto its own (as each closure's in Cycles).
+        let projection = if self.normal == Vec3::Z {
+            1.0
+        } else {
+            wi.z / cos_base
+        };
+        let w = self.weight() * projection;
         let mut f = 0.0;
         if !self.is_smooth() {
             let distrib = self.distribution();
@@ -147,9 +196,14 @@ impl Coat {
         w * f
     }
 
-    /// Density of `wi` under the coat's visible-normal sampling (0 for a smooth coat).
+    /// Density of `wi` under the coat's visible-normal sampling (0 for a smooth coat), for
+    /// `wo` and the half vector `h` in the base frame.
     pub fn pdf(&self, wo: Vec3, h: Vec3) -> f32 {
         if self.is_smooth() {
+            return 0.0;
+        }
+        let (wo, h) = (self.in_coat_frame(wo), self.in_coat_frame(h));
+        if !(wo.z > 0.0 && h.z > 0.0) {
             return 0.0;
         }
         let vdoth = wo.dot(h);
@@ -164,9 +218,17 @@ impl Coat {
         }
     }
 
-    /// A direction from the coat lobe: a visible normal's mirror direction (the mirror
-    /// direction itself for a smooth coat).
-    pub fn sample(&self, wo: Vec3, u: Vec2) -> Vec3 {
+    /// A direction (base frame) from the coat lobe: a visible normal's mirror direction (the
+    /// mirror direction itself for a smooth coat); None where `wo` is below the coat.
+    pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+        let Some(frame) = self.frame() else {
+            return Some(self.sample_local(wo, u));
+        };
+        let wo = frame.to_local(wo);
+        (wo.z > 0.0).then(|| frame.to_world(self.sample_local(wo, u)))
+    }
+
+    fn sample_local(&self, wo: Vec3, u: Vec2) -> Vec3 {
         if self.is_smooth() {
             return Vec3::new(-wo.x, -wo.y, wo.z);
         }

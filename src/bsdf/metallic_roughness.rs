@@ -237,8 +237,9 @@ impl MetallicRoughnessBsdf {
     /// which samples the diffuse and every multiple-scattering lobe, has the rest): each lobe's
     /// estimated albedo over the total, with the Fresnel terms at the macro-surface angle. A
     /// lobe that vanishes gets exactly 0.
-    fn all_lobe_probabilities(&self, cos_o: f32, layers: Option<&Layers>) -> (f32, f32, f32) {
-        let (w_coat, w_spec, w_cos) = self.lobe_weights(cos_o, layers);
+    fn all_lobe_probabilities(&self, wo: Vec3, layers: Option<&Layers>) -> (f32, f32, f32) {
+        let cos_o = wo.z;
+        let (w_coat, w_spec, w_cos) = self.lobe_weights(wo, layers);
         let total = w_coat.max(0.0) + w_spec.max(0.0) + w_cos.max(0.0);
         let p_sheen = self.sheen_probability(cos_o, total);
         if !(total > 0.0) || !total.is_finite() {
@@ -274,16 +275,17 @@ impl MetallicRoughnessBsdf {
         }
     }
 
-    /// Estimated albedos (coat, base GGX, cosine-weighted lobes) at `cos_o`.
-    fn lobe_weights(&self, cos_o: f32, layers: Option<&Layers>) -> (f32, f32, f32) {
+    /// Estimated albedos (coat, base GGX, cosine-weighted lobes) at `wo`.
+    fn lobe_weights(&self, wo: Vec3, layers: Option<&Layers>) -> (f32, f32, f32) {
         let m = self.metallic();
-        let (fd, fc) = self.fresnels(cos_o);
+        let (fd, fc) = self.fresnels(wo.z);
         let coat = &self.coat;
         let (w_coat, below, coat_ms) = if coat.is_present() {
-            let single = coat.weight() * coat.fresnel(cos_o);
+            let cos_c = coat.cos(wo).clamp(0.0, 1.0);
+            let single = coat.weight() * coat.fresnel(cos_c);
             if self.energy_compensation {
-                let albedo = coat.albedo(cos_o);
-                let below = coat.transmittance(cos_o).average();
+                let albedo = coat.albedo(cos_c);
+                let below = coat.transmittance(cos_c).average();
                 (single, below, (albedo - single).max(0.0))
             } else {
                 (single, 1.0 - single, 0.0)
@@ -306,13 +308,14 @@ impl MetallicRoughnessBsdf {
     }
 
     /// The factor on the base below the coat (1 without a coat): what the coat lets through
-    /// at `wo` (energy-conserving model) or at `wo.h` (glTF model). See `coat.rs`.
-    fn below_coat(&self, cos_o: f32, cos_h: f32) -> SampledSpectrum {
+    /// at `wo` (energy-conserving model, its cosine with the coat's normal) or at `wo.h` (glTF
+    /// model). See `coat.rs`.
+    fn below_coat(&self, wo: Vec3, cos_h: f32) -> SampledSpectrum {
         let coat = &self.coat;
         if !coat.is_present() {
             SampledSpectrum::ONE
         } else if self.energy_compensation {
-            coat.transmittance(cos_o)
+            coat.transmittance(coat.cos(wo).clamp(0.0, 1.0))
         } else {
             SampledSpectrum::splat(1.0 - coat.weight() * coat.fresnel(cos_h))
         }
@@ -434,7 +437,7 @@ impl MetallicRoughnessBsdf {
         let smooth = distrib.effectively_smooth();
         let vdoth = wo.dot(h).clamp(0.0, 1.0);
         let (fd, fc) = self.fresnels(vdoth);
-        let (p_sheen, p_coat, p_spec) = self.all_lobe_probabilities(wo.z, layers);
+        let (p_sheen, p_coat, p_spec) = self.all_lobe_probabilities(wo, layers);
         let mut pdf = (1.0 - p_coat - p_spec).max(0.0) * cosine_hemisphere_pdf(wi.z);
         let (mut dielectric, mut conductor) = match layers {
             Some(l) => {
@@ -463,7 +466,7 @@ impl MetallicRoughnessBsdf {
                 }
             }
         }
-        let mut f = (dielectric * (1.0 - m) + conductor * m) * self.below_coat(wo.z, vdoth);
+        let mut f = (dielectric * (1.0 - m) + conductor * m) * self.below_coat(wo, vdoth);
         if self.coat.is_present() {
             f += SampledSpectrum::splat(self.coat.eval(wo, wi, h, self.energy_compensation));
             pdf += p_coat * self.coat.pdf(wo, h);
@@ -510,7 +513,7 @@ impl MetallicRoughnessBsdf {
             * INV_PI
             * share
             * (1.0 - self.metallic())
-            * self.below_coat(wo.z, wo.dot(h).clamp(0.0, 1.0))
+            * self.below_coat(wo, wo.dot(h).clamp(0.0, 1.0))
             * self.sheen.below(wo.z, wi.z, !self.energy_compensation)
     }
 
@@ -524,7 +527,7 @@ impl MetallicRoughnessBsdf {
         }
         let distrib = self.distribution();
         let layers = self.layers(wo.z);
-        let (p_sheen, p_coat, p_spec) = self.all_lobe_probabilities(wo.z, layers.as_ref());
+        let (p_sheen, p_coat, p_spec) = self.all_lobe_probabilities(wo, layers.as_ref());
         let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
         // The sheen on top first; the layers below share the rest of `uc`.
         let below_sheen = self.sheen.below(wo.z, wo.z, !self.energy_compensation);
@@ -545,12 +548,12 @@ impl MetallicRoughnessBsdf {
         } else {
             uc
         };
-        // A Dirac lobe's sample: weight albedo / (cos pdf), under the sheen.
-        let dirac = |albedo: SampledSpectrum, p: f32| {
-            let f = albedo * below_sheen / wo.z;
+        // A Dirac lobe's sample in direction `wi`: weight albedo / (cos pdf), under the sheen.
+        let dirac = |albedo: SampledSpectrum, p: f32, wi: Vec3| {
+            let f = albedo * below_sheen / wi.z;
             let p = p * (1.0 - p_sheen);
-            f.is_finite().then_some(BsdfSample {
-                wi: mirror,
+            (f.is_finite() && wi.z > 0.0).then_some(BsdfSample {
+                wi,
                 f,
                 pdf: p,
                 flags: LobeFlags::sample(false, true),
@@ -559,19 +562,22 @@ impl MetallicRoughnessBsdf {
             })
         };
         let (wi, flags) = if uc < p_coat {
+            let wi = self.coat.sample(wo, u)?;
             if self.coat.is_smooth() {
-                // The smooth coat's albedo is its weighted Fresnel at cos_o.
-                let albedo = self.coat.weight() * self.coat.fresnel(wo.z);
-                return dirac(SampledSpectrum::splat(albedo), p_coat);
+                // The smooth coat's albedo is its weighted Fresnel at its cosine with wo, and
+                // its mirror direction that about the coat's normal.
+                let cos_c = self.coat.cos(wo).clamp(0.0, 1.0);
+                let albedo = self.coat.weight() * self.coat.fresnel(cos_c);
+                return dirac(SampledSpectrum::splat(albedo), p_coat, wi);
             }
-            (self.coat.sample(wo, u), LobeFlags::sample(false, false))
+            (wi, LobeFlags::sample(false, false))
         } else if uc < p_coat + p_spec {
             if distrib.effectively_smooth() {
                 // Dirac mirror: the limit of the GGX lobe's albedo is the Fresnel at cos_o.
                 let m = self.metallic();
                 let (fd, fc) = self.fresnels(wo.z);
-                let albedo = (fd * (1.0 - m) + fc * m) * self.below_coat(wo.z, wo.z);
-                return dirac(albedo, p_spec);
+                let albedo = (fd * (1.0 - m) + fc * m) * self.below_coat(wo, wo.z);
+                return dirac(albedo, p_spec, mirror);
             }
             let wm = distrib.sample_visible(wo, u);
             (reflect(wo, wm), LobeFlags::sample(false, false))
@@ -689,7 +695,10 @@ mod tests {
         assert_eq!(fd, SampledSpectrum::ONE);
         // The diffuse lobe gets (1 - F) = 0 of the light, so only the GGX lobe is sampled.
         assert_eq!(
-            b.all_lobe_probabilities(0.7, b.layers(0.7).as_ref()),
+            b.all_lobe_probabilities(
+                Vec3::new(0.0, (1.0f32 - 0.49).sqrt(), 0.7),
+                b.layers(0.7).as_ref()
+            ),
             (0.0, 0.0, 1.0)
         );
     }

@@ -409,6 +409,18 @@ impl Bsdf {
         }
     }
 
+    /// The same BSDF with its clear coat (if it has one) shaded with normal `n` (unit, in the
+    /// BSDF's local frame) instead of the base's: see `coat.rs`.
+    pub fn with_coat_normal(self, n: Vec3) -> Bsdf {
+        match self {
+            Bsdf::MetallicRoughness(mut b) if b.coat.is_present() && n.z > 0.0 => {
+                b.coat.normal = n;
+                Bsdf::MetallicRoughness(b)
+            }
+            other => other,
+        }
+    }
+
     /// True if the BSDF can scatter to the other side of the surface (the integrator must not
     /// flip the frame to face `wo` for these).
     pub fn has_transmission(&self) -> bool {

@@ -805,16 +805,22 @@ impl<'a> PathTracer<'a> {
                 break;
             }
             let wo_world = -ray.dir;
+            // The clear coat's own normal (glTF clearcoatNormalTexture, Blender's Coat Normal).
+            let mut coat_normal = material.coat_normal_map(geometry, &scene.textures, &sp);
             material.apply_normal_map(geometry, &scene.textures, &mut sp, Some(wo_world));
             // What a shading graph reads here (only gathered for materials that have one).
             let mut graph_inputs = material
                 .has_graph()
                 .then(|| geometry.shading_inputs(&sp, wo_world, depth == 0));
-            if let Some(inputs) = graph_inputs.filter(|_| material.has_graph_normal()) {
+            let graph_normals = material.has_graph_normal() || material.has_graph_coat_normal();
+            if let Some(inputs) = graph_inputs.filter(|_| graph_normals) {
                 // Bump offsets of about a pixel's footprint at the camera (the height's
                 // gradient is what matters; Cycles uses ray differentials).
                 let step = ((camera_offset + hit.t) * 1e-3).max(1e-6);
                 let bump = geometry.bump_inputs(&sp, &inputs, step);
+                if material.has_graph_coat_normal() {
+                    coat_normal = material.graph_coat_normal(&inputs, &bump).or(coat_normal);
+                }
                 if let Some(n) = material.graph_normal(&inputs, &bump) {
                     geometry.apply_world_normal(&mut sp, n, None);
                     graph_inputs = Some(geometry.shading_inputs(&sp, wo_world, depth == 0));
@@ -882,6 +888,16 @@ impl<'a> PathTracer<'a> {
                 (sp.ns, sp.ng)
             };
             let frame = Frame::from_normal_tangent(ns, sp.dpdu);
+            // A bump or normal map perturbs the base, not the clear coat over it, which keeps
+            // the surface's own normal (Cycles' Coat Normal default; glTF's clearcoat without a
+            // clearcoatNormalTexture) unless the graph gives it one.
+            let bsdf = match coat_normal.or((sp.ns != sp.ns_smooth).then_some(sp.ns_smooth)) {
+                Some(n) => {
+                    let n = if ns.dot(sp.ns) < 0.0 { -n } else { n };
+                    bsdf.with_coat_normal(frame.to_local(n))
+                }
+                None => bsdf,
+            };
             let wo = frame.to_local(wo_world);
             // A normal-mapped surface with a diffuse base shades with the mapped normal even
             // where it faces away from the viewer, as Cycles' diffuse closures do (their value

@@ -121,6 +121,10 @@ pub struct GltfMaterialDesc {
     /// multiplies its roughness), linear.
     pub coat_texture: Option<TextureRef>,
     pub coat_roughness_texture: Option<TextureRef>,
+    /// `clearcoatNormalTexture` (tangent space on TEXCOORD_0, as `normal_texture`) and its
+    /// scale: the coat's own normal (without it the coat keeps the unperturbed normal).
+    pub coat_normal_texture: Option<TextureRef>,
+    pub coat_normal_scale: f32,
     /// `sheenColorTexture` (sRGB, RGB multiplies the colour) and `sheenRoughnessTexture` (A
     /// multiplies the roughness, linear).
     pub sheen_color_texture: Option<TextureRef>,
@@ -187,6 +191,8 @@ impl Default for GltfMaterialDesc {
             sheen_roughness: 0.0,
             coat_texture: None,
             coat_roughness_texture: None,
+            coat_normal_texture: None,
+            coat_normal_scale: 1.0,
             sheen_color_texture: None,
             sheen_roughness_texture: None,
             iridescence: 0.0,

@@ -1933,6 +1933,7 @@ impl<'d> Importer<'d> {
         let (mut coat, mut coat_roughness) = (0.0f32, 0.0f32);
         let mut coat_textures = false;
         let (mut coat_texture, mut coat_roughness_texture) = (None, None);
+        let (mut coat_normal_texture, mut coat_normal_scale) = (None, 1.0f32);
         if let Some(c) = m
             .extensions()
             .and_then(|ext| ext.get("KHR_materials_clearcoat"))
@@ -1951,7 +1952,21 @@ impl<'d> Importer<'d> {
             };
             coat = number("clearcoatFactor", 0.0)?;
             coat_roughness = number("clearcoatRoughnessFactor", 0.0)?;
-            coat_textures = c.get("clearcoatNormalTexture").is_some();
+            if let Some(info) = c.get("clearcoatNormalTexture") {
+                coat_normal_scale = match info.get("scale") {
+                    None => 1.0,
+                    Some(v) => v.as_f64().filter(|x| x.is_finite()).ok_or_else(|| {
+                        format!("{label}: clearcoatNormalTexture.scale must be a number, got {v}")
+                    })? as f32,
+                };
+                coat_normal_texture =
+                    self.json_texture(info, ColorSpace::Linear, &label, "clearcoatNormalTexture")?;
+                // Normal maps read TEXCOORD_0's tangent frame (as `normalTexture`).
+                if coat_normal_texture.is_some_and(|t| t.tex_coord != 0) {
+                    coat_normal_texture = None;
+                    coat_textures = true;
+                }
+            }
             if let Some(info) = c.get("clearcoatTexture") {
                 coat_texture =
                     self.json_texture(info, ColorSpace::Linear, &label, "clearcoatTexture")?;
@@ -2134,7 +2149,7 @@ impl<'d> Importer<'d> {
         // Inputs the renderer does not model yet: reported once, never fatal.
         let mut ignored: Vec<&str> = Vec::new();
         if coat_textures {
-            ignored.push("clearcoatNormalTexture");
+            ignored.push("clearcoatNormalTexture on a TEXCOORD set other than 0");
         }
         if !ignored.is_empty() {
             self.warn_once(format!(
@@ -2218,6 +2233,8 @@ impl<'d> Importer<'d> {
             sheen_roughness,
             coat_texture,
             coat_roughness_texture,
+            coat_normal_texture,
+            coat_normal_scale,
             sheen_color_texture,
             sheen_roughness_texture,
             iridescence,

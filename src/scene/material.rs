@@ -257,6 +257,21 @@ impl Material {
         Some(if inputs.backfacing { -n } else { n })
     }
 
+    /// The graph sets the clear coat's own normal (Blender's Coat Normal).
+    pub fn has_graph_coat_normal(&self) -> bool {
+        self.graph.as_ref().is_some_and(|g| g.drives_coat_normal())
+    }
+
+    /// The graph's coat normal, outward (as [`Material::graph_normal`]).
+    pub fn graph_coat_normal(
+        &self,
+        inputs: &ShadingInputs,
+        bump: &crate::shading::BumpInputs,
+    ) -> Option<Vec3> {
+        let n = self.graph.as_ref()?.coat_normal(inputs, bump)?;
+        Some(if inputs.backfacing { -n } else { n })
+    }
+
     /// The material reads [`ShadingInputs`] (a shading graph, or glTF textures on TEXCOORD_1
     /// and above): the integrator then gathers them.
     pub fn has_graph(&self) -> bool {
@@ -410,6 +425,25 @@ impl Material {
         n.try_normalize()
     }
 
+    /// The clear coat's own normal from `clearcoatNormalTexture` (world space, outward as
+    /// `sp.ns`), applied to the surface's unperturbed normal; None without one.
+    pub fn coat_normal_map(
+        &self,
+        geometry: &Geometry,
+        textures: &[TextureDesc],
+        sp: &SurfacePoint,
+    ) -> Option<Vec3> {
+        let g = &self.gltf;
+        let t = g.coat_normal_texture.filter(|_| g.coat > 0.0)?;
+        let c = lookup(textures, &t, sp.uv).xyz();
+        let s = g.coat_normal_scale;
+        let nt = ((c * 2.0 - Vec3::ONE) * Vec3::new(s, s, 1.0)).try_normalize()?;
+        let mut coat = *sp;
+        coat.ns = coat.ns_smooth;
+        geometry.apply_normal_map(&mut coat, nt, None);
+        Some(coat.ns)
+    }
+
     /// Perturbs `sp.ns` by the material's normal map (no-op without one); `wo` is the unit
     /// direction towards the viewer, if there is one (see `Geometry::apply_normal_map`).
     pub fn apply_normal_map(
@@ -432,7 +466,6 @@ impl Material {
         }
     }
 
-    /// The thin film at the path's wavelengths, if any.
     /// The thin film at a shading point: the factor times `iridescenceTexture` (R), the
     /// thickness mix(minimum, maximum, G) of `iridescenceThicknessTexture` where there is one.
     fn iridescence(
@@ -726,6 +759,7 @@ impl Material {
                 Some(c) => RgbAlbedoSpectrum::new(c.xyz().clamp(Vec3::ZERO, Vec3::ONE)).sample(w),
                 None => self.coat.tint.sample(w),
             },
+            normal: Vec3::Z,
         }
     }
 
@@ -822,6 +856,7 @@ impl MaterialCoat {
             },
             ior: self.ior,
             tint: self.tint.sample(w),
+            normal: Vec3::Z,
         }
     }
 }

@@ -586,6 +586,8 @@ pub enum MaterialInput {
     /// Principled Thin Film Thickness (nm; 0: no film) and IOR.
     ThinFilmThickness,
     ThinFilmIor,
+    /// The clear coat's own shading normal (Blender's Coat Normal), as `Normal`.
+    CoatNormal,
 }
 
 pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
@@ -609,9 +611,10 @@ pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
     ("specular_tint", MaterialInput::SpecularTint, C),
     ("thin_film_thickness", MaterialInput::ThinFilmThickness, F),
     ("thin_film_ior", MaterialInput::ThinFilmIor, F),
+    ("coat_normal", MaterialInput::CoatNormal, V),
 ];
 
-pub const N_MATERIAL_INPUTS: usize = 20;
+pub const N_MATERIAL_INPUTS: usize = 21;
 
 impl MaterialInput {
     pub fn index(self) -> usize {
@@ -629,7 +632,7 @@ impl MaterialInput {
     fn program(self) -> usize {
         match self {
             MaterialInput::Emission | MaterialInput::EmissionStrength => 1,
-            MaterialInput::Normal => 2,
+            MaterialInput::Normal | MaterialInput::CoatNormal => 2,
             MaterialInput::VolumeDensity => 3,
             _ => 0,
         }
@@ -809,13 +812,29 @@ impl ShadingGraph {
             .any(|(m, _)| *m == MaterialInput::Normal)
     }
 
+    pub fn drives_coat_normal(&self) -> bool {
+        self.bindings
+            .iter()
+            .any(|(m, _)| *m == MaterialInput::CoatNormal)
+    }
+
     /// The graph's shading normal at `ctx` (viewer's side, unit), Bump nodes using `bump`.
     pub fn normal(&self, ctx: &ShadingInputs, bump: &BumpInputs) -> Option<Vec3> {
-        let source = self
-            .bindings
-            .iter()
-            .find(|(m, _)| *m == MaterialInput::Normal)?
-            .1;
+        self.normal_input(MaterialInput::Normal, ctx, bump)
+    }
+
+    /// The graph's coat normal at `ctx`, as [`ShadingGraph::normal`].
+    pub fn coat_normal(&self, ctx: &ShadingInputs, bump: &BumpInputs) -> Option<Vec3> {
+        self.normal_input(MaterialInput::CoatNormal, ctx, bump)
+    }
+
+    fn normal_input(
+        &self,
+        input: MaterialInput,
+        ctx: &ShadingInputs,
+        bump: &BumpInputs,
+    ) -> Option<Vec3> {
+        let source = self.bindings.iter().find(|(m, _)| *m == input)?.1;
         let ctx = &self.local(ctx);
         let bump = BumpInputs {
             dx: self.local(&bump.dx),

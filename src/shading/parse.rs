@@ -24,7 +24,9 @@
 //!   `volume_density`, `refraction`: 1 makes a closure Blender's Refraction BSDF, the
 //!   dielectric's refraction alone; `coat_weight`, `coat_roughness`, `coat_tint`,
 //!   `sheen_color`, `sheen_roughness`, `specular_tint` (Blender 4.x's colour),
-//!   `thin_film_thickness` (nm, 0: none) and `thin_film_ior`) to a node output or a constant; a bound input replaces the glTF
+//!   `thin_film_thickness` (nm, 0: none), `thin_film_ior`, and `coat_normal`, the clear
+//!   coat's own normal like `normal`; without it a coat keeps the unperturbed normal under a
+//!   bumped base) to a node output or a constant; a bound input replaces the glTF
 //!   material's factor and texture, the others keep the glTF values. `volume_density` (a
 //!   non-negative float) multiplies the material's `volume` coefficients at each point inside
 //!   it, where the graph reads Position, Object and Generated coordinates (a heterogeneous
