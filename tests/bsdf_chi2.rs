@@ -99,6 +99,7 @@ fn coated(base: Bsdf, weight: f32, roughness: f32, tint: SampledSpectrum) -> Bsd
                 ior: 1.5,
                 tint,
                 normal: Vec3::Z,
+                additive: false,
             },
             ..b
         }),

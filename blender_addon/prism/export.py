@@ -440,7 +440,10 @@ def _principled_coat(node, m):
         ior = _val(node, "Coat IOR", default=1.5)
         tint = _rgb(_val(node, "Coat Tint", default=(1, 1, 1, 1)))
     elif node.inputs.get("Clearcoat") is not None:
-        weight = _val(node, "Clearcoat")
+        # Blender 3.x: Cycles adds the Disney clear coat, 0.25 x Clearcoat x Schlick(F0 0.04) over
+        # a GTR1 distribution, on top of the base (Burley 2012, "Physically-Based Shading at
+        # Disney", sec. 5.6): a coat of a quarter of the weight.
+        weight = 0.25 * _val(node, "Clearcoat")
         roughness = _val(node, "Clearcoat Roughness", default=0.03)
         ior, tint = 1.5, [1.0, 1.0, 1.0]
     else:
@@ -451,6 +454,8 @@ def _principled_coat(node, m):
     if weight > 0.0:
         m["coat"] = (min(float(weight), 1.0), min(max(float(roughness), 0.0), 1.0), max(float(ior), 1.0),
                      [max(float(c), 0.0) for c in tint])
+        # 3.x: added on top of the base, not dimming it (the renderer's `additive` coat).
+        m["coat_additive"] = node.inputs.get("Coat Weight") is None
 
 
 # Cycles' Sheen Roughness -> the roughness of Prism's (Charlie) sheen whose directional albedo
@@ -1107,7 +1112,8 @@ class Exporter:
                 if "emission_strength" not in gb.inputs:
                     gb.bind_const("emission_strength", float(e_str.default_value) if e_str is not None else 1.0)
             # Coat and Sheen from textures (4.x; 3.x's Clearcoat too).
-            bind("coat_weight", S("Coat Weight", "Clearcoat"))
+            cw = S("Coat Weight", "Clearcoat")
+            bind("coat_weight", cw, scale=0.25 if cw is not None and cw.name == "Clearcoat" else None)
             bind("coat_roughness", S("Coat Roughness", "Clearcoat Roughness"))
             bind("coat_tint", S("Coat Tint"))
             # Coat Normal (4.x; 3.x: Clearcoat Normal): the coat's own; unlinked, the coat keeps
@@ -1409,6 +1415,13 @@ class Exporter:
         cw = _socket(leaf, "Coat Weight", "Clearcoat")
         if cw is not None:
             wv = V(cw, 0.0)
+            if cw.name == "Clearcoat":  # 3.x: a quarter (see _principled_coat)
+                if isinstance(wv, dict):
+                    n = node_name("clearcoat")
+                    gb.nodes[n] = {"type": "math", "operation": "multiply", "inputs": {"a": wv, "b": 0.25}}
+                    wv = {"node": n, "output": "value"}
+                else:
+                    wv = 0.25 * float(wv)
             if isinstance(wv, dict) or wv > 0.0:
                 inputs["coat_weight"] = wv
                 inputs["coat_roughness"] = V(_socket(leaf, "Coat Roughness", "Clearcoat Roughness"), 0.03)
@@ -1570,6 +1583,8 @@ class Exporter:
             weight, roughness, ior, tint = coat
             ext["KHR_materials_clearcoat"] = {"clearcoatFactor": weight, "clearcoatRoughnessFactor": roughness}
             g["extras"] = {"prism_coat_ior": ior, "prism_coat_tint": tint}
+            if m.get("coat_additive"):
+                g["extras"]["prism_coat_additive"] = True
         sheen = m.get("sheen")
         if sheen is not None:
             ext["KHR_materials_sheen"] = {"sheenColorFactor": sheen[0], "sheenRoughnessFactor": sheen[1]}

@@ -42,6 +42,9 @@ pub struct Coat {
     pub tint: SampledSpectrum,
     /// The coat's unit normal in the base's local frame (+z: the base's normal).
     pub normal: Vec3,
+    /// Blender 3.x's Disney clear coat: added on top of the base without dimming it (Cycles
+    /// 3.x's Principled v1, which does not conserve energy there).
+    pub additive: bool,
 }
 
 impl Coat {
@@ -51,6 +54,7 @@ impl Coat {
         ior: 1.5,
         tint: SampledSpectrum::ONE,
         normal: Vec3::Z,
+        additive: false,
     };
 
     /// The frame of a coat normal that differs from the base's (None: the same, where
@@ -148,6 +152,9 @@ impl Coat {
     /// What reaches the layer below and comes back, as a factor on it (energy-conserving
     /// model): `(1 - weight A_c(mu_o)) mix(1, tint^(1/cos_t), weight)`.
     pub fn transmittance(&self, cos_o: f32) -> SampledSpectrum {
+        if self.additive {
+            return SampledSpectrum::ONE;
+        }
         let w = self.weight();
         let left = (1.0 - self.albedo(cos_o)).max(0.0);
         let cos_t = safe_sqrt(1.0 - (1.0 - sqr(cos_o)) / sqr(self.ior.max(1.0)));

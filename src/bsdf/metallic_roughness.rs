@@ -314,7 +314,7 @@ impl MetallicRoughnessBsdf {
         let coat = &self.coat;
         if !coat.is_present() {
             SampledSpectrum::ONE
-        } else if self.energy_compensation {
+        } else if self.energy_compensation || coat.additive {
             coat.transmittance(coat.cos(wo).clamp(0.0, 1.0))
         } else {
             SampledSpectrum::splat(1.0 - coat.weight() * coat.fresnel(cos_h))
@@ -468,7 +468,9 @@ impl MetallicRoughnessBsdf {
         }
         let mut f = (dielectric * (1.0 - m) + conductor * m) * self.below_coat(wo, vdoth);
         if self.coat.is_present() {
-            f += SampledSpectrum::splat(self.coat.eval(wo, wi, h, self.energy_compensation));
+            // Blender 3.x's additive coat has no multiple scattering (Cycles 3.x).
+            let multiscatter = self.energy_compensation && !self.coat.additive;
+            f += SampledSpectrum::splat(self.coat.eval(wo, wi, h, multiscatter));
             pdf += p_coat * self.coat.pdf(wo, h);
         }
         if self.sheen.is_present() {

@@ -112,6 +112,9 @@ pub struct GltfMaterialDesc {
     /// Colour after one vertical pass through the coat (extras `prism_coat_tint`, Blender's
     /// Coat Tint; white otherwise).
     pub coat_tint: Vec3,
+    /// The coat adds to the base without dimming it (extras `prism_coat_additive`: Blender
+    /// 3.x's Clearcoat, as Cycles 3.x renders it).
+    pub coat_additive: bool,
     /// KHR_materials_sheen `sheenColorFactor` (linear RGB; black = no sheen; Blender's Sheen
     /// Weight x Sheen Tint).
     pub sheen_color: Vec3,
@@ -187,6 +190,7 @@ impl Default for GltfMaterialDesc {
             coat_roughness: 0.0,
             coat_ior: 1.5,
             coat_tint: Vec3::ONE,
+            coat_additive: false,
             sheen_color: Vec3::ZERO,
             sheen_roughness: 0.0,
             coat_texture: None,

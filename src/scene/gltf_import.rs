@@ -2137,6 +2137,12 @@ impl<'d> Importer<'d> {
             }
         };
         check("extras.prism_coat_tint", &coat_tint, 0.0)?;
+        let coat_additive = match extras.as_ref().and_then(|e| e.get("prism_coat_additive")) {
+            None => false,
+            Some(v) => v.as_bool().ok_or_else(|| {
+                format!("{label}: extras.prism_coat_additive must be true or false, got {v}")
+            })?,
+        };
         let emission_spread = extras
             .as_ref()
             .and_then(|e| e.get("prism_emission_spread")?.as_f64())
@@ -2229,6 +2235,7 @@ impl<'d> Importer<'d> {
             coat_roughness,
             coat_ior,
             coat_tint: Vec3::from_array(coat_tint),
+            coat_additive,
             sheen_color,
             sheen_roughness,
             coat_texture,

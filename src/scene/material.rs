@@ -152,6 +152,7 @@ impl Material {
                 alpha: roughness_to_alpha(g.coat_roughness),
                 ior: g.coat_ior,
                 tint: RgbAlbedoSpectrum::new(g.coat_tint),
+                additive: g.coat_additive,
             },
             sheen: MaterialSheen::new(g.sheen_color, g.sheen_roughness),
             emission,
@@ -760,6 +761,7 @@ impl Material {
                 None => self.coat.tint.sample(w),
             },
             normal: Vec3::Z,
+            additive: self.coat.additive,
         }
     }
 
@@ -840,6 +842,7 @@ struct MaterialCoat {
     alpha: f32,
     ior: f32,
     tint: RgbAlbedoSpectrum,
+    additive: bool,
 }
 
 impl MaterialCoat {
@@ -857,6 +860,7 @@ impl MaterialCoat {
             ior: self.ior,
             tint: self.tint.sample(w),
             normal: Vec3::Z,
+            additive: self.additive,
         }
     }
 }

@@ -134,6 +134,10 @@ if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
     blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_node_graphs.py -- \
         test_node_setups_match_cycles test_refraction_bsdf_matches_cycles 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
+    echo "== Blender 3.x's Clearcoat vs Cycles 3.x in blender -b"
+    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_energy_parity.py -- \
+        test_clearcoat_3x_matches_cycles 2>&1 | filter
+    [ "${PIPESTATUS[0]}" = 0 ]
     echo "== worlds baked by Cycles vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
     PRISM_SKY_MODELS=NISHITA blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_world_bake.py 2>&1 | filter
     [ "${PIPESTATUS[0]}" = 0 ]
