@@ -57,6 +57,17 @@ def shader_node(nt, kind, color=(0.8, 0.8, 0.8), **inputs):
     return node
 
 
+def noise_bump(nt, scale=3.0, strength=0.8, distance=0.3):
+    """A Bump node in node tree `nt` whose height is a new Noise Texture's Fac (of `scale`)."""
+    nz = nt.nodes.new("ShaderNodeTexNoise")
+    nz.inputs["Scale"].default_value = scale
+    bump = nt.nodes.new("ShaderNodeBump")
+    bump.inputs["Strength"].default_value = strength
+    bump.inputs["Distance"].default_value = distance
+    nt.links.new(nz.outputs["Fac"], bump.inputs["Height"])
+    return bump
+
+
 def mesh_object(name, build, mat, location=(0, 0, 0), rotation=(0, 0, 0), scale=(1, 1, 1), smooth=False):
     """A mesh object built by `build(bm)` (a bmesh callback), with material `mat` (or None)."""
     me = bpy.data.meshes.new(name)

@@ -310,12 +310,7 @@ def setups():
     mat, nt, sh = new_material("BumpNoise", "ShaderNodeBsdfPrincipled")
     sh.inputs["Base Color"].default_value = (0.7, 0.7, 0.7, 1.0)
     sh.inputs["Roughness"].default_value = 0.4
-    nz = nt.nodes.new("ShaderNodeTexNoise")
-    nz.inputs["Scale"].default_value = 3.0
-    bump = nt.nodes.new("ShaderNodeBump")
-    bump.inputs["Strength"].default_value = 0.8
-    bump.inputs["Distance"].default_value = 0.3
-    nt.links.new(nz.outputs["Fac"], bump.inputs["Height"])
+    bump = C.noise_bump(nt)
     nt.links.new(bump.outputs["Normal"], sh.inputs["Normal"])
     out.append(("BumpNoise", mat))
 
@@ -324,12 +319,7 @@ def setups():
     mat, nt, df, gl, mx = mix_material("MixBump", "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfGlossy", 0.4)
     df.inputs["Color"].default_value = (0.7, 0.5, 0.3, 1.0)
     gl.inputs["Roughness"].default_value = 0.3
-    nz = nt.nodes.new("ShaderNodeTexNoise")
-    nz.inputs["Scale"].default_value = 3.0
-    bump = nt.nodes.new("ShaderNodeBump")
-    bump.inputs["Strength"].default_value = 0.3
-    bump.inputs["Distance"].default_value = 0.3
-    nt.links.new(nz.outputs["Fac"], bump.inputs["Height"])
+    bump = C.noise_bump(nt, strength=0.3)
     nt.links.new(bump.outputs["Normal"], df.inputs["Normal"])
     nt.links.new(bump.outputs["Normal"], gl.inputs["Normal"])
     out.append(("MixBump", mat))

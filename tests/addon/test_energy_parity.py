@@ -421,12 +421,7 @@ def test_coat_over_bumped_base_matches_cycles():
     for name, _, _ in spheres:
         nt = bpy.data.materials[name].node_tree
         bsdf = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
-        noise = nt.nodes.new("ShaderNodeTexNoise")
-        noise.inputs["Scale"].default_value = 6.0
-        bump = nt.nodes.new("ShaderNodeBump")
-        bump.inputs["Strength"].default_value = 0.7
-        bump.inputs["Distance"].default_value = 0.1
-        nt.links.new(noise.outputs["Fac"], bump.inputs["Height"])
+        bump = C.noise_bump(nt, scale=6.0, strength=0.7, distance=0.1)
         if name != "CoatNormal":
             nt.links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
         if name in ("CoatNormal", "BumpBoth"):
