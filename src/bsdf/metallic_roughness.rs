@@ -160,13 +160,8 @@ impl MetallicRoughnessBsdf {
                 fd[k] + w * (r - fd[k])
             });
         }
-        let mut fc = self.base_color.map(|b| b + (1.0 - b) * w5);
         let f82 = self.f82_tint_scale();
-        if let Some(a) = f82 {
-            let c = cos.clamp(0.0, 1.0);
-            let edge = c * w5 * (1.0 - c);
-            fc = (fc - a * edge).clamp_zero();
-        }
+        let mut fc = self.conductor_fresnel(cos, f82);
         if let Some(film) = self
             .iridescence
             .filter(|i| i.weight > 0.0 && self.metallic() > 0.0)
@@ -183,6 +178,22 @@ impl MetallicRoughnessBsdf {
         (fd, fc)
     }
 
+    /// The conductor's Fresnel without a film: Schlick with F0 = base colour, minus the F82-tint
+    /// term of scale `f82` (`f82_tint_scale`) when there is one.
+    #[inline]
+    fn conductor_fresnel(&self, cos: f32, f82: Option<SampledSpectrum>) -> SampledSpectrum {
+        let w5 = schlick_weight(cos);
+        let fc = self.base_color.map(|b| b + (1.0 - b) * w5);
+        match f82 {
+            Some(a) => {
+                let c = cos.clamp(0.0, 1.0);
+                let edge = c * w5 * (1.0 - c);
+                (fc - a * edge).clamp_zero()
+            }
+            None => fc,
+        }
+    }
+
     /// A complex IOR (n, k) per wavelength for the conductor, which a film over it needs (its
     /// Airy sum runs on amplitudes, not on a Fresnel curve). The default model reads F0 (the
     /// base colour) and F82 (the F82-tint curve at 1/7) as Gulbrandsen's reflectivity r and edge
@@ -196,13 +207,7 @@ impl MetallicRoughnessBsdf {
         if !self.energy_compensation {
             return (n_max, SampledSpectrum::ZERO);
         }
-        const MU: f32 = 1.0 / 7.0;
-        let w5 = schlick_weight(MU);
-        let mut g = r.map(|b| b + (1.0 - b) * w5);
-        if let Some(a) = f82 {
-            g = (g - a * (MU * w5 * (1.0 - MU))).clamp_zero();
-        }
-        let g = g.map(|v| v.min(1.0));
+        let g = self.conductor_fresnel(1.0 / 7.0, f82).map(|v| v.min(1.0));
         let n = SampledSpectrum::from_fn(|i| {
             let n_min = (1.0 - r[i]) / (1.0 + r[i]);
             n_max[i] + (n_min - n_max[i]) * g[i]
