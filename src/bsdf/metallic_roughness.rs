@@ -85,7 +85,7 @@ impl MetallicRoughnessBsdf {
                 let f90 = f90 + (1.0 - f90) * film.weight.min(1.0);
                 // average = f0 + (f90 - f0) / 21.
                 let f0 = self
-                    .fresnel_average(|mu| self.fresnels(mu).0)
+                    .fresnel_average(|mu| self.dielectric_fresnel(mu))
                     .map(|a| ((21.0 * a - f90) / 20.0).clamp(0.0, 1.0));
                 (f0, f90)
             }
@@ -105,7 +105,7 @@ impl MetallicRoughnessBsdf {
             0.0
         };
         let mu_eff = 1.0 - w.powf(0.2);
-        self.fresnels(mu_eff).0 * a.e + fms_d * (1.0 - a.e)
+        self.dielectric_fresnel(mu_eff) * a.e + fms_d * (1.0 - a.e)
     }
 
     /// `2 int g(mu) mu dmu` over the hemisphere for a spectral `g` (8-point Gauss-Legendre in
@@ -144,14 +144,28 @@ impl MetallicRoughnessBsdf {
     /// the dielectric; for the conductor Schlick with F0 = base colour, in the
     /// energy-conserving model minus the F82-tint term (`f82_tint_scale`).
     /// With a thin film the dielectric's Fresnel is mixed with the film's Airy reflectance
-    /// over a substrate of the material's IOR, per wavelength (`thin_film.rs`).
+    /// over a substrate of the material's IOR, per wavelength (`thin_film.rs`), and the
+    /// conductor's with the film's over the metal's complex IOR.
     #[inline]
     fn fresnels(&self, cos: f32) -> (SampledSpectrum, SampledSpectrum) {
+        (
+            self.dielectric_fresnel(cos),
+            self.filmed_conductor_fresnel(cos),
+        )
+    }
+
+    /// The dielectric part's Fresnel of `fresnels` (the film's Airy sum is skipped for a pure
+    /// metal, which has no dielectric part).
+    #[inline]
+    fn dielectric_fresnel(&self, cos: f32) -> SampledSpectrum {
         let w5 = schlick_weight(cos);
         let f0 = self.dielectric_f0();
         let f90 = self.dielectric_f90();
         let mut fd = f0.map(|f| f + (f90 - f) * w5);
-        if let Some(film) = self.iridescence.filter(|i| i.weight > 0.0) {
+        if let Some(film) = self
+            .iridescence
+            .filter(|i| i.weight > 0.0 && self.metallic() < 1.0)
+        {
             let w = film.weight.min(1.0);
             fd = SampledSpectrum::from_fn(|k| {
                 let r = film
@@ -160,6 +174,13 @@ impl MetallicRoughnessBsdf {
                 fd[k] + w * (r - fd[k])
             });
         }
+        fd
+    }
+
+    /// The conductor part's Fresnel of `fresnels` (the film's Airy sum only where there is a
+    /// metallic part).
+    #[inline]
+    fn filmed_conductor_fresnel(&self, cos: f32) -> SampledSpectrum {
         let f82 = self.f82_tint_scale();
         let mut fc = self.conductor_fresnel(cos, f82);
         if let Some(film) = self
@@ -175,7 +196,7 @@ impl MetallicRoughnessBsdf {
                 fc[i] + w * (r - fc[i])
             });
         }
-        (fd, fc)
+        fc
     }
 
     /// The conductor's Fresnel without a film: Schlick with F0 = base colour, minus the F82-tint
@@ -368,7 +389,7 @@ impl MetallicRoughnessBsdf {
         }
         if self.metallic() > 0.0 && self.iridescence.is_some_and(|i| i.weight > 0.0) {
             // The film's curve is no Schlick curve: its hemispherical average by quadrature.
-            fc_avg = self.fresnel_average(|mu| self.fresnels(mu).1);
+            fc_avg = self.fresnel_average(|mu| self.filmed_conductor_fresnel(mu));
         }
         let fms_c = fms(fc_avg);
         let ms_norm = if average.e < 1.0 - 1e-6 {
@@ -511,7 +532,7 @@ impl MetallicRoughnessBsdf {
                 if h == Vec3::ZERO {
                     return SampledSpectrum::ZERO;
                 }
-                let (fd, _) = self.fresnels(wo.dot(h).clamp(0.0, 1.0));
+                let fd = self.dielectric_fresnel(wo.dot(h).clamp(0.0, 1.0));
                 SampledSpectrum::ONE - fd
             }
         };
