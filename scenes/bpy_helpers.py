@@ -57,6 +57,19 @@ def shader_node(nt, kind, color=(0.8, 0.8, 0.8), **inputs):
     return node
 
 
+def generated_x_range(nt, lo, hi):
+    """The output socket of new nodes in `nt` that map the Generated X coordinate (0 to 1
+    across an object) linearly to lo..hi (Texture Coordinate -> Separate XYZ -> Map Range)."""
+    tc = nt.nodes.new("ShaderNodeTexCoord")
+    sep = nt.nodes.new("ShaderNodeSeparateXYZ")
+    mr = nt.nodes.new("ShaderNodeMapRange")
+    mr.inputs[3].default_value = lo
+    mr.inputs[4].default_value = hi
+    nt.links.new(tc.outputs["Generated"], sep.inputs[0])
+    nt.links.new(sep.outputs["X"], mr.inputs[0])
+    return mr.outputs[0]
+
+
 def noise_bump(nt, scale=3.0, strength=0.8, distance=0.3):
     """A Bump node in node tree `nt` whose height is a new Noise Texture's Fac (of `scale`)."""
     nz = nt.nodes.new("ShaderNodeTexNoise")

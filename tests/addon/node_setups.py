@@ -378,15 +378,8 @@ def setups():
 
     # Wavelength: 400-700 nm across the tile (Generated X through Map Range): a rainbow.
     mat, nt, sh = new_material("WavelengthRainbow", "ShaderNodeEmission")
-    tc = nt.nodes.new("ShaderNodeTexCoord")
-    sep = nt.nodes.new("ShaderNodeSeparateXYZ")
-    mr = nt.nodes.new("ShaderNodeMapRange")
-    mr.inputs[3].default_value = 400.0
-    mr.inputs[4].default_value = 700.0
     wl = nt.nodes.new("ShaderNodeWavelength")
-    nt.links.new(tc.outputs["Generated"], sep.inputs[0])
-    nt.links.new(sep.outputs["X"], mr.inputs[0])
-    nt.links.new(mr.outputs[0], wl.inputs[0])
+    nt.links.new(C.generated_x_range(nt, 400.0, 700.0), wl.inputs[0])
     nt.links.new(wl.outputs[0], sh.inputs["Color"])
     out.append(("WavelengthRainbow", mat))
 

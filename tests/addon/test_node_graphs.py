@@ -166,15 +166,8 @@ def noise_tiles():
 
     def blackbody(nt):
         # 1000 K to 10000 K across the tile.
-        tc = nt.nodes.new("ShaderNodeTexCoord")
-        sep = nt.nodes.new("ShaderNodeSeparateXYZ")
-        mr = nt.nodes.new("ShaderNodeMapRange")
-        mr.inputs[3].default_value = 1000.0
-        mr.inputs[4].default_value = 10000.0
         bb = nt.nodes.new("ShaderNodeBlackbody")
-        nt.links.new(tc.outputs["Generated"], sep.inputs[0])
-        nt.links.new(sep.outputs["X"], mr.inputs[0])
-        nt.links.new(mr.outputs[0], bb.inputs[0])
+        nt.links.new(C.generated_x_range(nt, 1000.0, 10000.0), bb.inputs[0])
         return bb.outputs[0]
 
     tile("Blackbody", blackbody)
