@@ -64,12 +64,6 @@ impl Coat {
         (self.normal != Vec3::Z).then(|| Frame::from_normal(self.normal))
     }
 
-    /// `v` (base frame) in the coat's frame.
-    #[inline]
-    fn in_coat_frame(&self, v: Vec3) -> Vec3 {
-        self.frame().map_or(v, |f| f.to_local(v))
-    }
-
     /// The cosine of `w` (base frame) with the coat's normal.
     #[inline]
     pub fn cos(&self, w: Vec3) -> f32 {
@@ -168,11 +162,10 @@ impl Coat {
     /// coat except for its multiple scattering (which is zero too), and below the coat.
     pub fn eval(&self, wo: Vec3, wi: Vec3, h: Vec3, multiscatter: bool) -> f32 {
         let cos_base = wi.z;
-        let (wo, wi, h) = (
-            self.in_coat_frame(wo),
-            self.in_coat_frame(wi),
-            self.in_coat_frame(h),
-        );
+        // One frame for the three vectors (it is rebuilt per call, not stored in the coat).
+        let frame = self.frame();
+        let local = |v: Vec3| frame.as_ref().map_or(v, |f| f.to_local(v));
+        let (wo, wi, h) = (local(wo), local(wi), local(h));
         if !(wo.z > 0.0 && wi.z > 0.0 && cos_base > 0.0) {
             return 0.0;
         }
@@ -209,7 +202,9 @@ impl Coat {
         if self.is_smooth() {
             return 0.0;
         }
-        let (wo, h) = (self.in_coat_frame(wo), self.in_coat_frame(h));
+        let frame = self.frame();
+        let local = |v: Vec3| frame.as_ref().map_or(v, |f| f.to_local(v));
+        let (wo, h) = (local(wo), local(h));
         if !(wo.z > 0.0 && h.z > 0.0) {
             return 0.0;
         }
