@@ -10,6 +10,7 @@ tests/addon/run_addon_tests.sh install
 echo "== cargo fmt / clippy"
 cargo fmt --all -- --check
 cargo clippy --all-targets -- -D warnings
+echo "   (${SECONDS} s since the start)"
 
 # One optimised build serves every test: the Rust tests run on the release profile with debug
 # assertions and overflow checks on, and the add-on tests use that same binary
@@ -21,6 +22,7 @@ echo "== Rust unit, statistical, image and CLI tests"
 # The benches are type-checked by clippy above; building them in release would add their
 # harness (criterion) to the compile for nothing.
 cargo test --release --lib --bins --tests
+echo "   (${SECONDS} s since the start)"
 
 echo "== Blender add-on tests (bpy wheel 5.0.1 and Debian's blender -b; installs them if missing)"
 tests/addon/run_addon_tests.sh

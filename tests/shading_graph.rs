@@ -8,6 +8,8 @@
 //!   Combine Color nodes renders albedo x world (a convex object sees only the world).
 //! - A missing image renders magenta with a warning naming it; a bad graph is a one-line
 //!   input error naming its JSON path.
+//! - A float EXR with negative texels (a signed texture, e.g. one the add-on baked with Cycles)
+//!   reaches the graph with its values, as in Cycles.
 
 mod common;
 #[path = "common/gltf_builder.rs"]
@@ -162,6 +164,34 @@ fn image_texture_on_a_uv_set_drives_emission_upright() {
     // Image y runs down the film: the top-left quarter shows the image's top-left texel.
     // Saturated primaries are at the edge of what smooth spectra reproduce: 3% of the peak.
     assert_quadrants(&img, size, 2.0);
+}
+
+#[test]
+fn signed_exr_texels_reach_the_graph_unclamped() {
+    let dir = test_dir("graph_signed_exr");
+    // Data, not radiance: -0.25 everywhere; 0.75 + texel = 0.5 drives the emission strength.
+    exr::prelude::write_rgb_file(dir.join("signed.exr"), 2, 2, |_, _| {
+        (-0.25f32, -0.25, -0.25)
+    })
+    .unwrap();
+    let gltf = panel_scene(
+        &dir,
+        json!({"version": 1,
+               "nodes": {"Img": {"type": "image_texture", "image": "signed.exr",
+                                 "color_space": "linear"},
+                         "Add": {"type": "math", "operation": "add",
+                                 "inputs": {"a": {"node": "Img", "output": "color"}, "b": 0.75}}},
+               "inputs": {"emission": [1.0, 1.0, 1.0],
+                          "emission_strength": {"node": "Add", "output": "value"}}}),
+        [1.0; 4],
+    );
+    let size = 8;
+    let (img, warnings) = render_file(&gltf, size, 16);
+    assert!(warnings.is_empty(), "{warnings:?}");
+    let m = block(&img, size, 2, 2, 4);
+    for c in m.to_array() {
+        assert!((c - 0.5).abs() < 0.02, "0.75 - 0.25 = 0.5 per channel: {m}");
+    }
 }
 
 /// The quadrants of `img` (16 x 16) hold red, green, blue and white at `peak`.

@@ -268,10 +268,10 @@ class PrismRenderEngine(bpy.types.RenderEngine):
 
         self.update_stats("", "Prism: exporting")
         t0 = time.perf_counter()
-        gltf, mjson, warnings, tris = export.export_scene(depsgraph, tmp, engine=self)
+        preview_render = bool(self.is_preview)
+        gltf, mjson, warnings, tris = export.export_scene(depsgraph, tmp, engine=self, bake=not preview_render, info=LAST)
         timings["export"] = time.perf_counter() - t0
         LAST["triangles"] = tris
-        preview_render = bool(self.is_preview)
         for w in warnings:
             if preview_render:
                 # The preview scene's own objects and the icons would repeat the final

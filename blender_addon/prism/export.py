@@ -27,18 +27,21 @@ Blender is Z-up and glTF Y-up: every node hangs below one root node that rotates
 so object matrices are written unchanged.
 """
 
+import copy
 import json
 import math
 import os
 import shutil
 import struct
+import subprocess
 import zlib
 
 import numpy as np
 
 from .blackbody import blackbody_rgb
-from .node_graph import GraphBuilder
-from . import hair, motion, world_bake
+from .node_graph import GraphBuilder, resolve_bakes
+from . import hair, motion, node_bake, world_bake
+from .exr import write_exr_rgb
 
 WATTS_TO_LUMENS = 683.0
 GREY = (0.8, 0.8, 0.8)
@@ -746,42 +749,6 @@ def write_png(path, rgba):
         f.write(chunk(b"IEND", b""))
 
 
-def write_exr_rgb(path, rgb):
-    """Minimal OpenEXR writer: float32 RGB, uncompressed scanlines, rows top first (H, W, 3)."""
-    h, w = rgb.shape[:2]
-
-    def attr(name, kind, data):
-        return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(data)) + data
-
-    chlist = b"".join(c + b"\0" + struct.pack("<iB3xii", 2, 0, 1, 1) for c in (b"B", b"G", b"R")) + b"\0"
-    box = struct.pack("<iiii", 0, 0, w - 1, h - 1)
-    header = (
-        struct.pack("<ii", 20000630, 2)
-        + attr("channels", "chlist", chlist)
-        + attr("compression", "compression", b"\0")
-        + attr("dataWindow", "box2i", box)
-        + attr("displayWindow", "box2i", box)
-        + attr("lineOrder", "lineOrder", b"\0")
-        + attr("pixelAspectRatio", "float", struct.pack("<f", 1.0))
-        + attr("screenWindowCenter", "v2f", struct.pack("<ff", 0.0, 0.0))
-        + attr("screenWindowWidth", "float", struct.pack("<f", 1.0))
-        + b"\0"
-    )
-    line_bytes = w * 3 * 4
-    first = len(header) + 8 * h
-    offsets = np.arange(h, dtype="<u8") * (8 + line_bytes) + first
-    # Each scanline: y, byte count, then the B, G and R planes.
-    planes = np.ascontiguousarray(rgb[:, :, ::-1].transpose(0, 2, 1), dtype="<f4").reshape(h, -1)
-    lines = np.empty((h, 2 + 3 * w), dtype="<i4")
-    lines[:, 0] = np.arange(h)
-    lines[:, 1] = line_bytes
-    lines[:, 2:] = planes.view("<i4")
-    with open(path, "wb") as f:
-        f.write(header)
-        f.write(offsets.tobytes())
-        f.write(lines.tobytes())
-
-
 # ----------------------------------------------------------------------------- mesh data
 
 
@@ -1003,6 +970,19 @@ class Exporter:
         self.warnings = []
         self.n_triangles = 0
         self.camera_lens = None
+        # Baking of nodes the graphs cannot evaluate (node_bake.py): the texture size (0 = off;
+        # the rendered viewport does not bake: a bake takes seconds), the requests per material
+        # name [(node, output identifier, placeholder)], and the per-mesh material variants
+        # [(variant name, {placeholder: file}, jobs)].
+        props = getattr(self.scene, "prism", None)
+        self.bake_size = 0
+        if not viewport and getattr(props, "bake_unsupported_nodes", True):
+            self.bake_size = int(getattr(props, "bake_resolution", node_bake.DEFAULT_SIZE))
+        self.bake_requests = {}
+        self.bake_variants = []
+        self._variant_index = {}
+        self._originals = {}
+        self.bake_stats = None
 
     # -- helpers
     def _child(self, node):
@@ -1081,12 +1061,88 @@ class Exporter:
         self.graph_images[img.name] = (fname, linear)
         return fname, linear
 
+    def _baker(self, name):
+        """GraphBuilder's `bake` callback for material `name` (None when baking is off)."""
+        if not self.bake_size:
+            return None
+
+        def request(node, out):
+            reqs = self.bake_requests.setdefault(name, [])
+            placeholder = "__bake__/%s/%d" % (name, len(reqs))
+            reqs.append((node.name, out.identifier, placeholder))
+            return placeholder
+
+        return request
+
+    def _baked_variant(self, index, ob, me):
+        """The glTF material index mesh `me` (of object `ob`) uses for material `index`: a copy
+        whose baked node outputs are textures baked on this mesh, or `index` itself when the
+        material bakes nothing or this mesh cannot be baked (warned)."""
+        name = self.materials[index]["name"]
+        reqs = self.bake_requests.get(name)
+        if not reqs:
+            return index
+        key = (name, me.as_pointer())
+        if key in self._variant_index:
+            return self._variant_index[key]
+        mat = self._originals.get(name)
+        if ob is None or ob.type != "MESH" or mat is None:
+            self.warnings.append("material '%s': its baked nodes cannot be baked on '%s' (not a mesh); the inputs they feed"
+                                 " use their own values" % (name, ob.name if ob is not None else me.name))
+            self._variant_index[key] = index
+            return index
+        if me.uv_layers.active is None:
+            self.warnings.append("material '%s': mesh '%s' has no UV map, so its baked nodes cannot be baked there; the"
+                                 " inputs they feed use their own values (add a UV map)" % (name, me.name))
+            self._variant_index[key] = index
+            return index
+        variant = "%s@%s" % (name, ob.name)
+        mesh_sig = node_bake.mesh_signature(me)
+        frame = int(self.scene.frame_current)
+        images, jobs = {}, []
+        for node_name, socket_id, placeholder in reqs:
+            fname = "bake%d.exr" % (sum(len(v[2]) for v in self.bake_variants) + len(jobs))
+            images[placeholder] = fname
+            jobs.append({"object": ob.original, "material": mat, "node": node_name, "socket": socket_id,
+                         "size": self.bake_size, "path": os.path.join(self.out_dir, fname),
+                         "key": node_bake.job_key(mat, mesh_sig, ob.matrix_world, node_name, socket_id, self.bake_size, frame)})
+        self.bake_variants.append((variant, images, jobs))
+        self.materials.append(dict(copy.deepcopy(self.materials[index]), name=variant))
+        self.material_json[variant] = copy.deepcopy(self.material_json[name])
+        self._variant_index[key] = len(self.materials) - 1
+        return self._variant_index[key]
+
+    def _run_bakes(self):
+        """Bakes every variant's node outputs (one background Blender for all) and fills the
+        graphs in: variants get their textures, the base materials the sockets' own values."""
+        for name in self.bake_requests:
+            entry = self.material_json.get(name, {})
+            if "graph" in entry:
+                entry["graph"] = resolve_bakes(entry["graph"], {})
+        jobs = [j for _, _, js in self.bake_variants for j in js]
+        if not jobs:
+            return
+        ok = True
+        try:
+            seconds, baked, cached = node_bake.bake(jobs, int(self.scene.frame_current))
+            self.bake_stats = {"seconds": seconds, "baked": baked, "cached": cached}
+            print("Prism: baked %d node output(s) with Cycles in %.1f s (%d from the cache)" % (baked + cached, seconds, cached))
+        except (node_bake.BakeError, OSError, RuntimeError, subprocess.SubprocessError) as e:
+            ok = False
+            self.warnings.append("baking the unsupported nodes with Cycles failed (%s); the inputs they feed use their own"
+                                 " values" % e)
+        for variant, images, _ in self.bake_variants:
+            entry = self.material_json[variant]
+            if "graph" in entry:
+                entry["graph"] = resolve_bakes(entry["graph"], images if ok else {})
+
     def _graph(self, mat, name, m):
         """The material JSON graph for `mat`'s surface shader inputs that are linked, or None."""
         node = _surface_node(mat)
         if node is None:
             return None
-        gb = GraphBuilder(name, self._graph_image, self._uv_set, self._color_set, self.warnings.append)
+        gb = GraphBuilder(name, self._graph_image, self._uv_set, self._color_set, self.warnings.append,
+                          bake=self._baker(name))
         t = node.type
         S = lambda *n: _socket(node, *n)  # noqa: E731
         handled = set()
@@ -1188,7 +1244,8 @@ class Exporter:
         """A Mix / Add Shader tree as graph closures: the tree flattened into weighted leaves
         (weight = product of the mix factors on the way down). m gets the first BSDF leaf's
         constants as the glTF material's (for light power estimates and other viewers)."""
-        gb = GraphBuilder(name, self._graph_image, self._uv_set, self._color_set, self.warnings.append)
+        gb = GraphBuilder(name, self._graph_image, self._uv_set, self._color_set, self.warnings.append,
+                          bake=self._baker(name))
         counter = [0]
 
         def node_name(kind):
@@ -1498,6 +1555,8 @@ class Exporter:
         if key in self.material_index:
             return self.material_index[key]
         name = mat.name if mat is not None else "PrismDefault"
+        if mat is not None:
+            self._originals[name] = mat.original
         m, sss, ok = convert_material(mat)
         mixed = None
         surface = _surface_node(mat) if mat is not None else None
@@ -1653,7 +1712,7 @@ class Exporter:
                 self.volume_graphs[name] = gb.result()
         return volume
 
-    def _mesh(self, key, me, slots):
+    def _mesh(self, key, me, slots, ob=None):
         if key in self.mesh_cache:
             return self.mesh_cache[key]
         triangles = _mesh_triangles(me)
@@ -1664,7 +1723,7 @@ class Exporter:
         materials = {}
         for mi in np.unique(tri_mat):
             mi = int(mi)
-            materials[mi] = self._material(slots[mi] if 0 <= mi < len(slots) else None)
+            materials[mi] = self._baked_variant(self._material(slots[mi] if 0 <= mi < len(slots) else None), ob, me)
         # Normal-mapped materials need per-corner MikkTSpace tangents, so per-corner arrays;
         # so do the UV maps and colour attributes that shading graphs read.
         needs_tangents = any(self._uses_tangents(self.materials[i]) for i in materials.values())
@@ -1743,7 +1802,7 @@ class Exporter:
             me = ob.data
             key = ("mesh", me.as_pointer())
             slots = [s.material for s in ob.material_slots] or list(me.materials)
-            mi = self._mesh(key, me, slots)
+            mi = self._mesh(key, me, slots, ob)
         else:
             try:
                 me = ob.to_mesh()
@@ -1753,7 +1812,7 @@ class Exporter:
                 return
             try:
                 slots = [s.material for s in ob.material_slots]
-                mi = self._mesh(("obj", ob.name, len(self.nodes)), me, slots)
+                mi = self._mesh(("obj", ob.name, len(self.nodes)), me, slots, ob)
             finally:
                 ob.to_mesh_clear()
         if mi is not None:
@@ -2280,6 +2339,7 @@ class Exporter:
                 self.warnings.append("motion blur: particle hair is shown at the current frame (not blurred) on moving objects: "
                                      + ", ".join(sorted(set(self.hair_objects))))
         self._add_camera()
+        self._run_bakes()
         if self.unsupported_normals:
             self.warnings.insert(
                 0,
@@ -2362,15 +2422,21 @@ def render_settings(scene):
     return out
 
 
-def export_scene(depsgraph, out_dir, name="scene", engine=None):
+def export_scene(depsgraph, out_dir, name="scene", engine=None, bake=True, info=None):
     """Writes <out_dir>/<name>.gltf/.bin/.materials.json; returns (gltf, json, warnings, triangles).
     With motion blur on, the scene is first evaluated over the shutter (`motion.sample`, with
-    `engine.frame_set` inside a render)."""
+    `engine.frame_set` inside a render). `bake`: bake the nodes graphs cannot evaluate (if the
+    scene's setting allows; not for material previews); `info` (a dict) receives "bake", the
+    bake's statistics or None."""
     movement = motion.sample(depsgraph, engine)
     scene = depsgraph.scene_eval
     w, h = render_size(scene)
     ex = Exporter(depsgraph, out_dir, name, w, h)
+    if not bake:
+        ex.bake_size = 0
     ex.motion = movement
     gltf_path, json_path = ex.run(render_settings(scene))
+    if info is not None:
+        info["bake"] = ex.bake_stats
     return gltf_path, json_path, ex.warnings, ex.n_triangles
 

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: MIT
-"""A small OpenEXR reader (numpy only) for the files the prism binary writes.
+"""A small OpenEXR reader and writer (numpy only) for the files the prism binary writes.
 
 Reading the result without bpy.data.images keeps render() from adding and removing datablocks
 while Blender's interface may be drawing. Supports single-part scanline or tiled (one level)
@@ -246,3 +246,39 @@ def _read_part(buf, attrs, pos, tiled, part):
             block = _decompress(comp, buf[off + 8:off + 8 + size], expected)
             put(th, 0, w, ya, block)
     return planes, pos + 8 * count
+
+
+def write_exr_rgb(path, rgb):
+    """Minimal OpenEXR writer: float32 RGB, uncompressed scanlines, rows top first (H, W, 3)."""
+    h, w = rgb.shape[:2]
+
+    def attr(name, kind, data):
+        return name.encode() + b"\0" + kind.encode() + b"\0" + struct.pack("<i", len(data)) + data
+
+    chlist = b"".join(c + b"\0" + struct.pack("<iB3xii", 2, 0, 1, 1) for c in (b"B", b"G", b"R")) + b"\0"
+    box = struct.pack("<iiii", 0, 0, w - 1, h - 1)
+    header = (
+        struct.pack("<ii", 20000630, 2)
+        + attr("channels", "chlist", chlist)
+        + attr("compression", "compression", b"\0")
+        + attr("dataWindow", "box2i", box)
+        + attr("displayWindow", "box2i", box)
+        + attr("lineOrder", "lineOrder", b"\0")
+        + attr("pixelAspectRatio", "float", struct.pack("<f", 1.0))
+        + attr("screenWindowCenter", "v2f", struct.pack("<ff", 0.0, 0.0))
+        + attr("screenWindowWidth", "float", struct.pack("<f", 1.0))
+        + b"\0"
+    )
+    line_bytes = w * 3 * 4
+    first = len(header) + 8 * h
+    offsets = np.arange(h, dtype="<u8") * (8 + line_bytes) + first
+    # Each scanline: y, byte count, then the B, G and R planes.
+    planes = np.ascontiguousarray(rgb[:, :, ::-1].transpose(0, 2, 1), dtype="<f4").reshape(h, -1)
+    lines = np.empty((h, 2 + 3 * w), dtype="<i4")
+    lines[:, 0] = np.arange(h)
+    lines[:, 1] = line_bytes
+    lines[:, 2:] = planes.view("<i4")
+    with open(path, "wb") as f:
+        f.write(header)
+        f.write(offsets.tobytes())
+        f.write(lines.tobytes())

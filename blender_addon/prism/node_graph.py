@@ -34,6 +34,18 @@ BLEND_TYPES = {
 SHADER_SOCKET = "SHADER"
 
 
+class _GroupNeedsBake(Exception):
+    """An untranslatable node inside a node group: the group's output that leads to it is
+    baked instead (caught where the walk entered the group from the material's top level)."""
+
+    def __init__(self, node):
+        super().__init__(node.name)
+        self.node = node
+
+
+_NEEDS_BAKE = object()  # `_done` marker of a node inside a group that must be baked
+
+
 def _const(sock):
     """The socket's own value as the JSON constant of its type."""
     v = getattr(sock, "default_value", None)
@@ -79,10 +91,15 @@ class GraphBuilder:
 
     `images(img) -> (file name, linear)` writes an image next to the JSON; `uv_set(name)` and
     `color_set(name)` give the TEXCOORD_n / COLOR_n set that carries a named UV map or colour
-    attribute ("" = the active one); `warn(msg)` reports to the user."""
+    attribute ("" = the active one); `warn(msg)` reports to the user. `bake(node, output)`,
+    when given, registers a bake of a node output the graph cannot evaluate (`node_bake.py`)
+    and returns the image name that stands for it; without it such nodes keep their
+    inputs' own values, as before."""
 
-    def __init__(self, material_name, images, uv_set, color_set, warn):
+    def __init__(self, material_name, images, uv_set, color_set, warn, bake=None):
         self.mat = material_name
+        self.bake = bake
+        self._baked = {}
         self.images = images
         self.uv_set = uv_set
         self.color_set = color_set
@@ -152,6 +169,7 @@ class GraphBuilder:
 
     def _output(self, node, out, ctx, target):
         """JSON value for output `out` of `node`, read by input socket `target`."""
+        entry = None  # the top-level group node (and its output) this walk went into
         for _ in range(256):  # reroutes, muted nodes and group boundaries
             if node.type == "REROUTE":
                 link = self._live_link(node.inputs[0])
@@ -172,6 +190,8 @@ class GraphBuilder:
                 node, out = up
                 continue
             if node.type == "GROUP":
+                if not ctx:
+                    entry = (node, out)
                 tree = node.node_tree
                 gout = None
                 for n in tree.nodes if tree is not None else []:
@@ -216,10 +236,21 @@ class GraphBuilder:
             self.warn(node, "a shader output feeds a colour or value input; its default is used")
             return _const(target)
         name = "/".join([g.name for g in ctx] + [node.name])
-        if name not in self._done:
-            self._done[name] = None  # a cycle reads the default below
-            self._done[name] = self._node(node, ctx, name)
-        outputs = self._done[name]
+        try:
+            if name not in self._done:
+                self._done[name] = None  # a cycle reads the default below
+                self._done[name] = self._node(node, ctx, name)
+            outputs = self._done[name]
+            if outputs is _NEEDS_BAKE:
+                raise _GroupNeedsBake(node)
+        except _GroupNeedsBake as e:
+            self._done[name] = _NEEDS_BAKE if ctx else self._done.get(name)
+            if entry is None:
+                raise
+            group, group_out = entry
+            ref = self._bake_output(group, group_out, "node '%s' (%s) inside it is not supported" % (
+                e.node.name, e.node.bl_idname))
+            return _const(target) if ref is None else dict(ref, fallback=_const(target))
         if outputs is None:
             return _const(target)
         ours = outputs.get(out.identifier) or outputs.get(out.name)
@@ -228,7 +259,34 @@ class GraphBuilder:
             return _const(target)
         if isinstance(ours, (float, list)):
             return ours
+        if isinstance(ours, dict):  # a baked output (`_bake_output`)
+            return dict(ours, fallback=_const(target))
         return {"node": name, "output": ours}
+
+    def _bake_output(self, node, out, why):
+        """A reference to an image node holding output `out` of top-level node `node` baked
+        by Cycles, or None (warned) when it cannot be baked. References carry the reading
+        socket's own value as "fallback", for meshes the bake cannot cover (`resolve_bakes`)."""
+        key = (node.name, out.identifier)
+        if key in self._baked:
+            return self._baked[key]
+        from .node_bake import why_not_bakeable
+
+        ref = None
+        reason = why_not_bakeable(node, out)
+        if reason is not None:
+            self.warn(node, "%s, and its output '%s' cannot be baked (%s); the input it feeds uses its own value"
+                      % (why, out.name, reason))
+        else:
+            image = self.bake(node, out)
+            bname = "%s/bake:%s" % (node.name, out.identifier)
+            self.nodes[bname] = {"type": "image_texture", "image": image, "color_space": "linear",
+                                 "interpolation": "linear", "extension": "extend", "inputs": {}}
+            ref = {"node": bname, "output": "color"}
+            self.warn(node, "%s; its output '%s' is baked with Cycles into a texture over the mesh's active UV map"
+                      % (why, out.name))
+        self._baked[key] = ref
+        return ref
 
     # -- nodes
     def _inputs(self, node, ctx, mapping):
@@ -473,6 +531,16 @@ class GraphBuilder:
             if I("Vector").is_linked:
                 j["inputs"]["vector"] = self.value(I("Vector"), ctx)
             outs = {"Value": "value", "Color": "color"}
+        elif self.bake is not None and ctx:
+            raise _GroupNeedsBake(node)
+        elif self.bake is not None:
+            outs = {}
+            for o in node.outputs:
+                if o.is_linked and o.type != SHADER_SOCKET:
+                    ref = self._bake_output(node, o, "not supported")
+                    if ref is not None:
+                        outs[o.identifier] = ref
+            return outs or None
         else:
             self.warn(node, "not supported; the input it feeds uses its own value")
             return None
@@ -535,3 +603,38 @@ class GraphBuilder:
             j["inputs"]["vector"] = self.value(vec, ctx)
         return j
 
+
+def resolve_bakes(graph, images):
+    """A copy of `graph` (a `GraphBuilder.result()`) for one mesh: the baked image names in
+    `images` (placeholder -> file) are filled in; references to bakes not in `images` are
+    replaced by the reading socket's own value (their "fallback") and their nodes dropped."""
+    import copy
+
+    g = copy.deepcopy(graph)
+    dropped = set()
+    for name, n in list(g["nodes"].items()):
+        if n.get("type") == "image_texture" and "/bake:" in name:
+            if n["image"] in images:
+                n["image"] = images[n["image"]]
+            else:
+                dropped.add(name)
+                del g["nodes"][name]
+
+    def fix(v):
+        if isinstance(v, dict):
+            if "fallback" in v and "node" in v:
+                if v["node"] in dropped:
+                    return v["fallback"]
+                return {k: x for k, x in v.items() if k != "fallback"}
+            return {k: fix(x) for k, x in v.items()}
+        if isinstance(v, list):
+            return [fix(x) for x in v]
+        return v
+
+    for key in g:  # nodes, inputs, closures
+        g[key] = fix(g[key])
+    return g
+
+
+def has_bakes(graph):
+    return graph is not None and any("/bake:" in k for k in graph.get("nodes", {}))

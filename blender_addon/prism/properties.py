@@ -189,6 +189,19 @@ class PrismRenderSettings(bpy.types.PropertyGroup):
         default=False,
     )
     seed: IntProperty(name="Seed", description="Random seed", default=0, min=0)
+    bake_unsupported_nodes: BoolProperty(
+        name="Bake Unsupported Nodes",
+        description="Bake the output of shader nodes Prism cannot evaluate (Gabor, Musgrave, Attribute, "
+        "Vector Rotate, Ambient Occlusion, ...) with Cycles into a texture over the mesh's active UV map, "
+        "instead of using the input's own value (final renders only; cached between renders)",
+        default=True,
+    )
+    bake_resolution: EnumProperty(
+        name="Resolution",
+        description="Width and height of each baked texture",
+        items=[(str(n), "%d px" % n, "%d x %d texels" % (n, n)) for n in (256, 512, 1024, 2048, 4096)],
+        default="1024",
+    )
 
 
 class PrismMaterialSettings(bpy.types.PropertyGroup):

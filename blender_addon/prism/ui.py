@@ -148,6 +148,27 @@ class RENDER_PT_prism_film(PrismPanel, bpy.types.Panel):
         col.prop(p, "filter_width")
 
 
+class RENDER_PT_prism_node_bake(PrismPanel, bpy.types.Panel):
+    """Cycles bakes of the shader nodes Prism cannot evaluate (node_bake.py)."""
+
+    bl_label = "Bake Unsupported Nodes"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.prism, "bake_unsupported_nodes", text="")
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        p = context.scene.prism
+        col = layout.column()
+        col.active = p.bake_unsupported_nodes
+        col.prop(p, "bake_resolution")
+
+
 class VIEWLAYER_PT_prism_passes(PrismPanel, bpy.types.Panel):
     """Blender's own pass panel is Cycles/EEVEE specific; these are the passes Prism writes."""
 
@@ -468,6 +489,7 @@ classes = (
     RENDER_PT_prism_denoise,
     RENDER_PT_prism_light_paths,
     RENDER_PT_prism_film,
+    RENDER_PT_prism_node_bake,
     VIEWLAYER_PT_prism_passes,
     DATA_PT_prism_light,
     DATA_PT_prism_light_beam_shape,

@@ -220,6 +220,17 @@ impl EnvironmentMap {
 /// Loads an equirectangular image: `.exr` (first RGB(A) layer, float), `.hdr` (Radiance RGBE)
 /// or `.png` (8/16-bit, sRGB-decoded to linear). Errors are one line without the path.
 pub fn load_env_image(path: &Path) -> Result<EnvImage, String> {
+    let img = load_linear_image(path)?;
+    if img.texels.iter().any(|t| t.min_element() < 0.0) {
+        return Err("the image has negative values (radiance must be non-negative)".into());
+    }
+    Ok(img)
+}
+
+/// Loads a linear RGB image as `load_env_image` does, negative values allowed: data images
+/// (a shading graph's vectors, signed textures baked by Cycles) hold them, and Cycles reads
+/// them as they are. Non-finite texels are an error.
+pub fn load_linear_image(path: &Path) -> Result<EnvImage, String> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -278,9 +289,6 @@ pub fn load_env_image(path: &Path) -> Result<EnvImage, String> {
         return Err(format!(
             "pixel ({x}, {y}) is not finite (NaN or infinite values are not valid radiance)"
         ));
-    }
-    if img.texels.iter().any(|t| t.min_element() < 0.0) {
-        return Err("the image has negative values (radiance must be non-negative)".into());
     }
     Ok(img)
 }

@@ -304,7 +304,7 @@ fn read_graph_image(path: &Path, linear: bool) -> Result<Image, String> {
         .unwrap_or_default();
     let name = path.display().to_string();
     if ext == "exr" || ext == "hdr" {
-        let env = crate::lights::envmap::load_env_image(path)?;
+        let env = crate::lights::envmap::load_linear_image(path)?;
         return Ok(Image {
             name,
             width: env.width,

@@ -53,104 +53,59 @@ export BLENDER_USER_SCRIPTS="$WORK/scripts" BLENDER_USER_CONFIG="$WORK/config" T
 
 # Blender prints a status line per progress update; keep the test lines.
 filter() { grep -v -E '^(Fra:|$|Prism: started|[0-9:.]+ +(blend|render))' || true; }
+# Blender's bundled glTF exporter logs a line per step.
+quiet_info() { "$@" 2>&1 | grep -v ' INFO: '; return "${PIPESTATUS[0]}"; }
+# step "what" command...: runs one test file, keeps its test lines, prints its wall time (so the
+# suite's budget can be watched per file), and fails the run if the file fails.
+step() {
+    local what=$1 start=$SECONDS
+    shift
+    echo "== $what"
+    local rc=0
+    { "$@" 2>&1 | filter; } || rc=$?  # pipefail: the test's status (filter never fails)
+    echo "   ($((SECONDS - start)) s)"
+    [ "$rc" = 0 ]
+}
 
 if [ "$WHICH" = all ] || [ "$WHICH" = bpy ]; then
-    echo "== add-on tests in the bpy wheel (Blender 5.0.1)"
-    .venv-bpy/bin/python tests/addon/test_bpy.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== Properties editor panels with Prism (light, world, material, camera) in the bpy wheel"
-    .venv-bpy/bin/python tests/addon/test_panels.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== Sampling and Light Paths presets in the bpy wheel"
-    .venv-bpy/bin/python tests/addon/test_presets.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== soft lights (radius, sun angle), Temperature, Blackbody, Exposure vs Cycles in the bpy wheel"
-    .venv-bpy/bin/python tests/addon/test_lights.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== render border, Film Transparent, holdouts vs Cycles in the bpy wheel"
-    .venv-bpy/bin/python tests/addon/test_pipeline.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== camera and world parity with Cycles in the bpy wheel"
-    .venv-bpy/bin/python tests/addon/test_camera_world.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== worlds baked by Cycles (every Sky Texture model, a procedural world) vs Cycles in the bpy wheel"
-    .venv-bpy/bin/python tests/addon/test_world_bake.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== shader node graphs: export and parity with Cycles in the bpy wheel"
-    .venv-bpy/bin/python tests/addon/test_node_graphs.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== volume shaders (fog, tinted glass, smoke, glow, a camera inside fog) vs Cycles in the bpy wheel"
-    .venv-bpy/bin/python tests/addon/test_volumes.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== denoising (the wheel's OIDN) and clamps in the bpy wheel"
-    .venv-bpy/bin/python tests/addon/test_denoise.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== normal maps: export and parity with Cycles in the bpy wheel"
-    .venv-bpy/bin/python tests/addon/test_normal_map.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== Principled subsurface parity with Cycles in the bpy wheel"
-    .venv-bpy/bin/python tests/addon/test_sss_parity.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== energy-conserving rough glass, metal and Principled parity with Cycles in the bpy wheel"
-    .venv-bpy/bin/python tests/addon/test_energy_parity.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== particle hair and Curves objects vs Cycles in the bpy wheel"
-    .venv-bpy/bin/python tests/addon/test_hair.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== object and camera motion blur vs Cycles in the bpy wheel"
-    .venv-bpy/bin/python tests/addon/test_motion_blur.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== the rendered viewport's renderer (prism serve): each kind of edit vs F12 renders in the bpy wheel"
-    .venv-bpy/bin/python tests/addon/test_serve.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== the standalone binary on glTF from Blender's bundled exporter, vs Cycles"
-    .venv-bpy/bin/python tests/addon/test_bundled_gltf.py 2>&1 | filter | grep -v ' INFO: '
-    [ "${PIPESTATUS[0]}" = 0 ]
+    step "add-on tests in the bpy wheel (Blender 5.0.1)" .venv-bpy/bin/python tests/addon/test_bpy.py
+    step "Properties editor panels with Prism (light, world, material, camera) in the bpy wheel" .venv-bpy/bin/python tests/addon/test_panels.py
+    step "Sampling and Light Paths presets in the bpy wheel" .venv-bpy/bin/python tests/addon/test_presets.py
+    step "soft lights (radius, sun angle), Temperature, Blackbody, Exposure vs Cycles in the bpy wheel" .venv-bpy/bin/python tests/addon/test_lights.py
+    step "render border, Film Transparent, holdouts vs Cycles in the bpy wheel" .venv-bpy/bin/python tests/addon/test_pipeline.py
+    step "camera and world parity with Cycles in the bpy wheel" .venv-bpy/bin/python tests/addon/test_camera_world.py
+    step "worlds baked by Cycles (every Sky Texture model, a procedural world) vs Cycles in the bpy wheel" .venv-bpy/bin/python tests/addon/test_world_bake.py
+    step "shader node graphs: export and parity with Cycles in the bpy wheel" .venv-bpy/bin/python tests/addon/test_node_graphs.py
+    step "volume shaders (fog, tinted glass, smoke, glow, a camera inside fog) vs Cycles in the bpy wheel" .venv-bpy/bin/python tests/addon/test_volumes.py
+    step "denoising (the wheel's OIDN) and clamps in the bpy wheel" .venv-bpy/bin/python tests/addon/test_denoise.py
+    step "normal maps: export and parity with Cycles in the bpy wheel" .venv-bpy/bin/python tests/addon/test_normal_map.py
+    step "Principled subsurface parity with Cycles in the bpy wheel" .venv-bpy/bin/python tests/addon/test_sss_parity.py
+    step "energy-conserving rough glass, metal and Principled parity with Cycles in the bpy wheel" .venv-bpy/bin/python tests/addon/test_energy_parity.py
+    step "particle hair and Curves objects vs Cycles in the bpy wheel" .venv-bpy/bin/python tests/addon/test_hair.py
+    step "object and camera motion blur vs Cycles in the bpy wheel" .venv-bpy/bin/python tests/addon/test_motion_blur.py
+    step "the rendered viewport's renderer (prism serve): each kind of edit vs F12 renders in the bpy wheel" .venv-bpy/bin/python tests/addon/test_serve.py
+    step "the standalone binary on glTF from Blender's bundled exporter, vs Cycles" quiet_info .venv-bpy/bin/python tests/addon/test_bundled_gltf.py
 fi
 if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
-    echo "== add-on tests through blender -b ($(blender --version 2>/dev/null | head -1))"
-    .venv-bpy/bin/python tests/addon/test_background.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== Properties editor panels with Prism in blender -b ($(blender --version 2>/dev/null | head -1))"
-    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_panels.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== Sampling and Light Paths presets in blender -b"
-    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_presets.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== soft lights vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
-    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_lights.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== object and camera motion blur vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
-    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_motion_blur.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== render border, Film Transparent, holdouts vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
-    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_pipeline.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== camera shift and panoramic cameras vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
-    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_camera_world.py -- \
-        test_camera_shift_parity test_panoramic_camera_parity 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== shader node setups vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
-    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_node_graphs.py -- \
-        test_node_setups_match_cycles test_refraction_bsdf_matches_cycles 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== Blender 3.x's Clearcoat vs Cycles 3.x in blender -b"
-    blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_energy_parity.py -- \
-        test_clearcoat_3x_matches_cycles 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
-    echo "== worlds baked by Cycles vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))"
-    PRISM_SKY_MODELS=NISHITA blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_world_bake.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
+    step "add-on tests through blender -b ($(blender --version 2>/dev/null | head -1))" .venv-bpy/bin/python tests/addon/test_background.py
+    step "Properties editor panels with Prism in blender -b ($(blender --version 2>/dev/null | head -1))" blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_panels.py
+    step "Sampling and Light Paths presets in blender -b" blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_presets.py
+    step "soft lights vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))" blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_lights.py
+    step "object and camera motion blur vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))" blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_motion_blur.py
+    step "render border, Film Transparent, holdouts vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))" blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_pipeline.py
+    step "camera shift and panoramic cameras vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))" blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_camera_world.py -- \
+        test_camera_shift_parity test_panoramic_camera_parity
+    step "shader node setups and Cycles bakes of unsupported nodes vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))" blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_node_graphs.py -- \
+        test_node_setups_match_cycles test_refraction_bsdf_matches_cycles test_unsupported_nodes_are_baked
+    step "Blender 3.x's Clearcoat vs Cycles 3.x in blender -b" blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_energy_parity.py -- \
+        test_clearcoat_3x_matches_cycles
+    step "worlds baked by Cycles vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))" env PRISM_SKY_MODELS=NISHITA blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_world_bake.py
 fi
 if [ "$WHICH" = all ] || [ "$WHICH" = interactive ]; then
-    echo "== interactive Blender ($(blender --version 2>/dev/null | head -1)) under Xvfb: Rendered viewport vs F12, engine list, panels, F12, the Properties editor's tabs"
-    .venv-bpy/bin/python tests/addon/test_interactive.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
+    step "interactive Blender ($(blender --version 2>/dev/null | head -1)) under Xvfb: Rendered viewport vs F12, engine list, panels, F12, the Properties editor's tabs" .venv-bpy/bin/python tests/addon/test_interactive.py
 fi
 if [ "$WHICH" = all ] || [ "$WHICH" = package ]; then
-    echo "== packaged zips: extension in bpy 5.0.1, legacy add-on in blender -b 3.4"
-    .venv-bpy/bin/python tests/addon/test_package.py 2>&1 | filter
-    [ "${PIPESTATUS[0]}" = 0 ]
+    step "packaged zips: extension in bpy 5.0.1, legacy add-on in blender -b 3.4" .venv-bpy/bin/python tests/addon/test_package.py
 fi
 leftover=$(find "$TMPDIR" -maxdepth 1 -name 'prism_*' -type d | grep -v -E 'prism_(addon|bg|pkg)_test_|prism_interactive_' || true)
 if command -v pgrep >/dev/null && pgrep -f 'prism serve' >/dev/null; then echo "prism serve processes left running: $(pgrep -af 'prism serve')" >&2; exit 1; fi

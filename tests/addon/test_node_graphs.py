@@ -300,9 +300,11 @@ def render_tile(sc, mat, name):
 
 def test_unsupported_nodes_are_named():
     """A node Prism cannot evaluate yet is one warning naming material, node and type, shown in
-    the status bar (RenderEngine.report); the input falls back to its own value."""
+    the status bar (RenderEngine.report); with baking off, the input falls back to its own
+    value."""
     C.reset()
     sc = bpy.context.scene
+    sc.prism.bake_unsupported_nodes = False
     mat, nt, sh = new_material("Wavy")
     wave = nt.nodes.new("ShaderNodeTexGabor" if hasattr(bpy.types, "ShaderNodeTexGabor") else "ShaderNodeBlackbody")
     wave.name = "MyWaves"
@@ -314,6 +316,151 @@ def test_unsupported_nodes_are_named():
     C.check(len(named) == 1, "one warning names material, node and type: %s" % warnings)
     m = px.mean(axis=(0, 1))
     C.check(m[1] > 2.0 * m[0], "the Color input's own value (green) is used: %s" % m)
+
+
+def _unsupported_texture(nt):
+    """A texture node Prism does not evaluate: 5.0's Gabor, 3.x's Musgrave (signed values)."""
+    if hasattr(bpy.types, "ShaderNodeTexGabor"):
+        n = nt.nodes.new("ShaderNodeTexGabor")
+        n.inputs["Scale"].default_value = 5.0
+    else:
+        n = nt.nodes.new("ShaderNodeTexMusgrave")
+        n.inputs["Scale"].default_value = 3.0
+    return n
+
+
+def baked_tiles():
+    """Emission tiles whose colour comes through a node Prism cannot evaluate, and so is baked
+    by Cycles: (name, material). Nodes after the baked one stay live in Prism's graph."""
+    out = []
+    # The node alone, then a Math node of Prism's (|x|: Musgrave is signed).
+    mat, nt, em = new_material("BakedTexture", "ShaderNodeEmission")
+    tex = _unsupported_texture(nt)
+    tex.name = "Unsupported"
+    ab = nt.nodes.new("ShaderNodeMath")
+    ab.operation = "ABSOLUTE"
+    nt.links.new(tex.outputs[0], ab.inputs[0])
+    nt.links.new(ab.outputs[0], em.inputs["Color"])
+    out.append(("BakedTexture", mat))
+    # Inside a node group, with a Color Ramp after it there: the group's output is baked.
+    grp = bpy.data.node_groups.new("UnsupportedGroup", "ShaderNodeTree")
+    if hasattr(grp, "interface"):
+        grp.interface.new_socket("Color", in_out="OUTPUT", socket_type="NodeSocketColor")
+    else:
+        grp.outputs.new("NodeSocketColor", "Color")
+    gout = grp.nodes.new("NodeGroupOutput")
+    gtex = _unsupported_texture(grp)
+    ramp = grp.nodes.new("ShaderNodeValToRGB")
+    ramp.color_ramp.elements[0].color = (0.9, 0.2, 0.1, 1.0)
+    ramp.color_ramp.elements[1].color = (0.1, 0.3, 0.9, 1.0)
+    grp.links.new(gtex.outputs[0], ramp.inputs["Fac"])
+    grp.links.new(ramp.outputs["Color"], gout.inputs[0])
+    mat, nt, em = new_material("BakedGroup", "ShaderNodeEmission")
+    g = nt.nodes.new("ShaderNodeGroup")
+    g.node_tree = grp
+    nt.links.new(g.outputs[0], em.inputs["Color"])
+    out.append(("BakedGroup", mat))
+    # A baked vector (Vector Rotate of Generated coordinates: signed values) into a live
+    # Checker: the squares' edges land where Cycles draws them.
+    mat, nt, em = new_material("BakedVector", "ShaderNodeEmission")
+    tc = nt.nodes.new("ShaderNodeTexCoord")
+    rot = nt.nodes.new("ShaderNodeVectorRotate")
+    rot.rotation_type = "Z_AXIS"
+    rot.inputs["Angle"].default_value = math.radians(30.0)
+    chk = nt.nodes.new("ShaderNodeTexChecker")
+    chk.inputs["Scale"].default_value = 3.0
+    nt.links.new(tc.outputs["Generated"], rot.inputs["Vector"])
+    nt.links.new(rot.outputs["Vector"], chk.inputs["Vector"])
+    nt.links.new(chk.outputs["Color"], em.inputs["Color"])
+    out.append(("BakedVector", mat))
+    return out
+
+
+def _baked_scene():
+    C.reset()
+    sc = bpy.context.scene
+    tiles = baked_tiles()
+    for i, (name, mat) in enumerate(tiles):
+        C.mesh_object(name, tile_mesh, mat, location=(i * 1.2 - (len(tiles) - 1) * 0.6, 0.0, 0.0))
+    C.world((0.0, 0.0, 0.0), 0.0)
+    cam = C.camera((0.0, 0.0, 5.0), (0.0, 0.0, 0.0))
+    cam.data.type = "ORTHO"
+    cam.data.ortho_scale = len(tiles) * 1.2
+    sc.render.resolution_x = len(tiles) * 40
+    sc.render.resolution_y = 40
+    sc.render.resolution_percentage = 100
+    sc.prism.bake_resolution = "256"
+    return sc, tiles
+
+
+def test_unsupported_nodes_are_baked():
+    """Nodes Prism cannot evaluate are baked by Cycles into textures on the mesh's UV map (at
+    top level, inside a group, a vector into a live Checker): each tile against Cycles, mean
+    within 2% and the 99.5th percentile of the 3x3-blurred per-pixel error within 3% of the
+    tile's range.
+    The warning names the node and says it is baked; a second render takes the bakes from the
+    cache. A mesh without a UV map, and a node fed by view-dependent coordinates, are not baked:
+    warned, the input's own value."""
+    spp = 256
+    results = []
+    for engine in ("cycles", "prism"):
+        sc, tiles = _baked_scene()
+        results.append(C.render_engine(sc, engine, spp, OUT, "baked", 2))
+    cy, pr = results
+    warnings = prism.engine.LAST["warnings"]
+    stats = prism.engine.LAST["bake"]
+    tiles = [(name, None) for name, _ in tiles]
+    C.check(stats is not None and stats["baked"] + stats["cached"] == len(tiles), "one bake per tile: %s" % stats)
+    for name, _ in tiles:
+        C.check(any(name in w and "baked with Cycles" in w for w in warnings), "%s: the warning says it is baked: %s"
+                % (name, warnings))
+    failures = []
+    for i, (name, _) in enumerate(tiles):
+        x0 = int((i + 0.5) * 40 - 14)
+        a, b = pr[6:34, x0:x0 + 28], cy[6:34, x0:x0 + 28]
+        rng = max(float(b.max() - b.min()), 0.1)
+        ma, mb = a.mean(axis=(0, 1)), b.mean(axis=(0, 1))
+        # 3x3-blurred: the Checker's edge pixels are fractions of their samples, noisy in both
+        # renders; an edge one pixel off still shows as about a third of the range.
+        p995 = float(np.percentile(np.abs(C.blur(a) - C.blur(b)), 99.5)) / rng
+        print("  %-13s mean %s vs %s  range %.3f  99.5%% error / range %.4f" % (name, np.round(ma, 3), np.round(mb, 3), rng, p995))
+        if not (np.all(np.abs(ma - mb) <= 0.02 * np.maximum(mb, 0.05)) and p995 <= 0.03):
+            failures.append(name)
+    C.check(not failures, "baked tiles match Cycles (failed: %s)" % failures)
+
+    # Again: every bake from the cache.
+    sc, _ = _baked_scene()
+    again = C.render_engine(sc, "prism", spp, OUT, "baked_again", 2)
+    stats = prism.engine.LAST["bake"]
+    C.check(stats["cached"] == len(tiles) and stats["baked"] == 0, "the second render bakes nothing: %s" % stats)
+    C.check(C.rel_mse(again, pr) < 1e-3, "and renders the same image")
+
+    # No UV map: warned, the input's own value (green); view-dependent input: not baked.
+    C.reset()
+    sc = bpy.context.scene
+    mat, nt, em = new_material("NoUvs", "ShaderNodeEmission")
+    em.inputs["Color"].default_value = (0.1, 0.8, 0.1, 1.0)
+    nt.links.new(_unsupported_texture(nt).outputs[0], em.inputs["Color"])
+    C.mesh_object("NoUvTile", C.plane(1.0), mat)
+    mat2, nt2, em2 = new_material("ViewDependent", "ShaderNodeEmission")
+    tc = nt2.nodes.new("ShaderNodeTexCoord")
+    rot = nt2.nodes.new("ShaderNodeVectorRotate")
+    rot.name = "Spin"
+    nt2.links.new(tc.outputs["Reflection"], rot.inputs["Vector"])
+    nt2.links.new(rot.outputs["Vector"], em2.inputs["Color"])
+    C.mesh_object("ReflTile", tile_mesh, mat2, location=(2.0, 0.0, 0.0))
+    C.world((0.0, 0.0, 0.0), 0.0)
+    cam = C.camera((0.0, 0.0, 5.0), (0.0, 0.0, 0.0))
+    cam.data.type = "ORTHO"
+    cam.data.ortho_scale = 1.0
+    sc.render.resolution_x = sc.render.resolution_y = 16
+    px = C.render_engine(sc, "prism", 4, OUT, "no_uvs", 2)
+    warnings = prism.engine.LAST["warnings"]
+    C.check(any("NoUvs" in w and "no UV map" in w for w in warnings), "a mesh without UVs is warned: %s" % warnings)
+    C.check(any("ViewDependent" in w and "Spin" in w and "cannot be baked" in w for w in warnings),
+            "a node fed by Reflection coordinates is not baked: %s" % warnings)
+    m = px.mean(axis=(0, 1))
+    C.check(m[1] > 4.0 * m[0], "no UVs: the Color input's own value (green): %s" % m)
 
 
 def test_mix_leaves_with_different_normals_are_warned():
