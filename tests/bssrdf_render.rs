@@ -440,3 +440,61 @@ fn overlapping_shells_of_one_medium_make_no_fireflies() {
         assert!(brightest < max_pixel, "{method}: a pixel of {brightest}");
     }
 }
+
+/// A subsurface colour from the shading graph (`subsurface_color`, Blender's textured Base
+/// Color) replaces the colour of a medium given by one, where the path enters: a slab whose
+/// graph gives colour B renders as the slab made of colour B (means within 2% per channel,
+/// same seed), not as its own colour A. For `reflectance` + `mfp` (the table) and for
+/// Blender's `color` + `radius` random walk (plain and Skin), as a top-level input and on the
+/// subsurface leaf of a mixture.
+#[test]
+fn graph_subsurface_colour_is_the_medium_of_that_colour() {
+    use prism::shading::parse::{parse_graph, NoImages};
+    let a = Vec3::new(0.3, 0.6, 0.8);
+    let b = Vec3::new(0.8, 0.45, 0.15);
+    type ByColour = fn(Vec3) -> SubsurfaceCoefficients;
+    let forms: [(&str, ByColour); 3] = [
+        ("table", |c| SubsurfaceCoefficients::Reflectance {
+            reflectance: c,
+            mfp: Vec3::new(1.0, 0.5, 0.25),
+        }),
+        ("random_walk", |c| SubsurfaceCoefficients::CyclesWalk {
+            color: c,
+            radius: Vec3::new(4.0, 2.0, 1.0),
+            skin: false,
+        }),
+        ("random_walk", |c| SubsurfaceCoefficients::CyclesWalk {
+            color: c,
+            radius: Vec3::new(1.0, 0.5, 0.25),
+            skin: true,
+        }),
+    ];
+    for (method, form) in forms {
+        let desc = |c: Vec3| SubsurfaceDesc {
+            coefficients: form(c),
+            ..subsurface(Vec3::ZERO, Vec3::ZERO, method)
+        };
+        let (of_b, _) = render_mean(slab_scene(&desc(b)), 128, 5);
+        let (of_a, _) = render_mean(slab_scene(&desc(a)), 128, 5);
+        let b_json = serde_json::json!([b.x, b.y, b.z]);
+        for graph in [
+            serde_json::json!({"version": 1, "nodes": {}, "inputs": {"subsurface_color": b_json}}),
+            serde_json::json!({"version": 1, "nodes": {}, "closures": [
+                {"kind": "subsurface", "weight": 1.0, "inputs": {"subsurface_color": b_json}}]}),
+        ] {
+            let mut scene = slab_scene(&desc(a));
+            let g = parse_graph(&graph, "graph", &mut NoImages)
+                .unwrap_or_else(|e| panic!("{}: {}", e.path, e.msg));
+            scene.materials[0].graph = Some(std::sync::Arc::new(g));
+            let (mean, discarded) = render_mean(scene, 128, 5);
+            assert_eq!(discarded, 0);
+            eprintln!("{method}: graph colour {mean}, medium of B {of_b}, of A {of_a}");
+            let err = ((mean - of_b) / of_b).abs().max_element();
+            assert!(err < 0.02, "{method}: {mean} vs {of_b} ({graph})");
+            assert!(
+                (mean - of_a).abs().max_element() > 0.1,
+                "{method}: not A's colour"
+            );
+        }
+    }
+}

@@ -536,15 +536,11 @@ def _principled_subsurface(node, m, weight_override=None):
 
     Cycles' three methods (measured against Cycles 5.0 in tests/addon/test_sss_parity.py):
     - Random Walk and Random Walk (Skin) (3.x: Random Walk (Fixed Radius) and Random Walk): a
-      volumetric walk whose coefficients Cycles derives from colour A and radius d per channel:
-      the single-scattering albedo from the fit of Wrenninge, Villemin and Hery 2017 ("Path
-      Traced Subsurface Scattering using Anisotropic Phase Functions and Non-Exponential Free
-      Flights", Pixar TM 17-07, extending Chiang, Kutz and Burley 2016 to anisotropy g), and
-      sigma_t = 1 / (d' (1 - g)) with d' = d / (4 pi) (Random Walk: Cycles scales the radius
-      to look like its older profiles) or d' = d sqrt(3 (1 - a')) (Skin: a' inverts the
-      dipole's diffuse reflectance for A at the IOR, Jensen et al. 2001). Exported as explicit
-      sigma_a / sigma_s with method "random_walk" and boundary "lambertian", Cycles' boundary:
-      refracted entry, no internal Fresnel reflection, diffuse exit.
+      volumetric walk whose coefficients Cycles derives from colour and radius per channel;
+      exported as they are (`color` + `radius`, `skin` for the radius-adjusting method) with
+      method "random_walk" and boundary "lambertian", Cycles' boundary: refracted entry, no
+      internal Fresnel reflection, diffuse exit. The renderer derives the coefficients
+      (src/bssrdf/media.rs `cycles_walk`), also per point where the colour is textured.
     - Christensen-Burley: Prism's diffusion table ("table") with reflectance A and mean free
       path d / (4 pi), Cycles' own radius-to-mean-free-path scaling.
     The boundary's IOR and roughness are the Principled IOR and Roughness (its specular layer).
@@ -621,54 +617,8 @@ def _subsurface_block(method, skin, colour, radius, eta, roughness, anisotropy, 
         out.update(reflectance=colour, mfp=[r / (4.0 * math.pi) for r in radius], g=g, method="table")
         return out
     g = min(max(float(anisotropy), 0.0), 0.9)  # Cycles' range
-    sigma_a, sigma_s = [], []
-    for a, d in zip(colour, radius):
-        if method == skin:
-            d *= math.sqrt(3.0 * (1.0 - _dipole_albedo_inverse(a, eta)))
-        else:
-            d /= 4.0 * math.pi
-        sigma_t = 1.0 / (max(d, 1e-9) * (1.0 - g))
-        alpha = _walk_albedo(a, g)
-        sigma_s.append(alpha * sigma_t)
-        sigma_a.append((1.0 - alpha) * sigma_t)
-    out.update(sigma_a=sigma_a, sigma_s=sigma_s, g=g, method="random_walk", boundary="lambertian")
+    out.update(color=colour, radius=radius, skin=method == skin, g=g, method="random_walk", boundary="lambertian")
     return out
-
-
-def _walk_albedo(a, g):
-    """Single-scattering albedo whose random walk (no boundary reflection) reflects `a`, for
-    Henyey-Greenstein anisotropy g: the fit of Wrenninge, Villemin and Hery 2017 (Pixar TM
-    17-07, its coefficients), which Cycles uses."""
-    def poly(c):
-        return sum(k * g ** i for i, k in enumerate(c))
-
-    p_a = poly((1.8260523782, -1.28451056436, -1.79904629312, 9.19393289202, -22.8215585862, 32.0234874259, -23.6264803333, 7.21067002658))
-    p_b = 4.98511194385 + 0.127355959438 * math.exp(poly((0.0, 31.1491581433, -201.847017512, 841.576016723, -2018.09288505, 2731.71560286, -1935.41424244, 559.009054474)))
-    p_c = poly((1.09686102424, -0.394704063468, 1.05258115941, -8.83963712726, 28.8643230661, -46.8802913581, 38.5402837518, -12.7181042538))
-    p_d = poly((0.496310210422, 0.360146581622, -2.15139309747, 17.8896899217, -55.2984010333, 82.065982243, -58.5106008578, 15.8478295021))
-    p_e = 4.23190299701 + 0.00310603949088 * math.exp(poly((0.0, 76.7316253952, -594.356773233, 2448.8834203, -5576.68528998, 7116.60171912, -4763.54467887, 1303.5318055)))
-    p_f = poly((2.40602999408, -2.51814844609, 9.18494908356, -79.2191708682, 259.082868209, -403.613804597, 302.85712436, -87.4370473567))
-    blend = a ** 0.25
-    alpha = (1.0 - blend) * p_a * math.atan(p_b * a) ** p_c + blend * p_d * math.atan(p_e * a) ** p_f
-    return min(max(alpha, 0.0), 0.999999)
-
-
-def _dipole_albedo_inverse(rd, eta):
-    """The reduced albedo a' whose dipole diffuse reflectance (Jensen et al. 2001, eq. 8 with
-    Egan and Hilgeman's fit of F_dr) is `rd`, by bisection."""
-    if rd < 1e-4:
-        return 0.0
-    f_dr = -1.440 / eta ** 2 + 0.710 / eta + 0.668 + 0.0636 * eta
-    a_coef = (1.0 + f_dr) / (1.0 - f_dr)
-    lo, hi = 0.0, 1.0
-    for _ in range(30):
-        mid = 0.5 * (lo + hi)
-        s = math.sqrt(3.0 * (1.0 - mid))
-        if 0.5 * mid * (1.0 + math.exp(-4.0 / 3.0 * a_coef * s)) * math.exp(-s) < rd:
-            lo = mid
-        else:
-            hi = mid
-    return 0.5 * (lo + hi)
 
 
 def prism_override(mat):
@@ -1136,8 +1086,9 @@ class Exporter:
             if "graph" in entry:
                 entry["graph"] = resolve_bakes(entry["graph"], images if ok else {})
 
-    def _graph(self, mat, name, m):
-        """The material JSON graph for `mat`'s surface shader inputs that are linked, or None."""
+    def _graph(self, mat, name, m, sss=None):
+        """The material JSON graph for `mat`'s surface shader inputs that are linked, or None.
+        `sss`: the material's subsurface block, whose colour the graph may texture."""
         node = _surface_node(mat)
         if node is None:
             return None
@@ -1189,6 +1140,10 @@ class Exporter:
                 gb.bind_const("alpha", float(alpha.default_value))
                 handled.add(alpha.identifier)
             self._graph_normal(gb, node, m, handled)
+            colour = self._subsurface_colour(gb, node, _subsurface_colour_socket(node), sss)
+            if colour is not None:
+                gb.inputs["subsurface_color"] = colour
+                handled.add(_subsurface_colour_socket(node))
             self._principled_warnings(name, node, handled)
         elif t in {"BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_ANISOTROPIC", "BSDF_GLASS"}:
             if bind("base_color", S("Color")):
@@ -1199,7 +1154,12 @@ class Exporter:
             handled.add("Weight")
             self._linked_warnings(name, node, handled)
         elif t == "SUBSURFACE_SCATTERING":
-            # The medium's coefficients are per material: a linked input is warned about.
+            # The medium's colour may be textured; its other inputs are per material (a linked
+            # one is warned about).
+            colour = self._subsurface_colour(gb, node, "Color", sss)
+            if colour is not None:
+                gb.inputs["subsurface_color"] = colour
+                handled.add("Color")
             self._graph_normal(gb, node, m, handled)
             handled.add("Weight")
             self._linked_warnings(name, node, handled)
@@ -1304,7 +1264,7 @@ class Exporter:
         media = []  # (leaf, subsurface block): the material has one medium, the first leaf's
         normals = []  # (leaf, the graph value driving its Normal input, or None)
 
-        def subsurface_leaf(leaf, block, weight):
+        def subsurface_leaf(leaf, block, weight, sock_name):
             if block is None:
                 return
             if media and media[0][1] != block:
@@ -1312,7 +1272,11 @@ class Exporter:
                     "material '%s': several subsurface leaves with different settings in one Mix/Add Shader tree;"
                     " '%s' is rendered with the medium of '%s'" % (name, leaf.name, media[0][0].name))
             media.append((leaf, block))
-            closures.append({"kind": "subsurface", "weight": weight})
+            closure = {"kind": "subsurface", "weight": weight}
+            colour = self._subsurface_colour(gb, leaf, sock_name, media[0][1])
+            if colour is not None:
+                closure["inputs"] = {"subsurface_color": colour}
+            closures.append(closure)
 
         for leaf, weight in leaves:
             t = leaf.type
@@ -1323,8 +1287,7 @@ class Exporter:
                 sock = leaf.inputs["Normal"]
                 normals.append((leaf, gb.value(sock, ()) if gb._live_link(sock) is not None else None))
             if t == "SUBSURFACE_SCATTERING":
-                self._subsurface_colour_warning(name, leaf, "Color")
-                subsurface_leaf(leaf, _sss_node_subsurface(leaf), weight)
+                subsurface_leaf(leaf, _sss_node_subsurface(leaf), weight, "Color")
                 for sock_name in ("Radius", "Scale", "IOR", "Roughness", "Anisotropy"):
                     sock = leaf.inputs.get(sock_name)
                     if sock is not None and sock.is_linked:
@@ -1392,8 +1355,7 @@ class Exporter:
                     block = _principled_subsurface(leaf, {"base": _rgb(S("Base Color").default_value)},
                                                    weight_override=1.0)
                     if block is not None:
-                        self._subsurface_colour_warning(name, leaf, _subsurface_colour_socket(leaf))
-                        subsurface_leaf(leaf, block, math("multiply", weight, s_val))
+                        subsurface_leaf(leaf, block, math("multiply", weight, s_val), _subsurface_colour_socket(leaf))
                         weight = math("multiply", weight, math("subtract", 1.0, s_val))
             else:
                 self.warnings.append(
@@ -1435,15 +1397,16 @@ class Exporter:
                         % (name, leaf.name))
         return graph
 
-    def _subsurface_colour_warning(self, name, node, sock_name):
-        """The subsurface medium's colour is one RGB per material: a link into the socket
-        that gives it (a texture) is not followed."""
+    @staticmethod
+    def _subsurface_colour(gb, node, sock_name, block):
+        """The graph value of a textured subsurface colour (the link into `sock_name`, the
+        socket that gives it), or None: unlinked, or a medium not given by a colour (a preset
+        from the Prism panel), whose colour the renderer cannot replace."""
         sock = node.inputs.get(sock_name)
-        if sock is not None and sock.is_linked:
-            self.warnings.append(
-                "material '%s': the subsurface colour of '%s' is not textured; the medium uses the value of its %s"
-                " socket (%s)" % (name, node.name, sock_name,
-                                  ", ".join("%.2f" % c for c in list(sock.default_value)[:3])))
+        if sock is None or block is None or not ("color" in block or "reflectance" in block):
+            return None
+        v = gb.value(sock, ()) if gb._live_link(sock) is not None else None
+        return v if isinstance(v, dict) else None
 
     def _leaf_layers(self, name, leaf, inputs, gb, node_name, V):
         """A Principled leaf's Specular Tint, Thin Film, Coat and Sheen as its closure's inputs
@@ -1574,8 +1537,6 @@ class Exporter:
             ok = True
         if m.get("approximation"):
             self.warnings.append("material '%s': %s" % (name, m["approximation"]))
-        if sss is not None and surface is not None:
-            self._subsurface_colour_warning(name, surface, _subsurface_colour_socket(surface))
         if not ok:
             self.unsupported.append(name)
             node = _surface_node(mat)
@@ -1584,7 +1545,7 @@ class Exporter:
                     "material '%s': surface shader '%s' (%s) is not supported; rendered grey diffuse"
                     % (name, node.name, node.bl_idname)
                 )
-        graph = None if holdout else mixed or (self._graph(mat, name, m) if ok and mat is not None else None)
+        graph = None if holdout else mixed or (self._graph(mat, name, m, sss) if ok and mat is not None else None)
         if holdout:
             self.material_json.setdefault(name, {})["holdout"] = True
         g = {

@@ -19,7 +19,10 @@
 //!   exit point gets next-event estimation exactly like a table exit.
 //!
 //! Coefficients are RGB triples in 1 / scene unit, upsampled to unbounded spectra, so every
-//! wavelength of the path has its own profile.
+//! wavelength of the path has its own profile. A material given by a colour (reflectance +
+//! mean free path, or Blender's colour + radius) may have that colour textured by its shading
+//! graph: the medium is then derived at each entry point (`SubsurfaceMaterial::at`), as Cycles
+//! derives its coefficients from the closure's albedo where the path enters.
 
 pub mod media;
 pub mod random_walk;
@@ -29,7 +32,7 @@ use crate::bsdf::fresnel_dielectric;
 use crate::geometry::{offset_ray_origin, Geometry, Ray, SurfacePoint};
 use crate::math::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
 use crate::math::{Frame, INV_PI};
-use crate::scene::SubsurfaceDesc;
+use crate::scene::{SubsurfaceCoefficients, SubsurfaceDesc};
 use crate::spectrum::{
     RgbAlbedoSpectrum, RgbUnboundedSpectrum, SampledSpectrum, SampledWavelengths, LAMBDA_MAX,
     LAMBDA_MIN, N_WAVELENGTHS,
@@ -135,6 +138,40 @@ pub struct SubsurfaceMaterial {
     pub boundary: WalkBoundary,
     /// Exit lobe normalisation c = 1 - 2 Fm1_external(eta).
     sw_norm: f32,
+    /// How a colour becomes coefficients, for a textured colour (None: the material is not
+    /// given by a colour).
+    colour_map: Option<ColourMap>,
+}
+
+/// The colour-to-coefficients rule of a material given by a colour (see `media`).
+#[derive(Clone, Copy, Debug)]
+enum ColourMap {
+    /// Reflectance with this mean free path (`media::invert_reflectance`), times `scale`.
+    Reflectance { mfp: Vec3, scale: f32 },
+    /// Blender's random walk with this radius (`media::cycles_walk`), times `scale`.
+    CyclesWalk {
+        radius: Vec3,
+        skin: bool,
+        scale: f32,
+    },
+}
+
+/// A subsurface medium where a path enters it: the material's own, or the one a textured
+/// colour gives at that point (`SubsurfaceMaterial::at`). Dereferences to the material for
+/// what a colour does not change (method, boundary, anisotropy, exit lobe).
+#[derive(Clone, Copy, Debug)]
+pub struct SubsurfaceAt<'a> {
+    pub medium: &'a SubsurfaceMaterial,
+    /// Spectra of the point's colour: extinction and normalised effective albedo (as
+    /// `spectral_albedo` upsamples them), evaluated at the path's wavelengths only.
+    local: Option<(RgbUnboundedSpectrum, RgbAlbedoSpectrum)>,
+}
+
+impl std::ops::Deref for SubsurfaceAt<'_> {
+    type Target = SubsurfaceMaterial;
+    fn deref(&self) -> &SubsurfaceMaterial {
+        self.medium
+    }
 }
 
 impl SubsurfaceMaterial {
@@ -161,17 +198,108 @@ impl SubsurfaceMaterial {
                 WalkBoundary::Dielectric
             },
             sw_norm: (1.0 - 2.0 * table::fresnel_moment_external(desc.eta, 1)) as f32,
+            colour_map: match desc.coefficients {
+                SubsurfaceCoefficients::Reflectance { mfp, .. } => Some(ColourMap::Reflectance {
+                    mfp,
+                    scale: desc.scale,
+                }),
+                SubsurfaceCoefficients::CyclesWalk { radius, skin, .. } => {
+                    Some(ColourMap::CyclesWalk {
+                        radius,
+                        skin,
+                        scale: desc.scale,
+                    })
+                }
+                _ => None,
+            },
         }
     }
 
-    /// (sigma_a, reduced sigma_s) for the path's wavelengths.
-    pub fn coefficients_at(&self, w: &SampledWavelengths) -> (SampledSpectrum, SampledSpectrum) {
+    /// The material can take a textured colour (it is given by a colour).
+    pub fn has_colour(&self) -> bool {
+        self.colour_map.is_some()
+    }
+
+    /// The medium where a path enters: with `colour` (linear RGB, clamped to [0, 1]) in place
+    /// of the material's own when the material is given by a colour; else the material's.
+    pub fn at(&self, colour: Option<Vec3>) -> SubsurfaceAt<'_> {
+        let local = match (colour, self.colour_map) {
+            (Some(c), Some(map)) => {
+                let c = c.clamp(Vec3::ZERO, Vec3::ONE);
+                let (coefficients, scale) = match map {
+                    ColourMap::Reflectance { mfp, scale } => {
+                        (media::invert_reflectance(&self.table, c, mfp), scale)
+                    }
+                    ColourMap::CyclesWalk {
+                        radius,
+                        skin,
+                        scale,
+                    } => (media::cycles_walk(c, radius, skin, self.g, self.eta), scale),
+                };
+                let sigma_t = (coefficients.sigma_a + coefficients.sigma_s_reduced) * scale;
+                Some((
+                    RgbUnboundedSpectrum::new(sigma_t.max(Vec3::ZERO)),
+                    RgbAlbedoSpectrum::new(normalised_effective_albedo(&self.table, &coefficients)),
+                ))
+            }
+            _ => None,
+        };
+        SubsurfaceAt {
+            medium: self,
+            local,
+        }
+    }
+
+    /// (sigma_a, reduced sigma_s) of the material's own colour for the path's wavelengths.
+    fn own_coefficients_at(&self, w: &SampledWavelengths) -> (SampledSpectrum, SampledSpectrum) {
         let sigma_t = self.sigma_t.sample(w);
         let rho = SampledSpectrum::from_fn(|i| {
             let x = (w.lambda[i] - LAMBDA_MIN).clamp(0.0, (self.albedo.len() - 1) as f32);
             let k = (x as usize).min(self.albedo.len() - 2);
             let t = x - k as f32;
             self.albedo[k] * (1.0 - t) + self.albedo[k + 1] * t
+        });
+        let sigma_s = rho * sigma_t;
+        (sigma_t - sigma_s, sigma_s)
+    }
+
+    /// (sigma_a, reduced sigma_s) for the path's wavelengths (the material's own colour).
+    pub fn coefficients_at(&self, w: &SampledWavelengths) -> (SampledSpectrum, SampledSpectrum) {
+        self.at(None).coefficients_at(w)
+    }
+
+    /// The separable BSSRDF for the path's wavelengths (the material's own colour).
+    pub fn bssrdf(&self, w: &SampledWavelengths) -> SeparableBssrdf<'_> {
+        self.at(None).bssrdf(w)
+    }
+
+    /// Exit lobe Sw at the exit point.
+    pub fn sw(&self) -> SwLobe {
+        SwLobe {
+            eta: self.eta,
+            norm: self.sw_norm,
+        }
+    }
+
+    /// The exit lobe: Sw for a dielectric boundary (table exits and random-walk exits alike),
+    /// Lambertian for a random walk with `boundary: "lambertian"`.
+    pub fn exit_lobe(&self) -> ExitLobe {
+        match (self.method, self.boundary) {
+            (SubsurfaceMethod::RandomWalk, WalkBoundary::Lambertian) => ExitLobe::Lambertian,
+            _ => ExitLobe::Sw(self.sw()),
+        }
+    }
+}
+
+impl<'a> SubsurfaceAt<'a> {
+    /// (sigma_a, reduced sigma_s) for the path's wavelengths.
+    pub fn coefficients_at(&self, w: &SampledWavelengths) -> (SampledSpectrum, SampledSpectrum) {
+        let Some((sigma_t, effective)) = &self.local else {
+            return self.medium.own_coefficients_at(w);
+        };
+        let sigma_t = sigma_t.sample(w);
+        let rho = SampledSpectrum::from_fn(|i| {
+            albedo_of_effective(&self.medium.table, effective.eval(w.lambda[i]))
         });
         let sigma_s = rho * sigma_t;
         (sigma_t - sigma_s, sigma_s)
@@ -193,26 +321,9 @@ impl SubsurfaceMaterial {
     }
 
     /// The separable BSSRDF for the path's wavelengths.
-    pub fn bssrdf(&self, w: &SampledWavelengths) -> SeparableBssrdf<'_> {
+    pub fn bssrdf(&self, w: &SampledWavelengths) -> SeparableBssrdf<'a> {
         let (sigma_a, sigma_s) = self.coefficients_at(w);
-        SeparableBssrdf::new(&self.table, sigma_a, sigma_s, active_wavelengths(w))
-    }
-
-    /// Exit lobe Sw at the exit point.
-    pub fn sw(&self) -> SwLobe {
-        SwLobe {
-            eta: self.eta,
-            norm: self.sw_norm,
-        }
-    }
-
-    /// The exit lobe: Sw for a dielectric boundary (table exits and random-walk exits alike),
-    /// Lambertian for a random walk with `boundary: "lambertian"`.
-    pub fn exit_lobe(&self) -> ExitLobe {
-        match (self.method, self.boundary) {
-            (SubsurfaceMethod::RandomWalk, WalkBoundary::Lambertian) => ExitLobe::Lambertian,
-            _ => ExitLobe::Sw(self.sw()),
-        }
+        SeparableBssrdf::new(&self.medium.table, sigma_a, sigma_s, active_wavelengths(w))
     }
 
     /// (sigma_a, full sigma_s) for the random walk.
@@ -232,28 +343,37 @@ impl SubsurfaceMaterial {
 /// rho_eff(1) so that a non-absorbing medium stays exactly non-absorbing), and each wavelength's
 /// albedo is the table inversion of it. The mean free path follows the upsampled sigma_t.
 fn spectral_albedo(table: &BssrdfTable, c: &media::Coefficients) -> Vec<f32> {
+    let spectrum = RgbAlbedoSpectrum::new(normalised_effective_albedo(table, c));
+    let n = (LAMBDA_MAX - LAMBDA_MIN) as usize + 1;
+    (0..n)
+        .map(|k| albedo_of_effective(table, spectrum.eval(LAMBDA_MIN + k as f32)))
+        .collect()
+}
+
+/// The RGB effective albedo rho_eff(rho) of coefficients `c`, over rho_eff(1) (see
+/// `spectral_albedo`).
+fn normalised_effective_albedo(table: &BssrdfTable, c: &media::Coefficients) -> Vec3 {
     let eff_max = table.rho_eff[table.rho_eff.len() - 1];
     let st = c.sigma_a + c.sigma_s_reduced;
-    let eff = Vec3::from_array(std::array::from_fn(|i| {
+    Vec3::from_array(std::array::from_fn(|i| {
         let rho = if st[i] > 0.0 {
             (c.sigma_s_reduced[i] / st[i]).clamp(0.0, 1.0)
         } else {
             0.0
         };
         (table.rho_eff_at(rho) / eff_max).clamp(0.0, 1.0)
-    }));
-    let spectrum = RgbAlbedoSpectrum::new(eff);
-    let n = (LAMBDA_MAX - LAMBDA_MIN) as usize + 1;
-    (0..n)
-        .map(|k| {
-            let e = spectrum.eval(LAMBDA_MIN + k as f32).clamp(0.0, 1.0);
-            if e >= 1.0 - 1e-6 {
-                1.0
-            } else {
-                table.invert_rho_eff(e * eff_max)
-            }
-        })
-        .collect()
+    }))
+}
+
+/// The single-scattering albedo whose effective albedo is `e` x rho_eff(1) (`e` normalised as
+/// `normalised_effective_albedo`'s, upsampled).
+fn albedo_of_effective(table: &BssrdfTable, e: f32) -> f32 {
+    let e = e.clamp(0.0, 1.0);
+    if e >= 1.0 - 1e-6 {
+        1.0
+    } else {
+        table.invert_rho_eff(e * table.rho_eff[table.rho_eff.len() - 1])
+    }
 }
 
 /// The profile table for a boundary IOR, built once per process and shared by every material

@@ -4,7 +4,9 @@
 
 use super::spectral_mis::SpectralMis;
 use crate::bsdf::{BsdfSample, LobeFlags};
-use crate::bssrdf::{active_wavelengths, random_walk, SubsurfaceMethod, WalkBoundary};
+use crate::bssrdf::{
+    active_wavelengths, random_walk, SubsurfaceAt, SubsurfaceMethod, WalkBoundary,
+};
 use crate::geometry::{bump_terminator_shadowing, offset_ray_origin, Ray};
 use crate::lights::{LightSelection, ShadingContext};
 use crate::math::{power_heuristic, Frame};
@@ -495,8 +497,9 @@ impl<'a> PathTracer<'a> {
         let mut media = self.camera_media;
         // Product of eta^2 over refractions: undoes radiance scaling for Russian roulette.
         let mut eta_scale = 1.0f32;
-        // Material id of the random-walk subsurface medium the ray travels inside, if any.
-        let mut walk_medium: Option<u32> = None;
+        // The random-walk subsurface medium the ray travels inside, if any (as at its entry
+        // point: a textured colour gives each entry its own coefficients).
+        let mut walk_medium: Option<SubsurfaceAt<'_>> = None;
         let mut guides = DenoiseGuides::default();
         let mut guides_done = false;
         // Tint of the specular chain from the camera, for the albedo guide.
@@ -509,10 +512,7 @@ impl<'a> PathTracer<'a> {
             let next_hit = match walk_medium {
                 // Inside a random-walk medium: free flights until the walk reaches a surface,
                 // which is then shaded from inside like any other hit.
-                Some(id) => {
-                    let Some(ss) = scene.materials[id as usize].subsurface() else {
-                        break;
-                    };
+                Some(ss) => {
                     let (sigma_a, sigma_s) = ss.walk_coefficients(&alive);
                     let n = active_wavelengths(&alive);
                     match random_walk::walk(
@@ -791,7 +791,7 @@ impl<'a> PathTracer<'a> {
                 if ss.method == SubsurfaceMethod::RandomWalk {
                     // The segment lies in the medium: walk it instead (the light scatters on
                     // from the inner shell as if that were no boundary).
-                    walk_medium = Some(sp.material);
+                    walk_medium = Some(ss.at(None));
                     continue;
                 }
                 // The table method has no medium to continue in; the light that leaves
@@ -1121,9 +1121,7 @@ impl<'a> PathTracer<'a> {
                     media.cross(entry, entering);
                 }
                 walk_medium = match subsurface {
-                    Some(s) if entering && s.method == SubsurfaceMethod::RandomWalk => {
-                        Some(sp.material)
-                    }
+                    Some(s) if entering && s.method == SubsurfaceMethod::RandomWalk => Some(s),
                     _ => None,
                 };
                 if subsurface.is_some_and(|s| s.boundary == WalkBoundary::Lambertian)

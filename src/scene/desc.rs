@@ -247,6 +247,13 @@ pub enum SubsurfaceCoefficients {
     Explicit { sigma_a: Vec3, sigma_s: Vec3 },
     /// Diffuse reflectance and mean free path per channel (scene units), inverted by the BSSRDF.
     Reflectance { reflectance: Vec3, mfp: Vec3 },
+    /// Blender's subsurface colour and radius per channel (scene units) for its random walk
+    /// (`crate::bssrdf::media::cycles_walk`); `skin`: Random Walk (Skin)'s radius adjustment.
+    CyclesWalk {
+        color: Vec3,
+        radius: Vec3,
+        skin: bool,
+    },
 }
 
 #[derive(Clone, Debug, PartialEq)]

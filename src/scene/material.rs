@@ -9,7 +9,7 @@ use crate::bsdf::{
     Bsdf, Coat, DielectricBsdf, DiffuseBsdf, Iridescence, MetallicRoughnessBsdf, Sheen, ThinFilm,
     TranslucentBsdf,
 };
-use crate::bssrdf::SubsurfaceMaterial;
+use crate::bssrdf::{SubsurfaceAt, SubsurfaceMaterial};
 use crate::geometry::{Geometry, SurfacePoint};
 use crate::lights::spread::Spread;
 use crate::media::{DensityField, Medium};
@@ -516,17 +516,21 @@ impl Material {
         w: &SampledWavelengths,
         u_select: f32,
         inside_medium: bool,
-    ) -> (Bsdf, Option<&SubsurfaceMaterial>) {
+    ) -> (Bsdf, Option<SubsurfaceAt<'_>>) {
         if let SurfaceModel::Subsurface { medium, weight, .. } = &self.model {
             if inside_medium {
-                return (self.bsdf(textures, uv, inputs, w, u_select), Some(medium));
+                return (
+                    self.bsdf(textures, uv, inputs, w, u_select),
+                    Some(medium.at(None)),
+                );
             }
             if let (Some(graph), Some(ctx)) = (&self.graph, inputs) {
                 if graph.has_subsurface_closure() {
                     return match graph.pick_closure(ctx, u_select) {
-                        Some((ClosurePick::Subsurface, u)) => {
-                            (self.bsdf(textures, uv, inputs, w, u), Some(medium))
-                        }
+                        Some((ClosurePick::Subsurface(colour), u)) => (
+                            self.bsdf(textures, uv, inputs, w, u),
+                            Some(medium.at(colour)),
+                        ),
                         Some((ClosurePick::Bsdf(values), u)) => (
                             self.gltf_bsdf_from(textures, uv, inputs, Some(values), w, u),
                             None,
@@ -537,7 +541,18 @@ impl Material {
             }
             if u_select < *weight {
                 let u = u_select / weight;
-                return (self.bsdf(textures, uv, inputs, w, u), Some(medium));
+                // A textured subsurface colour (the graph's `subsurface_color`).
+                let colour = match (&self.graph, inputs) {
+                    (Some(graph), Some(ctx)) if graph.drives(MaterialInput::SubsurfaceColor) => {
+                        graph.evaluate(ctx, false)[MaterialInput::SubsurfaceColor.index()]
+                            .map(|v| v.xyz())
+                    }
+                    _ => None,
+                };
+                return (
+                    self.bsdf(textures, uv, inputs, w, u),
+                    Some(medium.at(colour)),
+                );
             }
             // The glTF part: reuse the leftover of `u_select` for its own choices.
             let u = ((u_select - weight) / (1.0 - weight)).clamp(0.0, 1.0);

@@ -35,7 +35,11 @@
 //!   energy-conserving layers and multiple-scattering GGX as Cycles' Principled BSDF, see
 //!   `crate::bsdf::metallic_roughness`) | `"gltf"` (the glTF 2.0 spec's BRDF as written, single
 //!   scattering, for glTF viewer conformance).
-//! * `subsurface`: exactly one of `preset` | `sigma_a` + `sigma_s` | `reflectance` + `mfp`;
+//! * `subsurface`: exactly one of `preset` | `sigma_a` + `sigma_s` | `reflectance` + `mfp` |
+//!   `color` + `radius` (Blender's random walk: subsurface colour and radius per channel in
+//!   scene units, `method` must be `"random_walk"`; optional `skin` (default false): Random Walk
+//!   (Skin)'s radius adjustment; see `crate::bssrdf::media::cycles_walk`). A medium given by a
+//!   colour (`reflectance` or `color`) takes the graph's `subsurface_color` where it is textured;
 //!   optional `scale` (> 0, default 1), `eta` (> 0, default 1.33) or `ior` (a number >= 1 or an
 //!   object with exactly one of the dielectric IOR forms below; the BSSRDF then uses its n_d as
 //!   the scalar eta), `g` (in (-1,1), default 0), `roughness` (in [0,1], default 0), `method`
@@ -712,6 +716,23 @@ impl Validator<'_> {
             }
             (None, None) => None,
         };
+        let by_colour = |s: &SubsurfaceDesc| {
+            matches!(
+                s.coefficients,
+                SubsurfaceCoefficients::Reflectance { .. }
+                    | SubsurfaceCoefficients::CyclesWalk { .. }
+            )
+        };
+        if graph
+            .as_ref()
+            .is_some_and(|g| g.drives_anywhere(crate::shading::MaterialInput::SubsurfaceColor))
+            && !matches!(&ov, Some(MaterialOverride::Subsurface(s)) if by_colour(s))
+        {
+            return Err(self.err(
+                &path.key("graph"),
+                "'subsurface_color' needs a 'subsurface' entry given by a colour ('reflectance' + 'mfp' or 'color' + 'radius')",
+            ));
+        }
         Ok((ov, graph))
     }
 
@@ -746,6 +767,9 @@ impl Validator<'_> {
                 "sigma_s",
                 "reflectance",
                 "mfp",
+                "color",
+                "radius",
+                "skin",
                 "scale",
                 "eta",
                 "ior",
@@ -762,6 +786,7 @@ impl Validator<'_> {
             ("preset", has("preset")),
             ("sigma_a + sigma_s", has("sigma_a") || has("sigma_s")),
             ("reflectance + mfp", has("reflectance") || has("mfp")),
+            ("color + radius", has("color") || has("radius")),
         ]
         .iter()
         .filter(|g| g.1)
@@ -776,7 +801,7 @@ impl Validator<'_> {
             return Err(self.err(
                 path,
                 format!(
-                    "give exactly one of 'preset', 'sigma_a' + 'sigma_s', or 'reflectance' + 'mfp' ({found})"
+                    "give exactly one of 'preset', 'sigma_a' + 'sigma_s', 'reflectance' + 'mfp', or 'color' + 'radius' ({found})"
                 ),
             ));
         }
@@ -800,14 +825,43 @@ impl Validator<'_> {
                     sigma_s: self.rgb(s, &path.key("sigma_s"), Range::NonNeg)?,
                 }
             }
-            _ => {
+            "reflectance + mfp" => {
                 let (r, d) = pair("reflectance", "mfp")?;
                 SubsurfaceCoefficients::Reflectance {
                     reflectance: self.rgb(r, &path.key("reflectance"), Range::Unit)?,
                     mfp: self.rgb(d, &path.key("mfp"), Range::Positive)?,
                 }
             }
+            _ => {
+                let (c, r) = pair("color", "radius")?;
+                if m.get("method").and_then(Value::as_str) != Some("random_walk") {
+                    return Err(self.err(
+                        &path.key("color"),
+                        "'color' + 'radius' (Blender's random walk) need \"method\": \"random_walk\"",
+                    ));
+                }
+                let skin = match m.get("skin") {
+                    Some(Value::Bool(b)) => *b,
+                    Some(other) => {
+                        return Err(self.err(
+                            &path.key("skin"),
+                            format!("expected true or false, found {}", kind(other)),
+                        ))
+                    }
+                    None => false,
+                };
+                SubsurfaceCoefficients::CyclesWalk {
+                    color: self.rgb(c, &path.key("color"), Range::Unit)?,
+                    radius: self.rgb(r, &path.key("radius"), Range::Positive)?,
+                    skin,
+                }
+            }
         };
+        if m.contains_key("skin")
+            && !matches!(coefficients, SubsurfaceCoefficients::CyclesWalk { .. })
+        {
+            return Err(self.err(&path.key("skin"), "applies to 'color' + 'radius' only"));
+        }
         let opt = |k: &str, range: Range, default: f32| -> R<f32> {
             match m.get(k) {
                 Some(x) => self.number(x, &path.key(k), range),
@@ -1661,7 +1715,23 @@ mod tests {
             ),
             (
                 r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","mfp":[1,1,1]}}}}"#,
-                "materials.Skin.subsurface: give exactly one of 'preset', 'sigma_a' + 'sigma_s', or 'reflectance' + 'mfp' (found preset and reflectance + mfp)",
+                "materials.Skin.subsurface: give exactly one of 'preset', 'sigma_a' + 'sigma_s', 'reflectance' + 'mfp', or 'color' + 'radius' (found preset and reflectance + mfp)",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"color":[0.8,0.5,0.3],"radius":[1,0.5,0.2]}}}}"#,
+                "materials.Skin.subsurface.color: 'color' + 'radius' (Blender's random walk) need \"method\": \"random_walk\"",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"color":[0.8,0.5,0.3],"method":"random_walk"}}}}"#,
+                "materials.Skin.subsurface: 'color' needs 'radius'",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1","skin":true}}}}"#,
+                "materials.Skin.subsurface.skin: applies to 'color' + 'radius' only",
+            ),
+            (
+                r#"{"version":1,"materials":{"Skin":{"subsurface":{"preset":"Skin1"},"graph":{"version":1,"nodes":{},"inputs":{"subsurface_color":[1,0,0]}}}}}"#,
+                "materials.Skin.graph: 'subsurface_color' needs a 'subsurface' entry given by a colour",
             ),
         ];
         for (json, want) in cases {
@@ -1669,6 +1739,24 @@ mod tests {
             assert!(e.contains(want), "{json}\n got: {e}\nwant: {want}");
             assert!(!e.contains('\n'), "multi-line error: {e}");
         }
+    }
+
+    #[test]
+    fn blender_walk_colour_and_radius() {
+        let f = parse(r#"{"version":1,"materials":{"Skin":{"subsurface":{"color":[0.8,0.5,0.3],"radius":[1,0.5,0.2],"skin":true,"method":"random_walk","g":0.2}}}}"#)
+            .unwrap();
+        let MaterialOverride::Subsurface(s) = &f.materials[0].1 else {
+            panic!()
+        };
+        assert_eq!(
+            s.coefficients,
+            SubsurfaceCoefficients::CyclesWalk {
+                color: Vec3::new(0.8, 0.5, 0.3),
+                radius: Vec3::new(1.0, 0.5, 0.2),
+                skin: true
+            }
+        );
+        assert_eq!(s.method, "random_walk");
     }
 
     #[test]

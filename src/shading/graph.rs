@@ -588,6 +588,9 @@ pub enum MaterialInput {
     ThinFilmIor,
     /// The clear coat's own shading normal (Blender's Coat Normal), as `Normal`.
     CoatNormal,
+    /// The colour of a subsurface medium given by a colour (`crate::bssrdf::SubsurfaceMaterial::at`):
+    /// Blender's subsurface colour (4.x Base Color), textured.
+    SubsurfaceColor,
 }
 
 pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
@@ -612,9 +615,10 @@ pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
     ("thin_film_thickness", MaterialInput::ThinFilmThickness, F),
     ("thin_film_ior", MaterialInput::ThinFilmIor, F),
     ("coat_normal", MaterialInput::CoatNormal, V),
+    ("subsurface_color", MaterialInput::SubsurfaceColor, C),
 ];
 
-pub const N_MATERIAL_INPUTS: usize = 21;
+pub const N_MATERIAL_INPUTS: usize = 22;
 
 impl MaterialInput {
     pub fn index(self) -> usize {
@@ -650,8 +654,9 @@ pub type InputValues = [Option<Vec4>; N_MATERIAL_INPUTS];
 pub enum ClosurePick {
     /// A BSDF leaf, with its inputs.
     Bsdf(InputValues),
-    /// A subsurface leaf: the material's subsurface medium takes the path.
-    Subsurface,
+    /// A subsurface leaf: the material's subsurface medium takes the path, with the leaf's
+    /// subsurface colour if the graph drives it.
+    Subsurface(Option<Vec3>),
 }
 
 /// One leaf of a Mix / Add Shader tree: a BSDF or an emission with its weight (the product of
@@ -1075,7 +1080,12 @@ impl ShadingGraph {
                 if w > 0.0 && u < acc + w {
                     let u_within = ((u - acc) / w).clamp(0.0, 1.0);
                     if c.subsurface {
-                        return Some((ClosurePick::Subsurface, u_within));
+                        let colour = c
+                            .bindings
+                            .iter()
+                            .find(|(m, _)| *m == MaterialInput::SubsurfaceColor)
+                            .map(|(_, s)| read(s, slots, ctx).xyz());
+                        return Some((ClosurePick::Subsurface(colour), u_within));
                     }
                     let mut values: InputValues = [None; N_MATERIAL_INPUTS];
                     for (m, s) in &c.bindings {
@@ -1147,6 +1157,15 @@ impl ShadingGraph {
 
     pub fn drives(&self, input: MaterialInput) -> bool {
         self.bindings.iter().any(|(m, _)| *m == input)
+    }
+
+    /// The graph drives `input` at its top level or on some closure.
+    pub fn drives_anywhere(&self, input: MaterialInput) -> bool {
+        self.drives(input)
+            || self
+                .closures
+                .iter()
+                .any(|c| c.bindings.iter().any(|(m, _)| *m == input))
     }
 
     pub fn drives_emission(&self) -> bool {

@@ -73,9 +73,10 @@
 //!   passes, per wavelength). Each shading point picks one BSDF or subsurface leaf with
 //!   probability equal to its weight (the path is absorbed with the remaining probability;
 //!   weights summing above 1 are normalised) and renders it with that leaf's inputs over the
-//!   glTF defaults; a subsurface leaf (no inputs) hands the path to the material's
-//!   `subsurface` medium, which the material must have, and its weight replaces that entry's
-//!   `weight`. Emission leaves add weight x `emission` x `emission_strength`.
+//!   glTF defaults; a subsurface leaf hands the path to the material's `subsurface` medium,
+//!   which the material must have, and its weight replaces that entry's `weight`; its one
+//!   input, `subsurface_color` (also a top-level input), textures the colour of a medium given
+//!   by a colour (`reflectance` + `mfp`, `color` + `radius`). Emission leaves add weight x `emission` x `emission_strength`.
 //! * Links must not form a cycle; nodes no input depends on are ignored. An image that cannot
 //!   be read renders magenta with a warning, as in Blender.
 

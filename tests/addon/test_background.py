@@ -166,18 +166,16 @@ def principled_export(blender_cmd, tag):
     e = [c * ext("Glow")["KHR_materials_emissive_strength"]["emissiveStrength"] for c in mats["Glow"]["emissiveFactor"]]
     check(all(abs(a - b) < 1e-5 for a, b in zip(e, [4.0, 2.0, 1.0])), "%s: emission colour x strength = %s" % (tag, e))
     check(abs(ext("Spec")["KHR_materials_specular"]["specularFactor"] - 0.5) < 1e-6, "%s: specular 0.25 -> factor 0.5" % tag)
-    # Principled default method Random Walk (3.4: the radius-adjusting one, 4.x's Skin): explicit
-    # coefficients for a random walk with Cycles' Lambertian boundary. 5.0: sigma_t = 4 pi / radius.
+    # Principled default method Random Walk (3.4: the radius-adjusting one, 4.x's Skin): Blender's
+    # colour and radius for a random walk with Cycles' Lambertian boundary (the renderer derives
+    # the coefficients, src/bssrdf/media.rs).
     s = d["json"]["materials"]["Skin"]["subsurface"]
-    sigma_t = [a + b for a, b in zip(s["sigma_a"], s["sigma_s"])]
-    albedo = [b / t for b, t in zip(s["sigma_s"], sigma_t)]
     radius = [0.1, 0.05, 0.025]
-    if tag == "bpy50":
-        ok_t = all(abs(t * r / (4 * 3.14159265) - 1) < 1e-4 for t, r in zip(sigma_t, radius))
-    else:
-        ok_t = all(0.5 / r < t < 5 / r for t, r in zip(sigma_t, radius))  # radius x sqrt(3 (1 - a'))
+    colour = [0.5, 0.25, 0.125]  # 4.x: Base Color; 3.x: Subsurface Color
     check(s["method"] == "random_walk" and s["boundary"] == "lambertian" and abs(s["eta"] - 1.4) < 1e-5
-          and ok_t and 1 > albedo[0] > albedo[1] > albedo[2] > 0.3,
+          and all(abs(a - b) < 1e-5 for a, b in zip(s["radius"], radius))
+          and all(abs(a - b) < 1e-3 for a, b in zip(s["color"], colour))
+          and s["skin"] == (tag != "bpy50"),
           "%s: subsurface block %s" % (tag, s))
     tg = d["json"]["materials"]["Textured"]["graph"]
     img = [n for n in tg["nodes"].values() if n["type"] == "image_texture"]

@@ -2,8 +2,9 @@
 (base colour (0.8, 0.5, 0.4), radius (1, 0.35, 0.2), scale 0.2, IOR 1.5, roughness 0.5) on a grey
 floor under a sun and a dim world, with the Principled node's Random Walk, Random Walk (Skin) and
 Christensen-Burley methods, and a thin (0.06) plate of the same material lit from behind (translucency). Prism
-renders through the add-on, which exports Random Walk as a random walk with Cycles' albedo fit
-and Lambertian boundary and Burley as Prism's diffusion table (export.py `_principled_subsurface`).
+renders through the add-on, which exports Random Walk as a random walk with Blender's colour and
+radius (the renderer applies Cycles' albedo fit, src/bssrdf/media.rs) and Lambertian boundary,
+and Burley as Prism's diffusion table (export.py `_principled_subsurface`).
 Run by run_addon_tests.sh:
 
     .venv-bpy/bin/python tests/addon/test_sss_parity.py [TEST_NAME ...]
@@ -29,6 +30,11 @@ a blue Diffuse, and a Principled BSDF of Subsurface Weight 0.6 mixed with a red 
 Weight's Facing: 1.019 / 1.008 / 1.013, 1.015 / 1.009 / 1.018 (random walk) and 0.992 / 1.013 /
 1.017 (Burley); tolerance 8%. Before, the node's share rendered black (0.16 / 0.31 / 0.59).
 
+A Checker texture on the subsurface colour (Principled Random Walk and Burley, the Subsurface
+Scattering node): 1.027 / 1.006 / 1.021, 0.987 / 1.012 / 1.013, 1.034 / 1.010 / 1.021, blurred
+relMSE 0.0023, 0.0018, 0.0047 (tolerance 8%, 0.02). With the colour untextured (the socket's
+value, as before) the first was 1.56 / 1.05 / 0.69, relMSE 0.72.
+
 Direct sun light: the object's brightness with the sun minus without it must match Cycles'
 within 6% per channel (1.005 / 0.985 / 0.986; it was ~0 with Dirac-only random-walk exits).
 """
@@ -48,7 +54,7 @@ CYCLES_SPP = 512
 PRISM_SPP = 256
 
 
-def scene(method="RANDOM_WALK", thin=False, sun=True, node="principled"):
+def scene(method="RANDOM_WALK", thin=False, sun=True, node="principled", textured=False):
     C.reset()
     sc = bpy.context.scene
     floor = C.material("Floor", "ShaderNodeBsdfDiffuse", (0.5, 0.5, 0.5))
@@ -71,6 +77,8 @@ def scene(method="RANDOM_WALK", thin=False, sun=True, node="principled"):
         n.inputs["Subsurface Radius"].default_value = (1.0, 0.35, 0.2)
         n.inputs["Subsurface Scale"].default_value = 0.2
         n.inputs["Roughness"].default_value = 0.5
+    if textured:
+        _checker_colour(skin)
     C.mesh_object("Floor", C.plane(12.0), floor)
     if thin:
         C.mesh_object("Plate", C.cube(1.0), skin, location=(0, 0, 0.8), scale=(1.2, 0.06, 1.2))
@@ -120,6 +128,18 @@ def _mixed_skin(method, kind):
     nt.links.new(other.outputs[0], mix.inputs[2])
     nt.links.new(mix.outputs[0], out.inputs["Surface"])
     return mat
+
+
+def _checker_colour(mat):
+    """The subsurface colour from a Checker texture (skin and blue squares, about a third of the
+    sphere wide): Base Color of a Principled BSDF, Color of a Subsurface Scattering node."""
+    nt = mat.node_tree
+    node = next(n for n in nt.nodes if n.type in {"BSDF_PRINCIPLED", "SUBSURFACE_SCATTERING"})
+    chk = nt.nodes.new("ShaderNodeTexChecker")
+    chk.inputs["Scale"].default_value = 3.0
+    chk.inputs["Color1"].default_value = (0.8, 0.5, 0.4, 1.0)
+    chk.inputs["Color2"].default_value = (0.2, 0.45, 0.8, 1.0)
+    nt.links.new(chk.outputs["Color"], node.inputs["Base Color" if node.type == "BSDF_PRINCIPLED" else "Color"])
 
 
 def object_mean(px):
@@ -182,6 +202,27 @@ def test_subsurface_inside_mix_shader():
         p, c = render_both("%s_%s" % (kind, method.lower()), method=method, node=kind)
         check_ratio("%s (%s) sphere, sun + world" % (kind, method), p, c, 0.08)
         C.check(not prism.engine.LAST["warnings"], "no warnings: %s" % prism.engine.LAST["warnings"])
+
+
+def test_textured_subsurface_colour_matches_cycles():
+    """A Checker texture on the subsurface colour (Principled Base Color with Random Walk and
+    Christensen-Burley, the Subsurface Scattering node's Color): the medium follows the colour
+    where the light enters, as Cycles derives its coefficients there. Object mean per channel
+    within 8% of Cycles' and the 3x3-blurred relMSE over the object within 0.02 (before, the
+    medium took the socket's own colour, with a warning)."""
+    for method, node in (("RANDOM_WALK", "principled"), ("BURLEY", "principled"), ("RANDOM_WALK", "sss")):
+        imgs = {}
+        for engine, spp in (("cycles", 256), ("prism", 128)):
+            sc = scene(method=method, node=node, textured=True)
+            imgs[engine] = C.render_engine(sc, engine, spp, OUT, "tex_%s_%s" % (node, method.lower()), bounces=16)
+        C.check(not prism.engine.LAST["warnings"], "no warnings: %s" % prism.engine.LAST["warnings"])
+        h, w = imgs["cycles"].shape[:2]
+        box = (slice(int(h * 0.15), int(h * 0.75)), slice(int(w * 0.35), int(w * 0.65)))
+        p, c = (C.blur(imgs[e][box]) for e in ("prism", "cycles"))
+        rel = C.rel_mse(p, c)
+        print("  textured %s %s: blurred relMSE %.4f" % (node, method, rel))
+        check_ratio("textured subsurface colour, %s %s" % (node, method), p.mean(axis=(0, 1)), c.mean(axis=(0, 1)), 0.08)
+        C.check(rel <= 0.02, "blurred relMSE %.4f <= 0.02" % rel)
 
 
 def test_random_walk_thin_plate_backlit():
