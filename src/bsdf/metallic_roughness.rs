@@ -45,6 +45,7 @@ use super::energy::{
 use super::fresnel::{reflect, schlick_weight};
 use super::microfacet::TrowbridgeReitz;
 use super::sheen::Sheen;
+use super::FilmAverages;
 use super::{BsdfSample, LobeFlags, MetallicRoughnessBsdf};
 use crate::math::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
 use crate::math::{sqr, INV_PI, PI};
@@ -352,33 +353,91 @@ impl MetallicRoughnessBsdf {
         self.metallic() < 1.0
     }
 
+    /// GGX albedo terms of the specular layer at `mu`; a Dirac mirror (`smooth`) reflects its
+    /// Fresnel exactly: E = 1, B = (1 - mu)^5.
+    fn layer_albedo(&self, smooth: bool, mu: f32) -> ReflectionAlbedo {
+        if smooth {
+            ReflectionAlbedo {
+                e: 1.0,
+                b: schlick_weight(mu),
+            }
+        } else {
+            ggx_reflection_albedo(self.alpha, mu)
+        }
+    }
+
+    /// The hemispherical averages of `layer_albedo`.
+    fn layer_average(&self, smooth: bool) -> ReflectionAlbedo {
+        if smooth {
+            ReflectionAlbedo {
+                e: 1.0,
+                b: SCHLICK_WEIGHT_AVERAGE,
+            }
+        } else {
+            ggx_reflection_average(self.alpha)
+        }
+    }
+
+    /// The dielectric layer's multiple-scattering Fresnel for its Schlick equivalent (F0, F90)
+    /// and the lobe's average albedo `e_avg`.
+    fn dielectric_multiscatter(f0_d: SampledSpectrum, f90_d: f32, e_avg: f32) -> SampledSpectrum {
+        f0_d.map(|f| multiscatter_fresnel(f + (f90_d - f) * SCHLICK_WEIGHT_AVERAGE, e_avg))
+    }
+
+    /// The direction-independent terms of a filmed layer (`FilmAverages`): three 8-point
+    /// quadratures of the Airy sum per wavelength, most of a filmed evaluation's cost.
+    pub fn film_averages(&self) -> FilmAverages {
+        let smooth = self.distribution().effectively_smooth();
+        let average = self.layer_average(smooth);
+        let (f0_d, f90_d) = self.layer_schlick_equivalent();
+        let fms_d = Self::dielectric_multiscatter(f0_d, f90_d, average.e);
+        // The film's curves are no Schlick curves: their hemispherical averages by quadrature.
+        let conductor_avg = if self.metallic() > 0.0 {
+            self.fresnel_average(|mu| self.filmed_conductor_fresnel(mu))
+        } else {
+            SampledSpectrum::ZERO
+        };
+        let layer_avg =
+            self.fresnel_average(|mu| self.film_albedo(self.layer_albedo(smooth, mu), fms_d));
+        FilmAverages {
+            f0_d,
+            f90_d,
+            conductor_avg,
+            diffuse_avg: layer_avg.map(|v| (1.0 - v).max(0.0)),
+        }
+    }
+
+    /// The BSDF with its film's `film_averages` computed once (material construction does
+    /// this: a shading point evaluates its BSDF several times). Must come after the last change
+    /// of the BSDF's parameters.
+    pub fn with_film_averages(mut self) -> Self {
+        if self.energy_compensation && self.iridescence.is_some_and(|i| i.weight > 0.0) {
+            let averages = self.film_averages();
+            if let Some(i) = self.iridescence.as_mut() {
+                i.averages = Some(averages);
+            }
+        }
+        self
+    }
+
     /// The energy-compensation terms at `cos_o` (None for the glTF model).
     fn layers(&self, cos_o: f32) -> Option<Layers> {
         if !self.energy_compensation {
             return None;
         }
         let smooth = self.distribution().effectively_smooth();
-        // A Dirac mirror reflects its Fresnel exactly: E = 1, B = (1 - mu)^5.
-        let (albedo, average) = if smooth {
-            (
-                ReflectionAlbedo {
-                    e: 1.0,
-                    b: schlick_weight(cos_o),
-                },
-                ReflectionAlbedo {
-                    e: 1.0,
-                    b: SCHLICK_WEIGHT_AVERAGE,
-                },
-            )
-        } else {
-            (
-                ggx_reflection_albedo(self.alpha, cos_o),
-                ggx_reflection_average(self.alpha),
-            )
+        let (albedo, average) = (self.layer_albedo(smooth, cos_o), self.layer_average(smooth));
+        // Under a film the layer's albedo is taken as F(mu) E(mu) (the film's curve is no Schlick
+        // curve; exact for a smooth layer, whose mirror reflects exactly F(mu)).
+        let film = self
+            .iridescence
+            .filter(|i| i.weight > 0.0)
+            .map(|i| i.averages.unwrap_or_else(|| self.film_averages()));
+        let (f0_d, f90_d) = match &film {
+            Some(f) => (f.f0_d, f.f90_d),
+            None => self.layer_schlick_equivalent(),
         };
-        let (f0_d, f90_d) = self.layer_schlick_equivalent();
-        let fms = |f_avg: SampledSpectrum| f_avg.map(|f| multiscatter_fresnel(f, average.e));
-        let fms_d = fms(f0_d.map(|f| f + (f90_d - f) * SCHLICK_WEIGHT_AVERAGE));
+        let fms_d = Self::dielectric_multiscatter(f0_d, f90_d, average.e);
         // Hemispherical average of the conductor's Fresnel: Schlick's, minus the F82 term's
         // 2 int a mu^2 (1 - mu)^6 dmu = a / 126.
         let mut fc_avg = self
@@ -387,21 +446,17 @@ impl MetallicRoughnessBsdf {
         if let Some(a) = self.f82_tint_scale() {
             fc_avg = (fc_avg - a * (1.0 / 126.0)).clamp_zero();
         }
-        if self.metallic() > 0.0 && self.iridescence.is_some_and(|i| i.weight > 0.0) {
-            // The film's curve is no Schlick curve: its hemispherical average by quadrature.
-            fc_avg = self.fresnel_average(|mu| self.filmed_conductor_fresnel(mu));
+        if let Some(f) = film.as_ref().filter(|_| self.metallic() > 0.0) {
+            fc_avg = f.conductor_avg;
         }
-        let fms_c = fms(fc_avg);
+        let fms_c = fc_avg.map(|f| multiscatter_fresnel(f, average.e));
         let ms_norm = if average.e < 1.0 - 1e-6 {
             1.0 / (PI * (1.0 - average.e))
         } else {
             0.0
         };
-        // Under a film the layer's albedo is taken as F(mu) E(mu) (the film's curve is no Schlick
-        // curve; exact for a smooth layer, whose mirror reflects exactly F(mu)).
-        let film = self.iridescence.is_some_and(|i| i.weight > 0.0);
         let mut layers = Layers {
-            film,
+            film: film.is_some(),
             ms_scale_o: (1.0 - albedo.e).max(0.0),
             ms_norm,
             fms_d,
@@ -411,28 +466,15 @@ impl MetallicRoughnessBsdf {
             diffuse_o: SampledSpectrum::ZERO,
             diffuse_norm: SampledSpectrum::ZERO,
         };
-        let (diffuse_o, diffuse_avg) = if film {
-            let rest = |f: SampledSpectrum| f.map(|v| (1.0 - v).max(0.0));
-            let albedo_at = |mu: f32| {
-                if smooth {
-                    ReflectionAlbedo {
-                        e: 1.0,
-                        b: schlick_weight(mu),
-                    }
-                } else {
-                    ggx_reflection_albedo(self.alpha, mu)
-                }
-            };
-            let film_avg = self.fresnel_average(|mu| {
-                let a = albedo_at(mu);
-                self.film_albedo(a, fms_d)
-            });
-            (rest(self.film_albedo(albedo, fms_d)), rest(film_avg))
-        } else {
-            (
+        let (diffuse_o, diffuse_avg) = match &film {
+            Some(f) => (
+                self.film_albedo(albedo, fms_d).map(|v| (1.0 - v).max(0.0)),
+                f.diffuse_avg,
+            ),
+            None => (
                 layers.left_to_diffuse(albedo),
                 layers.left_to_diffuse(average),
-            )
+            ),
         };
         layers.diffuse_o = diffuse_o;
         // The diffuse lobe's 1 / (1 - A_d,avg) normalisation (0 when the layer reflects all).

@@ -234,6 +234,21 @@ pub struct Iridescence {
     pub weight: f32,
     /// The wavelengths (nm) of the spectrum's slots.
     pub lambda: SampledSpectrum,
+    /// A filmed metallic-roughness layer's direction-independent terms, once computed
+    /// (`MetallicRoughnessBsdf::with_film_averages`); None: computed per evaluation.
+    pub averages: Option<FilmAverages>,
+}
+
+/// The terms of a filmed specular layer that do not depend on the directions
+/// (`MetallicRoughnessBsdf::film_averages`): the layer's Schlick equivalent (F0, F90), the
+/// filmed conductor's hemispherical Fresnel average and what the layer leaves to the diffuse
+/// base on average (1 - A_avg).
+#[derive(Clone, Copy, Debug)]
+pub struct FilmAverages {
+    pub f0_d: SampledSpectrum,
+    pub f90_d: f32,
+    pub conductor_avg: SampledSpectrum,
+    pub diffuse_avg: SampledSpectrum,
 }
 
 impl Bsdf {

@@ -490,6 +490,7 @@ impl Material {
             film,
             weight,
             lambda: SampledSpectrum::from_fn(|i| w.lambda[i]),
+            averages: None,
         })
     }
 
@@ -679,6 +680,7 @@ impl Material {
                 },
                 weight: 1.0,
                 lambda: SampledSpectrum::from_fn(|i| w.lambda[i]),
+                averages: None,
             }),
             Some(_) => None,
             None => self.iridescence(textures, uv, inputs, w),
@@ -708,25 +710,28 @@ impl Material {
         {
             return Bsdf::Diffuse(DiffuseBsdf { reflectance: base });
         }
-        Bsdf::MetallicRoughness(MetallicRoughnessBsdf {
-            base_color: base,
-            metallic,
-            alpha: alpha.max(MIN_ALPHA),
-            specular,
-            specular_color: match (get(MaterialInput::SpecularTint), g.specular_color_texture) {
-                (Some(c), _) => RgbAlbedoSpectrum::new(c.xyz().max(Vec3::ZERO)).sample(w),
-                (None, Some(t)) => {
-                    let texel = lookup_at(textures, &t, uv, inputs).xyz();
-                    RgbAlbedoSpectrum::new((g.specular_color * texel).max(Vec3::ZERO)).sample(w)
-                }
-                (None, None) => self.specular_color.sample(w),
-            },
-            ior: g.ior,
-            energy_compensation: self.energy_compensation,
-            coat,
-            sheen,
-            iridescence,
-        })
+        Bsdf::MetallicRoughness(
+            MetallicRoughnessBsdf {
+                base_color: base,
+                metallic,
+                alpha: alpha.max(MIN_ALPHA),
+                specular,
+                specular_color: match (get(MaterialInput::SpecularTint), g.specular_color_texture) {
+                    (Some(c), _) => RgbAlbedoSpectrum::new(c.xyz().max(Vec3::ZERO)).sample(w),
+                    (None, Some(t)) => {
+                        let texel = lookup_at(textures, &t, uv, inputs).xyz();
+                        RgbAlbedoSpectrum::new((g.specular_color * texel).max(Vec3::ZERO)).sample(w)
+                    }
+                    (None, None) => self.specular_color.sample(w),
+                },
+                ior: g.ior,
+                energy_compensation: self.energy_compensation,
+                coat,
+                sheen,
+                iridescence,
+            }
+            .with_film_averages(),
+        )
     }
 
     /// The coat at a shading point: the glTF factors times `clearcoatTexture` (R) and
