@@ -1785,8 +1785,8 @@ fn cached_film_averages_change_nothing() {
             Bsdf::MetallicRoughness(cached),
         );
         for _ in 0..200 {
-            let wo = dir(rng.next_f32(), rng.next_f32() * 6.283);
-            let wi = dir(rng.next_f32(), rng.next_f32() * 6.283);
+            let wo = dir(rng.next_f32(), rng.next_f32() * std::f32::consts::TAU);
+            let wi = dir(rng.next_f32(), rng.next_f32() * std::f32::consts::TAU);
             let (a, b) = (plain.eval_pdf(wo, wi), cached.eval_pdf(wo, wi));
             assert_eq!(a.0 .0, b.0 .0, "eval ({metallic}, {roughness})");
             assert_eq!(a.1, b.1, "pdf ({metallic}, {roughness})");
