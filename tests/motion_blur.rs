@@ -12,8 +12,10 @@ use glam::{Mat4, Vec2, Vec3};
 use gltf_builder::{test_dir, GltfBuilder};
 use prism::film::PixelFilter;
 use prism::render::{render_quiet, RenderSettings};
-use prism::scene::{load_scene, InstanceDesc, InstanceVisibility, Scene, SceneDesc};
-use serde_json::json;
+use prism::scene::{
+    load_scene, DeformationDesc, InstanceDesc, InstanceVisibility, Scene, SceneDesc,
+};
+use serde_json::{json, Value};
 
 const SIZE: u32 = 64;
 /// The orthographic view spans [-2, 2] in x and y: 16 pixels per unit.
@@ -281,4 +283,165 @@ fn gltf_node_motion_is_read_and_bad_motion_refused() {
     let path = bad.write_gltf(&dir.join("bad_motion.gltf"));
     let err = load_scene(&path, None, None).expect_err("one key is refused");
     assert!(err.to_string().contains("prism_motion"), "{err}");
+}
+
+// ------------------------------------------------------------------ deformation blur
+
+/// `strip_scene` whose strip deforms: its vertices are shifted by `shifts` (one key each)
+/// instead of the object moving.
+fn deforming_strip(shifts: &[f32]) -> SceneDesc {
+    let mut desc = strip_scene(Mat4::IDENTITY, vec![], vec![]);
+    let base = desc.meshes[0].positions.clone();
+    desc.meshes[0].deformation = Some(DeformationDesc {
+        positions: shifts
+            .iter()
+            .map(|&x| base.iter().map(|p| *p + Vec3::new(x, 0.0, 0.0)).collect())
+            .collect(),
+        normals: None,
+    });
+    desc
+}
+
+#[test]
+fn a_deforming_mesh_blurs_into_the_time_average() {
+    // The strip's vertices go -0.5 -> +0.5 over the shutter (two keys, then three): the same
+    // sweep as the moving object above, so the same closed-form profile.
+    for shifts in [&[-0.5, 0.5][..], &[-0.5, 0.0, 0.5]] {
+        let px = render(deforming_strip(shifts), SIZE, 64);
+        assert_profile(
+            &column_profile(&px),
+            &triangle_profile(),
+            &format!("deforming strip, {} keys", shifts.len()),
+        );
+    }
+}
+
+/// The lit floor with a 1.2 x 1.2 diffuse occluder at height 0.3 between the emitter and the
+/// floor, moving -0.8 -> +0.8 in x: by its transform or by deforming its vertices.
+fn shadowed_floor(deform: bool) -> SceneDesc {
+    let mut desc = lit_floor(Mat4::IDENTITY, vec![]);
+    desc.meshes.push(quad_mesh(
+        "occluder",
+        Vec3::new(0.0, 0.0, 0.3),
+        0.6 * Vec3::X,
+        0.6 * Vec3::Y,
+        0,
+    ));
+    desc.instances.push(InstanceDesc {
+        mesh: 2,
+        object_to_world: Mat4::IDENTITY,
+        name: "occluder".into(),
+    });
+    desc.instance_visibility.push(InstanceVisibility {
+        camera_visible: false,
+        ..Default::default()
+    });
+    let at = |x: f32| Mat4::from_translation(Vec3::new(x, 0.0, 0.0));
+    if deform {
+        let base = desc.meshes[2].positions.clone();
+        desc.meshes[2].deformation = Some(DeformationDesc {
+            positions: [-0.8f32, 0.8]
+                .iter()
+                .map(|&x| base.iter().map(|p| *p + Vec3::new(x, 0.0, 0.0)).collect())
+                .collect(),
+            normals: None,
+        });
+        desc.instance_motion.push(vec![]);
+    } else {
+        desc.instance_motion.push(vec![at(-0.8), at(0.8)]);
+    }
+    desc
+}
+
+#[test]
+fn a_deforming_occluder_shadows_as_a_moving_one() {
+    // Shadow rays and the camera path's hits see the deforming mesh at the path's time: the
+    // floor under a deforming occluder matches the floor under the same occluder moved by its
+    // transform (same time samples), and differs from the still occluder's shadow.
+    let size = 32;
+    let moved = blocks(&render(shadowed_floor(false), size, 256), size as usize);
+    let deformed = blocks(&render(shadowed_floor(true), size, 256), size as usize);
+    let mut still_desc = shadowed_floor(false);
+    still_desc.instance_motion[2].clear();
+    let still = blocks(&render(still_desc, size, 64), size as usize);
+    for (b, (d, m)) in deformed.iter().zip(&moved).enumerate() {
+        assert!(
+            (d - m).abs() / m.max(0.05) < 0.02,
+            "block {b}: deforming {d:.4}, moving {m:.4}"
+        );
+    }
+    assert!(
+        still
+            .iter()
+            .zip(&moved)
+            .any(|(s, m)| (s - m).abs() / m.max(0.05) > 0.15),
+        "the scene must show the blurred shadow"
+    );
+}
+
+#[test]
+fn gltf_deformation_keys_are_read_and_bad_ones_refused() {
+    let dir = test_dir("deformation_blur");
+    let build = |targets: Value, flag: Value| {
+        let mut b = GltfBuilder::basic();
+        let m = b.emissive_material("Morph", 2.0);
+        let q = b.quad_mesh("Morph", Some(m));
+        let a = b.vec3(&[[-1.0, 0.0, 0.0]; 4]);
+        let c = b.vec3(&[[1.0, 0.0, 0.0]; 4]);
+        let targets = match targets {
+            Value::Null => json!([{ "POSITION": a }, { "POSITION": c }]),
+            t => t,
+        };
+        b.meshes[q]["primitives"][0]["targets"] = targets;
+        b.meshes[q]["extras"] = json!({ "prism_deformation": flag });
+        b.root(json!({ "name": "Morph", "mesh": q }));
+        b
+    };
+    let path = build(Value::Null, json!(true)).write_gltf(&dir.join("deforming.gltf"));
+    let desc = load_scene(&path, None, None).expect("loads");
+    let mesh = desc
+        .meshes
+        .iter()
+        .find(|m| m.name.contains("Morph"))
+        .expect("the deforming mesh");
+    let d = mesh.deformation.as_ref().expect("deformation keys");
+    assert_eq!(d.positions.len(), 2);
+    for (p, k0, k1) in itertools_zip(&mesh.positions, &d.positions[0], &d.positions[1]) {
+        assert!((*k0 - *p).abs_diff_eq(Vec3::new(-1.0, 0.0, 0.0), 1e-6));
+        assert!((*k1 - *p).abs_diff_eq(Vec3::new(1.0, 0.0, 0.0), 1e-6));
+    }
+    // Without the flag, morph targets stay blend shapes (weights 0: the base mesh).
+    let path = build(Value::Null, json!(false)).write_gltf(&dir.join("morph.gltf"));
+    let desc = load_scene(&path, None, None).expect("loads");
+    assert!(desc.meshes.iter().all(|m| m.deformation.is_none()));
+    for (targets, flag, want) in [
+        (
+            json!([{ "POSITION": 0 }]),
+            json!(true),
+            "at least two morph targets",
+        ),
+        (
+            json!([{}, {}]),
+            json!(true),
+            "a deformation key needs POSITION",
+        ),
+        (
+            Value::Null,
+            json!("yes"),
+            "prism_deformation must be true or false",
+        ),
+    ] {
+        let path = build(targets, flag).write_gltf(&dir.join("bad_deformation.gltf"));
+        let err = load_scene(&path, None, None).expect_err(want).to_string();
+        assert!(err.contains(want), "{err}");
+        assert!(!err.contains('\n'), "{err}");
+    }
+}
+
+fn itertools_zip<'a>(
+    a: &'a [Vec3],
+    b: &'a [Vec3],
+    c: &'a [Vec3],
+) -> impl Iterator<Item = (&'a Vec3, &'a Vec3, &'a Vec3)> {
+    a.iter().zip(b).zip(c).map(|((x, y), z)| (x, y, z))
 }

@@ -65,6 +65,42 @@ pub struct Mesh {
     /// others in its flattened level): None until `Geometry::new` needs it.
     bvh: Option<CwBvh>,
     bounds: Aabb,
+    /// Deformation motion blur: the vertices over the shutter (None: a rigid mesh).
+    deformation: Option<Arc<Deformation>>,
+}
+
+/// A deforming mesh's vertex positions (and shading normals) at `keys()` equally spaced times
+/// over the shutter, linearly interpolated between them (Cycles interpolates its deformation
+/// keys linearly too). Triangles are traced at the ray's time inside a BVH over the boxes they
+/// sweep; what is not traced at a time (light sampling's triangle areas) uses the mesh at its
+/// current frame (`Mesh::positions`).
+#[derive(Debug)]
+pub struct Deformation {
+    positions: Vec<Vec<Vec3>>,
+    normals: Option<Vec<Vec<Vec3>>>,
+}
+
+impl Deformation {
+    /// The keys around shutter time `time` in [0, 1] and the weight of the later one.
+    #[inline]
+    fn at(&self, time: f32) -> (usize, usize, f32) {
+        let last = self.positions.len() - 1;
+        let x = time.clamp(0.0, 1.0) * last as f32;
+        let k = (x as usize).min(last - 1);
+        (k, k + 1, x - k as f32)
+    }
+
+    #[inline]
+    fn position(&self, v: usize, time: f32) -> Vec3 {
+        let (a, b, f) = self.at(time);
+        self.positions[a][v].lerp(self.positions[b][v], f)
+    }
+
+    #[inline]
+    fn normal(&self, v: usize, time: f32) -> Option<Vec3> {
+        let (a, b, f) = self.at(time);
+        self.normals.as_ref().map(|n| n[a][v].lerp(n[b][v], f))
+    }
 }
 
 /// Vertex + two edges: what the Möller–Trumbore test needs, packed together for locality.
@@ -197,6 +233,66 @@ impl Mesh {
             tris,
             bvh: None,
             bounds,
+            deformation: None,
+        }
+    }
+
+    /// Gives the mesh deformation motion blur: `positions` (and `normals`) per key, at least
+    /// two keys of one entry per vertex each (else ignored: the mesh stays rigid). The bounds
+    /// grow to everything the mesh sweeps.
+    pub fn with_deformation(
+        mut self,
+        positions: Vec<Vec<Vec3>>,
+        normals: Option<Vec<Vec<Vec3>>>,
+    ) -> Self {
+        let n = self.positions.len();
+        if positions.len() < 2 || positions.iter().any(|k| k.len() != n) {
+            return self;
+        }
+        let normals = normals.filter(|keys| {
+            keys.len() == positions.len()
+                && keys.iter().all(|k| k.len() == n)
+                && self.normals.is_some()
+        });
+        for key in &positions {
+            for p in key {
+                self.bounds = self
+                    .bounds
+                    .union(&Aabb::new(Vec3A::from(*p), Vec3A::from(*p)));
+            }
+        }
+        self.deformation = Some(Arc::new(Deformation { positions, normals }));
+        self
+    }
+
+    /// The mesh deforms over the shutter (see `Deformation`).
+    pub fn deforms(&self) -> bool {
+        self.deformation.is_some()
+    }
+
+    /// Per triangle, the box it sweeps over the shutter (a deforming mesh's BVH primitives).
+    fn swept_boxes(&self, d: &Deformation) -> Vec<Aabb> {
+        self.indices
+            .par_iter()
+            .map(|t| {
+                let mut b = Aabb::empty();
+                for key in &d.positions {
+                    for &v in t {
+                        let p = Vec3A::from(key[v as usize]);
+                        b = b.union(&Aabb::new(p, p));
+                    }
+                }
+                b
+            })
+            .collect()
+    }
+
+    /// Object-space vertices of triangle `prim` at shutter time `time`.
+    #[inline]
+    pub fn vertices_at(&self, prim: usize, time: f32) -> [Vec3; 3] {
+        match &self.deformation {
+            None => self.vertices(prim),
+            Some(d) => self.indices[prim].map(|v| d.position(v as usize, time)),
         }
     }
 
@@ -206,13 +302,18 @@ impl Mesh {
         if self.bvh.is_some() {
             return;
         }
-        let bvh = cached_or_built_bvh(
-            &self.tris,
-            &[
-                bytemuck::cast_slice(&self.positions),
-                bytemuck::cast_slice(&self.indices),
-            ],
-        );
+        let bvh = match &self.deformation {
+            // Over the boxes the triangles sweep (not cached: deforming meshes change from
+            // frame to frame).
+            Some(d) => wide_bvh::build(&self.swept_boxes(d), build_params(self.tris.len())),
+            None => cached_or_built_bvh(
+                &self.tris,
+                &[
+                    bytemuck::cast_slice(&self.positions),
+                    bytemuck::cast_slice(&self.indices),
+                ],
+            ),
+        };
         let (tris, indices) = rayon::join(
             || leaf_order(&bvh, &self.tris),
             || leaf_order(&bvh, &self.indices),
@@ -268,9 +369,25 @@ impl Mesh {
             .expect("Geometry::new builds the BVH of every mesh it traces through the TLAS")
     }
 
-    /// Closest hit along an object-space ray: (t, primitive, b1, b2).
+    /// The triangle `id` as the Möller–Trumbore test takes it, at shutter time `time`.
     #[inline]
-    fn intersect(&self, ray: &BvhRay, best: &mut BlasHit) -> f32 {
+    fn triangle_at(&self, id: usize, time: f32) -> TriangleEdges {
+        match &self.deformation {
+            None => self.tris[id],
+            Some(d) => {
+                let [v0, v1, v2] = self.indices[id].map(|v| d.position(v as usize, time));
+                TriangleEdges {
+                    v0,
+                    e1: v1 - v0,
+                    e2: v2 - v0,
+                }
+            }
+        }
+    }
+
+    /// Closest hit along an object-space ray at shutter time `time`: (t, primitive, b1, b2).
+    #[inline]
+    fn intersect(&self, ray: &BvhRay, time: f32, best: &mut BlasHit) -> f32 {
         let mut hit = obvhs::ray::RayHit::none();
         let origin = Vec3::from(ray.origin);
         let dir = Vec3::from(ray.direction);
@@ -279,7 +396,7 @@ impl Mesh {
             ..*best
         };
         self.bvh().ray_traverse(*ray, &mut hit, |r, id| {
-            let tri = &self.tris[id];
+            let tri = self.triangle_at(id, time);
             match intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax) {
                 Some((t, b1, b2)) => {
                     local = BlasHit {
@@ -303,11 +420,11 @@ impl Mesh {
     }
 
     #[inline]
-    fn occluded(&self, ray: &BvhRay) -> bool {
+    fn occluded(&self, ray: &BvhRay, time: f32) -> bool {
         let origin = Vec3::from(ray.origin);
         let dir = Vec3::from(ray.direction);
         !self.bvh().ray_traverse_miss(*ray, |r, id| {
-            let tri = &self.tris[id];
+            let tri = self.triangle_at(id, time);
             intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax)
                 .map_or(f32::INFINITY, |h| h.0)
         })
@@ -591,6 +708,7 @@ impl Geometry {
                 layout == BvhLayout::Flattened
                     && uses[inst.mesh as usize] == 1
                     && inst.motion.is_none()
+                    && !meshes[inst.mesh as usize].deforms()
             })
             .collect();
         let mut needs_bvh = vec![false; meshes.len()];
@@ -731,7 +849,7 @@ impl Geometry {
             );
             let before = *best;
             best.instance = inst_id;
-            let t = self.meshes[inst.mesh as usize].intersect(&local, best);
+            let t = self.meshes[inst.mesh as usize].intersect(&local, ray.time, best);
             if t == f32::INFINITY {
                 *best = before;
             }
@@ -764,7 +882,7 @@ impl Geometry {
                 to_object.transform_vector3(ray.dir),
                 t_max,
             );
-            if self.meshes[inst.mesh as usize].occluded(&local) {
+            if self.meshes[inst.mesh as usize].occluded(&local, ray.time) {
                 // any distance below t_max counts as a hit; 0.5 * t_max is not < t_max when
                 // t_max is infinite (directional and world lights)
                 0.0
@@ -875,7 +993,7 @@ impl Geometry {
         let mesh = &self.meshes[inst.mesh as usize];
         let placement = inst.placement_at(sp.time);
         let [v0, v1, v2] = mesh
-            .vertices(sp.prim as usize)
+            .vertices_at(sp.prim as usize, sp.time)
             .map(|v| placement.object_to_world.transform_point3(v));
         let e1 = (v1 - v0).length().max(1e-30);
         let e2 = (v2 - v0).length().max(1e-30);
@@ -912,7 +1030,7 @@ impl Geometry {
         let mesh = &self.meshes[inst.mesh as usize];
         let [i0, i1, i2] = mesh.indices[prim as usize];
         let b0 = 1.0 - b1 - b2;
-        let [v0, v1, v2] = mesh.vertices(prim as usize);
+        let [v0, v1, v2] = mesh.vertices_at(prim as usize, time);
         let p_obj = v0 * b0 + v1 * b1 + v2 * b2;
         let p = placement.object_to_world.transform_point3(p_obj);
         let w0 = placement.object_to_world.transform_point3(v0);
@@ -924,7 +1042,13 @@ impl Geometry {
         let ng = cross.normalize_or(Vec3::Z);
         let ns = match &mesh.normals {
             Some(n) => {
-                let n_obj = n[i0 as usize] * b0 + n[i1 as usize] * b1 + n[i2 as usize] * b2;
+                let normal = |v: u32| {
+                    mesh.deformation
+                        .as_ref()
+                        .and_then(|d| d.normal(v as usize, time))
+                        .unwrap_or(n[v as usize])
+                };
+                let n_obj = normal(i0) * b0 + normal(i1) * b1 + normal(i2) * b2;
                 let n = (placement.normal_to_world * n_obj).normalize_or(ng);
                 if n.is_finite() {
                     n
@@ -1021,7 +1145,7 @@ impl Geometry {
                 }
             }
         }
-        let [v0, v1, v2] = mesh.vertices(sp.prim as usize);
+        let [v0, v1, v2] = mesh.vertices_at(sp.prim as usize, sp.time);
         let w0 = placement.object_to_world.transform_point3(v0);
         let e1 = placement.object_to_world.transform_point3(v1) - w0;
         let e2 = placement.object_to_world.transform_point3(v2) - w0;

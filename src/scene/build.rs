@@ -40,6 +40,7 @@ impl Scene {
     pub fn has_motion(&self) -> bool {
         motion_of(&self.camera.motion).is_some_and(|m| !m.is_static())
             || self.geometry.instances.iter().any(|i| i.motion.is_some())
+            || self.geometry.meshes.iter().any(|m| m.deforms())
     }
 
     /// Builds acceleration structures and light tables. Fails (as bad input) only for scenes
@@ -104,9 +105,12 @@ impl Scene {
                     Some(i) if i < materials.len() => i as u32,
                     _ => default_material,
                 };
-                let mesh = Mesh::without_bvh(m.positions, normals, uvs, tris, material)
+                let mut mesh = Mesh::without_bvh(m.positions, normals, uvs, tris, material)
                     .with_tangents(m.tangents)
                     .with_attributes(m.extra_uvs, m.colors);
+                if let Some(d) = m.deformation {
+                    mesh = mesh.with_deformation(d.positions, d.normals);
+                }
                 Some((mi, mesh))
             })
             .collect();

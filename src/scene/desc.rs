@@ -26,6 +26,17 @@ pub struct MeshDesc {
     pub colors: Vec<Option<Vec<Vec4>>>,
     /// Index into `SceneDesc::materials`; `None` = the glTF default material.
     pub material: Option<usize>,
+    /// Deformation motion blur: the vertices at equally spaced times over the shutter.
+    pub deformation: Option<DeformationDesc>,
+}
+
+/// Vertex positions (and shading normals) of a deforming mesh (armature, shape keys) at
+/// `positions.len()` >= 2 equally spaced times from shutter open to close, per vertex of the
+/// mesh (`MeshDesc::positions` is the mesh at the current frame).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DeformationDesc {
+    pub positions: Vec<Vec<Vec3>>,
+    pub normals: Option<Vec<Vec<Vec3>>>,
 }
 
 /// A placement of a mesh in the world. Several instances may share one mesh.

@@ -1538,7 +1538,10 @@ impl<'d> Importer<'d> {
             }
             None => None,
         };
-        self.apply_morph_targets(mi, pi, weights, &mut positions, normals.as_mut())?;
+        let deformation = self.deformation_keys(mesh, mi, pi, &positions, normals.as_deref())?;
+        if deformation.is_none() {
+            self.apply_morph_targets(mi, pi, weights, &mut positions, normals.as_mut())?;
+        }
         let tangents = self.load_tangents(mi, prim, &name, n, normals.is_some())?;
         let mut extra_uvs = Vec::new();
         for set in 1..crate::shading::MAX_ATTRIBUTE_SETS as u32 {
@@ -1634,10 +1637,104 @@ impl<'d> Importer<'d> {
             .map(|c| c.map(|c| pick(order.as_deref(), c)))
             .collect();
         desc.material = material;
+        desc.deformation = deformation.map(|d| DeformationDesc {
+            positions: d
+                .positions
+                .into_iter()
+                .map(|p| pick(order.as_deref(), p))
+                .collect(),
+            normals: d.normals.map(|keys| {
+                keys.into_iter()
+                    .map(|n| pick(order.as_deref(), n))
+                    .collect()
+            }),
+        });
         if let Some(normals) = desc.normals.as_mut() {
             fix_normals(normals, &desc.positions, &desc.indices);
         }
         Ok(Some(desc))
+    }
+
+    /// A deforming mesh's vertices over the shutter: with `extras.prism_deformation: true` on
+    /// the mesh (the Blender add-on writes it for armatures, shape keys and other deforming
+    /// modifiers), its primitives' morph targets are not blend shapes but the displacements of
+    /// POSITION (and NORMAL) at equally spaced times from shutter open to close (at least two).
+    /// Other viewers see the base mesh (the current frame): the targets' weights are zero.
+    fn deformation_keys(
+        &self,
+        mesh: &gltf::Mesh,
+        mi: usize,
+        pi: usize,
+        base_positions: &[Vec3],
+        base_normals: Option<&[Vec3]>,
+    ) -> Result<Option<DeformationDesc>, String> {
+        let flag = mesh
+            .extras()
+            .as_ref()
+            .and_then(|raw| serde_json::from_str::<serde_json::Value>(raw.get()).ok())
+            .and_then(|v| v.get("prism_deformation").cloned());
+        match flag {
+            None | Some(serde_json::Value::Bool(false)) => return Ok(None),
+            Some(serde_json::Value::Bool(true)) => {}
+            Some(other) => {
+                return Err(format!(
+                    "meshes[{mi}]: extras.prism_deformation must be true or false, got {other}"
+                ))
+            }
+        }
+        let path = format!("meshes[{mi}].primitives[{pi}]");
+        let json = &self.doc.as_json().meshes[mi].primitives[pi];
+        let targets = json.targets.as_deref().unwrap_or(&[]);
+        if targets.len() < 2 {
+            return Err(format!(
+                "{path}: extras.prism_deformation needs at least two morph targets (the shutter's keys), found {}",
+                targets.len()
+            ));
+        }
+        let n = base_positions.len();
+        let read = |acc: gltf::json::Index<gltf::json::Accessor>,
+                    what: String,
+                    base: &[Vec3]|
+         -> Result<Vec<Vec3>, String> {
+            let a = self.accessor(acc.value(), &what)?;
+            let d = self.read_vec3(&a, &what)?;
+            if d.len() != n {
+                return Err(format!("{what}: {} elements but POSITION has {n}", d.len()));
+            }
+            Ok(base.iter().zip(&d).map(|(b, dx)| *b + *dx).collect())
+        };
+        let mut positions = Vec::with_capacity(targets.len());
+        for (k, t) in targets.iter().enumerate() {
+            let Some(acc) = t.positions else {
+                return Err(format!(
+                    "{path}.targets[{k}]: a deformation key needs POSITION"
+                ));
+            };
+            let keyed = read(acc, format!("{path}.targets[{k}].POSITION"), base_positions)?;
+            if let Some(i) = keyed.iter().position(|p| !p.is_finite()) {
+                return Err(format!(
+                    "{path}.targets[{k}].POSITION: vertex {i} is not finite"
+                ));
+            }
+            positions.push(keyed);
+        }
+        let normals = match base_normals {
+            Some(base) if targets.iter().all(|t| t.normals.is_some()) => Some(
+                targets
+                    .iter()
+                    .enumerate()
+                    .map(|(k, t)| {
+                        read(
+                            t.normals.expect("checked"),
+                            format!("{path}.targets[{k}].NORMAL"),
+                            base,
+                        )
+                    })
+                    .collect::<Result<Vec<_>, _>>()?,
+            ),
+            _ => None,
+        };
+        Ok(Some(DeformationDesc { positions, normals }))
     }
 
     /// Adds the weighted morph target displacements of POSITION and NORMAL (glTF 2.0 spec
