@@ -789,8 +789,8 @@ def _corner_attributes(me, corner_vert, uv_sets, color_sets):
 
 
 def _mesh_arrays(me, tri_loops, tri_mat, per_vertex_allowed=True):
-    """Vertex positions, shading normals (None: flat, computed by the renderer), UVs and
-    per-material triangle index lists.
+    """Vertex positions, shading normals (None: flat, computed by the renderer), UVs,
+    per-material triangle index lists, and whether the arrays are per vertex (else per corner).
 
     Per vertex where Blender's normals are per vertex (smooth, no custom normals) or per face
     (flat: glTF then carries no normals and the renderer uses each triangle's own normal, as
@@ -844,7 +844,29 @@ def _mesh_arrays(me, tri_loops, tri_mat, per_vertex_allowed=True):
     tl = tri_index.reshape(-1, 3)
     for mi in np.unique(tri_mat):
         groups[int(mi)] = tl[tri_mat == mi].reshape(-1)
-    return pos, nrm, uv, groups
+    return pos, nrm, uv, groups, per_vertex
+
+
+def _deformation_targets(me, keys, pos, nrm, per_vertex):
+    """glTF morph targets (POSITION, and NORMAL when the mesh has shading normals) holding the
+    displacement of each exported vertex at each shutter key (`motion.vertex_data` per key),
+    mapped as `_mesh_arrays` mapped the current frame; None when the keys do not fit the mesh
+    (its vertex or corner count differs)."""
+    nv, nl = len(me.vertices), len(me.loops)
+    if any(co.shape[0] != nv or cn.shape[0] != nl for co, _vn, cn in keys):
+        return None
+    corner_vert = None if per_vertex else _corner_vertices(me, nl)
+    out = []
+    for co, vn, cn in keys:
+        p = co if per_vertex else co[corner_vert]
+        target = {"POSITION": p - pos}
+        if nrm is not None:
+            n = vn if per_vertex else cn
+            if n is None or n.shape != nrm.shape:
+                return None
+            target["NORMAL"] = n - nrm
+        out.append(target)
+    return out
 
 
 def _mesh_tangents(me, uv_name):
@@ -1673,7 +1695,9 @@ class Exporter:
                 self.volume_graphs[name] = gb.result()
         return volume
 
-    def _mesh(self, key, me, slots, ob=None):
+    def _mesh(self, key, me, slots, ob=None, deformation=None):
+        """glTF mesh index of evaluated mesh `me` (cached by `key`); `deformation`: its
+        `motion.vertex_data` per shutter key (deformation blur), or None."""
         if key in self.mesh_cache:
             return self.mesh_cache[key]
         triangles = _mesh_triangles(me)
@@ -1695,7 +1719,7 @@ class Exporter:
             corner, missing = _corner_attributes(me, _corner_vertices(me, len(me.loops)), self.uv_sets, self.color_sets)
             for what in missing:
                 self.warnings.append("mesh '%s': %s not found; the active one is read" % (me.name, what))
-        pos, nrm, uv, groups = _mesh_arrays(
+        pos, nrm, uv, groups, per_vertex = _mesh_arrays(
             me, tri_loops, tri_mat, per_vertex_allowed=not needs_tangents and not corner
         )
         attrs = {"POSITION": self.buf.accessor(pos, "VEC3", minmax=True)}
@@ -1706,6 +1730,15 @@ class Exporter:
         for attr_name, arr in sorted(corner.items()):
             attrs[attr_name] = self.buf.accessor(np.ascontiguousarray(arr, np.float32), "VEC2" if arr.shape[1] == 2 else "VEC4")
         self._mesh_tangent_attribute(me, attrs, [self.materials[i] for i in materials.values()])
+        targets = None
+        if deformation:
+            keyed = _deformation_targets(me, deformation, pos, nrm, per_vertex)
+            if keyed is None:
+                self.warnings.append("motion blur: mesh '%s' does not match its shutter keys; its deformation is not"
+                                     " blurred" % me.name)
+            else:
+                targets = [{k: self.buf.accessor(np.ascontiguousarray(v, np.float32), "VEC3", minmax=k == "POSITION")
+                            for k, v in t.items()} for t in keyed]
         prims = []
         for mi, idx in groups.items():
             prims.append(
@@ -1715,8 +1748,15 @@ class Exporter:
                     "material": materials[mi],
                 }
             )
+            if targets:
+                prims[-1]["targets"] = targets
             self.n_triangles += len(idx) // 3
-        self.meshes.append({"name": me.name, "primitives": prims})
+        gm = {"name": me.name, "primitives": prims}
+        if targets:
+            # The morph targets are the vertices over the shutter (src/scene/gltf_import.rs
+            # `deformation_keys`), not blend shapes: their weights stay 0 for other viewers.
+            gm["extras"] = {"prism_deformation": True}
+        self.meshes.append(gm)
         self.mesh_cache[key] = len(self.meshes) - 1
         return self.mesh_cache[key]
 
@@ -1763,7 +1803,8 @@ class Exporter:
             me = ob.data
             key = ("mesh", me.as_pointer())
             slots = [s.material for s in ob.material_slots] or list(me.materials)
-            mi = self._mesh(key, me, slots, ob)
+            deformation = self.motion.deformations.get(motion_key) if self.motion is not None else None
+            mi = self._mesh(key, me, slots, ob, deformation)
         else:
             try:
                 me = ob.to_mesh()

@@ -1,16 +1,21 @@
-"""Transform motion blur: where objects and the camera are over Blender's shutter.
+"""Motion blur: where objects, their vertices and the camera are over Blender's shutter.
 
 With Render > Motion Blur on, the scene is evaluated at equally spaced times from shutter
 open to close (Cycles' convention: the shutter lasts `motion_blur_shutter` frames, placed
 by Position start / centre / end on the current frame; an object's Motion Blur Steps s give
 2^s + 1 keys, 3 by default). Every object whose world matrix changes over them gets its
 matrices as glTF node extras (`prism_motion`); the renderer interpolates them and samples a
-time per camera path (see `src/geometry/motion.rs`). What is not blurred is reported:
-deforming meshes (armatures, shape keys, simulations), particle hair and Curves objects,
-a rolling shutter.
+time per camera path (see `src/geometry/motion.rs`). A mesh whose evaluated vertices move
+(armatures, shape keys, deforming modifiers, geometry nodes; Cycles' Deformation switch on)
+gets its vertex positions and normals at the keys (`Motion.deformations`), exported as glTF
+morph targets under the mesh's `extras.prism_deformation` (deformation blur). What is not
+blurred is reported: a deforming mesh whose vertex count changes over the shutter, deforming
+instances, particle hair and Curves objects, a rolling shutter.
 """
 
 import math
+
+import numpy as np
 
 # Most keys per object: Cycles allows more, but transforms between keys are interpolated
 # along the rotation's arc already, so more keys only follow curved paths more closely.
@@ -61,6 +66,9 @@ def instance_key(inst):
 def _likely_deforms(ob):
     if ob.type != "MESH":
         return False
+    settings = getattr(ob, "cycles", None)
+    if settings is not None and not getattr(settings, "use_deform_motion", True):
+        return False
     if any(m.type in _DEFORMING_MODIFIERS and m.show_render for m in ob.modifiers):
         return True
     data = ob.data
@@ -72,12 +80,33 @@ def _likely_deforms(ob):
 
 class Motion:
     """Matrices over the shutter: `objects[instance_key]` and `camera`, each a list of
-    Blender matrices (world space) from shutter open to close, only for what moves."""
+    Blender matrices (world space) from shutter open to close, only for what moves; and
+    `deformations[instance_key]`: per key, `vertex_data` of a mesh whose vertices move."""
 
     def __init__(self):
         self.objects = {}
         self.camera = None
+        self.deformations = {}
         self.warnings = []
+
+
+def vertex_data(me):
+    """(positions (V, 3), vertex normals (V, 3) or None, corner normals (L, 3)) of an evaluated
+    mesh, float32 copies (the mesh changes with the next frame change)."""
+    co = np.empty(len(me.vertices) * 3, np.float32)
+    me.vertices.foreach_get("co", co)
+    vn = None
+    if hasattr(me, "vertex_normals"):  # 3.5+
+        vn = np.empty(len(me.vertices) * 3, np.float32)
+        me.vertex_normals.foreach_get("vector", vn)
+        vn = vn.reshape(-1, 3)
+    cn = np.empty(len(me.loops) * 3, np.float32)
+    if hasattr(me, "corner_normals"):  # 4.1+
+        me.corner_normals.foreach_get("vector", cn)
+    else:
+        me.calc_normals_split()
+        me.loops.foreach_get("normal", cn)
+    return co.reshape(-1, 3), vn, cn.reshape(-1, 3)
 
 
 def sample(depsgraph, engine=None):
@@ -105,6 +134,8 @@ def sample(depsgraph, engine=None):
     tracks = {}
     camera = []
     keys_of = {}
+    shapes = {}  # instance key -> vertex_data per time, for deforming meshes
+    deforming_names = set(deforming)
     try:
         for t in times:
             go(t)
@@ -113,6 +144,8 @@ def sample(depsgraph, engine=None):
                 tracks.setdefault(key, []).append(inst.matrix_world.copy())
                 if key not in keys_of:
                     keys_of[key] = _object_keys(inst.object.original)
+                if not inst.is_instance and inst.object.original.name in deforming_names:
+                    shapes.setdefault(key, []).append(vertex_data(inst.object.data))
             cam = scene.camera
             if cam is not None:
                 camera.append(cam.evaluated_get(depsgraph).matrix_world.copy())
@@ -133,10 +166,30 @@ def sample(depsgraph, engine=None):
             out.objects[key] = ms[::stride]
     if moves(camera):
         out.camera = camera
-    if deforming:
+    unblurred = set(deforming)
+    changing = []
+    for key, data in shapes.items():
+        name = key[1]
+        want = keys_of.get(key, 0)
+        if want < 2 or len(data) != n:
+            continue
+        if any(d[0].shape != data[0][0].shape or d[2].shape != data[0][2].shape for d in data):
+            changing.append(name)
+            continue
+        unblurred.discard(name)
+        if any(np.abs(d[0] - data[0][0]).max(initial=0.0) > 1e-6 for d in data[1:]):
+            stride = (n - 1) // (want - 1) if (n - 1) % (want - 1) == 0 else 1
+            out.deformations[key] = data[::stride]
+    if changing:
         out.warnings.append(
-            "motion blur: deformation blur is not rendered (only object and camera motion); "
-            "deforming objects are shown at the current frame: " + ", ".join(deforming)
+            "motion blur: the vertex count of these meshes changes over the shutter, so their deformation is not "
+            "blurred (they are shown at the current frame): " + ", ".join(sorted(changing))
+        )
+    unblurred -= set(changing)
+    if unblurred:
+        out.warnings.append(
+            "motion blur: the deformation of these instanced meshes is not blurred (they are shown at the current "
+            "frame): " + ", ".join(sorted(unblurred))
         )
     rolling = getattr(getattr(scene, "cycles", None), "rolling_shutter_type", "NONE")
     if rolling not in (None, "NONE"):
