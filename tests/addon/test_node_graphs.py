@@ -463,6 +463,40 @@ def test_unsupported_nodes_are_baked():
     C.check(m[1] > 4.0 * m[0], "no UVs: the Color input's own value (green): %s" % m)
 
 
+def test_baked_bevel_normal_matches_cycles():
+    """A Bevel node on a diffuse cube's Normal (the hard-surface staple) is baked by Cycles into
+    a world-space normal texture that feeds the graph's `normal`: 3x3-blurred relMSE against
+    Cycles <= 1e-4 (measured 1.1e-5 at 512 px, 64 x 64; the unbevelled cube is 4.2e-3 away)."""
+    def cube_scene(bevel):
+        C.reset()
+        sc = bpy.context.scene
+        mat, nt, sh = new_material("Bevelled", "ShaderNodeBsdfDiffuse")
+        sh.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
+        if bevel:
+            b = nt.nodes.new("ShaderNodeBevel")
+            b.inputs["Radius"].default_value = 0.2
+            b.samples = 16
+            nt.links.new(b.outputs["Normal"], sh.inputs["Normal"])
+        bpy.ops.mesh.primitive_cube_add(size=1.5, rotation=(0.6, 0.3, 0.8))
+        bpy.context.active_object.data.materials.append(mat)
+        C.world((0.2, 0.2, 0.2), 1.0)
+        C.light("Sun", "SUN", 3.0, (0, 0, 5), rotation=(0.5, 0.3, 0.2), angle=0.0)
+        C.camera((0.0, -5.0, 0.0), (0.0, 0.0, 0.0))
+        sc.render.resolution_x = sc.render.resolution_y = 64
+        sc.render.resolution_percentage = 100
+        sc.prism.bake_resolution = "512"
+        return sc
+
+    cy = C.render_engine(cube_scene(True), "cycles", 64, OUT, "bevel", 4)
+    pr = C.render_engine(cube_scene(True), "prism", 64, OUT, "bevel", 4)
+    warnings = prism.engine.LAST["warnings"]
+    C.check(any("Bevel" in w and "baked with Cycles" in w for w in warnings), "the Bevel is baked: %s" % warnings)
+    flat = C.render_engine(cube_scene(False), "prism", 64, OUT, "bevel_off", 4)
+    rel, rel_flat = C.rel_mse(C.blur(pr), C.blur(cy)), C.rel_mse(C.blur(flat), C.blur(cy))
+    print("  bevel: blurred relMSE %.2e (without the bevel %.2e)" % (rel, rel_flat))
+    C.check(rel <= 1e-4 and rel_flat > 1e-3, "bevelled like Cycles (%.2e; unbevelled %.2e)" % (rel, rel_flat))
+
+
 def test_mix_leaves_with_different_normals_are_warned():
     """Leaves of a Mix Shader whose Normal inputs come from different sources (here one bumped,
     one not) cannot share the material's one shading normal: a warning names the leaf."""
