@@ -621,6 +621,14 @@ def _subsurface_block(method, skin, colour, radius, eta, roughness, anisotropy, 
     return out
 
 
+def _drop_subsurface_colour(graph):
+    """Removes the graph's `subsurface_color` inputs (top level and closures); True if any."""
+    found = graph.get("inputs", {}).pop("subsurface_color", None) is not None
+    for c in graph.get("closures", []):
+        found |= c.get("inputs", {}).pop("subsurface_color", None) is not None
+    return found
+
+
 def prism_override(mat):
     """Material JSON entry from the material's Prism panel, or None."""
     if mat is None or not hasattr(mat, "prism"):
@@ -952,6 +960,7 @@ class Exporter:
             self.bake_size = int(getattr(props, "bake_resolution", node_bake.DEFAULT_SIZE))
         self.bake_requests = {}
         self.bake_variants = []
+        self._bake_outcomes = {}
         self._variant_index = {}
         self._originals = {}
         self.bake_stats = None
@@ -1038,13 +1047,18 @@ class Exporter:
         if not self.bake_size:
             return None
 
-        def request(node, out):
+        def request(node, out, what):
             reqs = self.bake_requests.setdefault(name, [])
             placeholder = "__bake__/%s/%d" % (name, len(reqs))
-            reqs.append((node.name, out.identifier, placeholder))
+            reqs.append((node.name, out.identifier, placeholder, "%s; its output '%s'" % (what, out.name)))
             return placeholder
 
         return request
+
+    def _bake_fallback(self, name, where, why):
+        """Records that material `name`'s baked nodes keep their inputs' own values on `where`
+        (an object or mesh name) because of `why` (reported by `_run_bakes`)."""
+        self._bake_outcomes.setdefault(name, {}).setdefault("fallback", []).append((where, why))
 
     def _baked_variant(self, index, ob, me):
         """The glTF material index mesh `me` (of object `ob`) uses for material `index`: a copy
@@ -1052,33 +1066,34 @@ class Exporter:
         material bakes nothing or this mesh cannot be baked (warned)."""
         name = self.materials[index]["name"]
         reqs = self.bake_requests.get(name)
-        if not reqs:
+        # (A graph the exporter dropped, e.g. a Mix Shader tree without a translatable leaf,
+        # leaves its requests behind: nothing to bake.)
+        if not reqs or "graph" not in self.material_json.get(name, {}):
             return index
         key = (name, me.as_pointer())
         if key in self._variant_index:
             return self._variant_index[key]
         mat = self._originals.get(name)
+        self._variant_index[key] = index
         if ob is None or ob.type != "MESH" or mat is None:
-            self.warnings.append("material '%s': its baked nodes cannot be baked on '%s' (not a mesh); the inputs they feed"
-                                 " use their own values" % (name, ob.name if ob is not None else me.name))
-            self._variant_index[key] = index
+            self._bake_fallback(name, ob.name if ob is not None else me.name, "not a mesh")
             return index
         if me.uv_layers.active is None:
-            self.warnings.append("material '%s': mesh '%s' has no UV map, so its baked nodes cannot be baked there; the"
-                                 " inputs they feed use their own values (add a UV map)" % (name, me.name))
-            self._variant_index[key] = index
+            self._bake_fallback(name, ob.name, "its mesh '%s' has no UV map; add one" % me.name)
             return index
         variant = "%s@%s" % (name, ob.name)
+        while variant in self.material_json:
+            variant += "+"
         mesh_sig = node_bake.mesh_signature(me)
         frame = int(self.scene.frame_current)
         images, jobs = {}, []
-        for node_name, socket_id, placeholder in reqs:
-            fname = "bake%d.exr" % (sum(len(v[2]) for v in self.bake_variants) + len(jobs))
+        for node_name, socket_id, placeholder, _what in reqs:
+            fname = "bake%d.exr" % (sum(len(v[4]) for v in self.bake_variants) + len(jobs))
             images[placeholder] = fname
             jobs.append({"object": ob.original, "material": mat, "node": node_name, "socket": socket_id,
                          "size": self.bake_size, "path": os.path.join(self.out_dir, fname),
                          "key": node_bake.job_key(mat, mesh_sig, ob.matrix_world, node_name, socket_id, self.bake_size, frame)})
-        self.bake_variants.append((variant, images, jobs))
+        self.bake_variants.append((name, ob.name, variant, images, jobs))
         self.materials.append(dict(copy.deepcopy(self.materials[index]), name=variant))
         self.material_json[variant] = copy.deepcopy(self.material_json[name])
         self._variant_index[key] = len(self.materials) - 1
@@ -1086,27 +1101,41 @@ class Exporter:
 
     def _run_bakes(self):
         """Bakes every variant's node outputs (one background Blender for all) and fills the
-        graphs in: variants get their textures, the base materials the sockets' own values."""
+        graphs in: variants get their textures (a failed bake: the sockets' own values), the
+        base materials the sockets' own values. Then one warning per baked node says where it
+        was baked and where it keeps its input's own value (no UVs, not a mesh, a failed bake)."""
         for name in self.bake_requests:
             entry = self.material_json.get(name, {})
             if "graph" in entry:
                 entry["graph"] = resolve_bakes(entry["graph"], {})
-        jobs = [j for _, _, js in self.bake_variants for j in js]
-        if not jobs:
-            return
-        ok = True
-        try:
-            seconds, baked, cached = node_bake.bake(jobs, int(self.scene.frame_current))
-            self.bake_stats = {"seconds": seconds, "baked": baked, "cached": cached}
-            print("Prism: baked %d node output(s) with Cycles in %.1f s (%d from the cache)" % (baked + cached, seconds, cached))
-        except (node_bake.BakeError, OSError, RuntimeError, subprocess.SubprocessError) as e:
-            ok = False
-            self.warnings.append("baking the unsupported nodes with Cycles failed (%s); the inputs they feed use their own"
-                                 " values" % e)
-        for variant, images, _ in self.bake_variants:
+        jobs = [j for v in self.bake_variants for j in v[4]]
+        failed = {}
+        if jobs:
+            try:
+                seconds, baked, cached, failed = node_bake.bake(jobs, int(self.scene.frame_current))
+                self.bake_stats = {"seconds": seconds, "baked": baked, "cached": cached, "failed": len(failed)}
+                print("Prism: baked %d node output(s) with Cycles in %.1f s (%d from the cache)"
+                      % (baked + cached, seconds, cached))
+            except (node_bake.BakeError, OSError, RuntimeError, subprocess.SubprocessError) as e:
+                failed = {j["path"]: str(e) for j in jobs}
+        for name, ob_name, variant, images, vjobs in self.bake_variants:
+            bad = [failed[j["path"]] for j in vjobs if j["path"] in failed]
+            if bad:
+                self._bake_fallback(name, ob_name, "the bake failed: %s" % bad[0])
+            else:
+                self._bake_outcomes.setdefault(name, {}).setdefault("baked", []).append(ob_name)
             entry = self.material_json[variant]
             if "graph" in entry:
-                entry["graph"] = resolve_bakes(entry["graph"], images if ok else {})
+                entry["graph"] = resolve_bakes(entry["graph"], {} if bad else images)
+        for name, reqs in self.bake_requests.items():
+            outcome = self._bake_outcomes.get(name, {})
+            for _node, _sock, _ph, what in reqs:
+                if outcome.get("baked"):
+                    self.warnings.append("%s is baked with Cycles into a texture over the UV map of %s"
+                                         % (what, ", ".join("'%s'" % o for o in sorted(set(outcome["baked"])))))
+                for where, why in outcome.get("fallback", []):
+                    self.warnings.append("%s cannot be baked on '%s' (%s); the input it feeds uses its own value"
+                                         % (what, where, why))
 
     def _graph(self, mat, name, m, sss=None):
         """The material JSON graph for `mat`'s surface shader inputs that are linked, or None.
@@ -1639,6 +1668,9 @@ class Exporter:
         override = prism_override(mat)
         if override is not None:
             self.material_json[name] = override
+            if graph is not None and _drop_subsurface_colour(graph):
+                self.warnings.append("material '%s': the Prism panel's medium replaces the node tree's, so the texture on"
+                                     " its subsurface colour is not applied" % name)
         elif sss is not None or m.get("mixed_subsurface") is not None:
             self.material_json[name] = {"subsurface": sss if sss is not None else m["mixed_subsurface"]}
         if graph is not None:
@@ -1804,6 +1836,8 @@ class Exporter:
             key = ("mesh", me.as_pointer())
             slots = [s.material for s in ob.material_slots] or list(me.materials)
             deformation = self.motion.deformations.get(motion_key) if self.motion is not None else None
+            if deformation:
+                key = key + ("deforming", motion_key)  # not an instance's rigid copy
             mi = self._mesh(key, me, slots, ob, deformation)
         else:
             try:

@@ -81,10 +81,38 @@ def why_not_bakeable(node, out):
     if node.type in NOT_BAKEABLE:
         return "its value depends on the view or the light path"
     if node.type == "AMBIENT_OCCLUSION" and not getattr(node, "only_local", False):
-        return "without Only Local it depends on the other objects"
-    bad = _view_dependent_upstream(node, set())
+        return "without Only Local it depends on the other objects, which the bake does not see"
+    bad = _view_dependent_inside(node, set()) or _view_dependent_upstream(node, set())
     if bad is not None:
-        return "it reads '%s', which depends on the view" % bad
+        return "it reads '%s', which depends on the view, the light path or other objects" % bad
+    return None
+
+
+def _view_dependent(node):
+    """`node` itself gives values a texture cannot hold (see NOT_BAKEABLE, VIEW_OUTPUTS); an
+    Ambient Occlusion node without Only Local depends on the other objects, which the bake
+    does not see."""
+    if node.type in NOT_BAKEABLE - {"GROUP_INPUT", "GROUP_OUTPUT"}:
+        return True
+    if node.type == "AMBIENT_OCCLUSION" and not getattr(node, "only_local", False):
+        return True
+    return node.type in {"TEX_COORD", "NEW_GEOMETRY"} and any(
+        o.is_linked and (node.type, o.name) in VIEW_OUTPUTS for o in node.outputs)
+
+
+def _view_dependent_inside(node, seen):
+    """Name of a view-dependent node anywhere inside group node `node` (nested groups
+    included), or None."""
+    tree = getattr(node, "node_tree", None) if node.type == "GROUP" else None
+    if tree is None or tree.as_pointer() in seen:
+        return None
+    seen.add(tree.as_pointer())
+    for inner in tree.nodes:
+        if _view_dependent(inner):
+            return "%s/%s" % (node.name, inner.name)
+        bad = _view_dependent_inside(inner, seen)
+        if bad is not None:
+            return "%s/%s" % (node.name, bad)
     return None
 
 
@@ -95,20 +123,13 @@ def _view_dependent_upstream(node, seen):
         for link in sock.links:
             if getattr(link, "is_muted", False):
                 continue
-            up, up_out = link.from_node, link.from_socket
-            if up.type in NOT_BAKEABLE - {"GROUP_INPUT"} or (up.type, up_out.name) in VIEW_OUTPUTS:
-                return up.name
+            up = link.from_node
             if up.as_pointer() in seen:
                 continue
             seen.add(up.as_pointer())
-            if up.type == "GROUP" and up.node_tree is not None:
-                for inner in up.node_tree.nodes:
-                    if inner.type in NOT_BAKEABLE - {"GROUP_INPUT", "GROUP_OUTPUT"}:
-                        return "%s/%s" % (up.name, inner.name)
-                    if inner.type in {"TEX_COORD", "NEW_GEOMETRY"} and any(
-                            o.is_linked and (inner.type, o.name) in VIEW_OUTPUTS for o in inner.outputs):
-                        return "%s/%s" % (up.name, inner.name)
-            bad = _view_dependent_upstream(up, seen)
+            if _view_dependent(up):
+                return up.name
+            bad = _view_dependent_inside(up, set()) or _view_dependent_upstream(up, seen)
             if bad is not None:
                 return bad
     return None
@@ -117,8 +138,15 @@ def _view_dependent_upstream(node, seen):
 # ----------------------------------------------------------------------------- cache keys
 
 
+# Attribute data types whose values a bake may read (Attribute node, colour attributes, sharp
+# faces, custom normals), by the `foreach_get` property and components per element.
+_ATTRIBUTE_VALUES = {"FLOAT": ("value", 1), "INT": ("value", 1), "BOOLEAN": ("value", 1), "FLOAT2": ("vector", 2),
+                     "FLOAT_VECTOR": ("vector", 3), "FLOAT_COLOR": ("color", 4), "BYTE_COLOR": ("color", 4)}
+
+
 def mesh_signature(me):
-    """A hash of the (evaluated) mesh's positions, faces and active UV map."""
+    """A hash of the (evaluated) mesh's positions, faces, active UV map, smooth shading and
+    attributes."""
     h = hashlib.sha1()
     co = np.empty(len(me.vertices) * 3, np.float32)
     me.vertices.foreach_get("co", co)
@@ -131,13 +159,51 @@ def mesh_signature(me):
         uv = np.empty(len(me.loops) * 2, np.float32)
         layer.data.foreach_get("uv", uv)
         h.update(uv.tobytes())
+    smooth = np.empty(len(me.polygons), bool)
+    me.polygons.foreach_get("use_smooth", smooth)
+    h.update(smooth.tobytes())
+    for a in sorted(getattr(me, "attributes", []), key=lambda a: a.name):
+        kind = _ATTRIBUTE_VALUES.get(a.data_type)
+        if kind is None:
+            continue
+        h.update(("%s/%s/%s" % (a.name, a.domain, a.data_type)).encode())
+        vals = np.empty(len(a.data) * kind[1], np.float32 if a.data_type not in {"INT", "BOOLEAN"} else np.int32)
+        try:
+            a.data.foreach_get(kind[0], vals)
+        except (TypeError, RuntimeError):
+            continue
+        h.update(vals.tobytes())
     return h.hexdigest()
+
+
+def _tree_dependencies(tree, seen, out):
+    """What a bake reads besides the node settings: the images' files (path, modification
+    time, unsaved edits) and the objects Texture Coordinate nodes look through (their
+    transforms), inside groups too."""
+    if tree is None or tree.as_pointer() in seen:
+        return out
+    seen.add(tree.as_pointer())
+    for n in tree.nodes:
+        img = getattr(n, "image", None)
+        if img is not None:
+            path = img.filepath_from_user() if img.filepath else ""
+            try:
+                mtime = os.path.getmtime(path) if path else 0.0
+            except OSError:
+                mtime = -1.0
+            out.append(["image", img.name, path, mtime, bool(img.is_dirty), img.packed_file is not None])
+        ob = getattr(n, "object", None)
+        if ob is not None and hasattr(ob, "matrix_world"):
+            out.append(["object", ob.name, [round(float(x), 6) for row in ob.matrix_world for x in row]])
+        _tree_dependencies(getattr(n, "node_tree", None), seen, out)
+    return out
 
 
 def job_key(material, mesh_sig, matrix, node_name, socket_id, size, frame):
     import bpy
 
     sig = {"v": VERSION, "blender": list(bpy.app.version), "tree": _tree_signature(material.node_tree, set()),
+           "deps": _tree_dependencies(material.node_tree, set(), []),
            "mesh": mesh_sig, "matrix": [round(float(x), 6) for row in matrix for x in row],
            "node": node_name, "socket": socket_id, "size": size, "spp": BAKE_SPP, "margin": MARGIN, "frame": frame}
     blob = json.dumps(sig, sort_keys=True, default=str).encode()
@@ -150,7 +216,9 @@ def job_key(material, mesh_sig, matrix, node_name, socket_id, size, frame):
 def bake(jobs, frame):
     """Bakes `jobs` (dicts: object (original), material (original), node, socket, size, key,
     path) into their `path`s (float RGB EXR, rows top first), from the cache where it has them.
-    Returns (seconds, how many were baked, how many came from the cache). Raises BakeError."""
+    Returns (seconds, how many were baked, how many came from the cache, {path: error} of the
+    jobs that failed; the others are baked and cached). Raises BakeError when the background
+    Blender itself fails."""
     t0 = time.perf_counter()
     cdir = cache_dir()
     todo = []
@@ -160,19 +228,22 @@ def bake(jobs, frame):
             shutil.copyfile(cached, j["path"])
         else:
             todo.append(j)
+    failed = {}
     if todo:
         work = tempfile.mkdtemp(prefix="prismnodebake-")
         try:
-            _bake_subprocess(todo, frame, work)
+            failed = _bake_subprocess(todo, frame, work)
             os.makedirs(cdir, exist_ok=True)
             for j in todo:
+                if j["path"] in failed:
+                    continue
                 cached = os.path.join(cdir, j["key"] + ".exr")
                 shutil.copyfile(j["path"], cached + ".part")
                 os.replace(cached + ".part", cached)
             _prune(cdir)
         finally:
             shutil.rmtree(work, ignore_errors=True)
-    return time.perf_counter() - t0, len(todo), len(jobs) - len(todo)
+    return time.perf_counter() - t0, len(todo) - len(failed), len(jobs) - len(todo), failed
 
 
 def _bake_subprocess(jobs, frame, work):
@@ -181,7 +252,7 @@ def _bake_subprocess(jobs, frame, work):
     blend = os.path.join(work, "objects.blend")
     objects = {j["object"] for j in jobs}
     bpy.data.libraries.write(blend, objects, fake_user=True, path_remap="ABSOLUTE")
-    spec = {"blend": blend, "frame": frame, "jobs": [
+    spec = {"blend": blend, "frame": frame, "errors": os.path.join(work, "errors.json"), "jobs": [
         {"object": j["object"].name, "material": j["material"].name, "node": j["node"], "socket": j["socket"],
          "size": j["size"], "path": j["path"]} for j in jobs]}
     spec_path = os.path.join(work, "spec.json")
@@ -194,10 +265,16 @@ def _bake_subprocess(jobs, frame, work):
     else:  # the bpy wheel: Blender is a Python module
         cmd = [sys.executable, os.path.abspath(__file__), "--", spec_path]
     p = subprocess.run(cmd, capture_output=True, text=True, timeout=1800)
-    missing = [j["path"] for j in jobs if not os.path.exists(j["path"])]
-    if p.returncode != 0 or missing:
+    errors_path = os.path.join(work, "errors.json")
+    if p.returncode != 0 or not os.path.exists(errors_path):
         lines = [l for l in (p.stdout + p.stderr).splitlines() if "Error" in l or "error" in l]
         raise BakeError("background Blender failed (%d): %s" % (p.returncode, " | ".join(lines[-3:]) or (p.stdout + p.stderr)[-300:]))
+    with open(errors_path) as f:
+        failed = json.load(f)
+    for j in jobs:
+        if j["path"] not in failed and not os.path.exists(j["path"]):
+            failed[j["path"]] = "no image was written"
+    return failed
 
 
 def _prune(cdir):
@@ -294,12 +371,22 @@ def _main(argv):
     dummy = bpy.data.images.new("PrismBakeOther", 4, 4, float_buffer=True)
     by_name = {ob.name: ob for ob in dst.objects}
     vl = bpy.context.view_layer
+    errors = {}
     for job in spec["jobs"]:
-        ob = by_name[job["object"]]
-        for o in sc.objects:
-            o.select_set(o == ob)
-        vl.objects.active = ob
-        _bake_one(bpy, ob, job, dummy)
+        # One job's failure (an object the .blend could not carry, a node gone) leaves the
+        # others baked.
+        try:
+            ob = by_name.get(job["object"])
+            if ob is None:
+                raise BakeError("object '%s' could not be loaded" % job["object"])
+            for o in sc.objects:
+                o.select_set(o == ob)
+            vl.objects.active = ob
+            _bake_one(bpy, ob, job, dummy)
+        except Exception as e:  # reported per job to the exporter
+            errors[job["path"]] = str(e).strip().splitlines()[-1] if str(e).strip() else type(e).__name__
+    with open(spec["errors"], "w") as f:
+        json.dump(errors, f)
 
 
 if __name__ == "__main__":

@@ -91,10 +91,10 @@ class GraphBuilder:
 
     `images(img) -> (file name, linear)` writes an image next to the JSON; `uv_set(name)` and
     `color_set(name)` give the TEXCOORD_n / COLOR_n set that carries a named UV map or colour
-    attribute ("" = the active one); `warn(msg)` reports to the user. `bake(node, output)`,
-    when given, registers a bake of a node output the graph cannot evaluate (`node_bake.py`)
-    and returns the image name that stands for it; without it such nodes keep their
-    inputs' own values, as before."""
+    attribute ("" = the active one); `warn(msg)` reports to the user. `bake(node, output,
+    what)`, when given, registers a bake of a node output the graph cannot evaluate
+    (`node_bake.py`; `what` names it for the messages) and returns the image name that stands
+    for it; without it such nodes keep their inputs' own values, as before."""
 
     def __init__(self, material_name, images, uv_set, color_set, warn, bake=None):
         self.mat = material_name
@@ -278,13 +278,13 @@ class GraphBuilder:
             self.warn(node, "%s, and its output '%s' cannot be baked (%s); the input it feeds uses its own value"
                       % (why, out.name, reason))
         else:
-            image = self.bake(node, out)
+            # The exporter says what became of it once it knows (`Exporter._run_bakes`): baked,
+            # or why not (a mesh without UVs, a failed bake).
+            image = self.bake(node, out, "material '%s': node '%s' (%s): %s" % (self.mat, node.name, node.bl_idname, why))
             bname = "%s/bake:%s" % (node.name, out.identifier)
             self.nodes[bname] = {"type": "image_texture", "image": image, "color_space": "linear",
                                  "interpolation": "linear", "extension": "extend", "inputs": {}}
             ref = {"node": bname, "output": "color"}
-            self.warn(node, "%s; its output '%s' is baked with Cycles into a texture over the mesh's active UV map"
-                      % (why, out.name))
         self._baked[key] = ref
         return ref
 

@@ -78,6 +78,9 @@ pub struct Mesh {
 pub struct Deformation {
     positions: Vec<Vec<Vec3>>,
     normals: Option<Vec<Vec<Vec3>>>,
+    /// The mesh's box at its current frame: its texture space (Generated coordinates), which
+    /// motion blur must not move (`Mesh::aabb` is the swept box).
+    texture_space: Aabb,
 }
 
 impl Deformation {
@@ -254,6 +257,7 @@ impl Mesh {
                 && keys.iter().all(|k| k.len() == n)
                 && self.normals.is_some()
         });
+        let texture_space = self.bounds;
         for key in &positions {
             for p in key {
                 self.bounds = self
@@ -261,7 +265,11 @@ impl Mesh {
                     .union(&Aabb::new(Vec3A::from(*p), Vec3A::from(*p)));
             }
         }
-        self.deformation = Some(Arc::new(Deformation { positions, normals }));
+        self.deformation = Some(Arc::new(Deformation {
+            positions,
+            normals,
+            texture_space,
+        }));
         self
     }
 
@@ -1298,7 +1306,10 @@ pub fn offset_ray_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
 /// space, the mesh's bounding box, an axis without extent widened to +-1 around its centre (so
 /// a flat mesh reads 0.5 there).
 fn generated_coordinates(mesh: &Mesh, object: Vec3) -> Vec3 {
-    let b = mesh.aabb();
+    let b = match &mesh.deformation {
+        Some(d) => d.texture_space,
+        None => mesh.aabb(),
+    };
     let (lo, hi) = (Vec3::from(b.min), Vec3::from(b.max));
     let centre = (lo + hi) * 0.5;
     let half = Vec3::select((hi - lo).cmpgt(Vec3::ZERO), (hi - lo) * 0.5, Vec3::ONE);

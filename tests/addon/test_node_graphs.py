@@ -449,6 +449,25 @@ def test_unsupported_nodes_are_baked():
     nt2.links.new(tc.outputs["Reflection"], rot.inputs["Vector"])
     nt2.links.new(rot.outputs["Vector"], em2.inputs["Color"])
     C.mesh_object("ReflTile", tile_mesh, mat2, location=(2.0, 0.0, 0.0))
+    # A group with a view-dependent node inside beside the unsupported one: not baked whole.
+    grp = bpy.data.node_groups.new("FacingGroup", "ShaderNodeTree")
+    if hasattr(grp, "interface"):
+        grp.interface.new_socket("Value", in_out="OUTPUT", socket_type="NodeSocketFloat")
+    else:
+        grp.outputs.new("NodeSocketFloat", "Value")
+    gout = grp.nodes.new("NodeGroupOutput")
+    lw = grp.nodes.new("ShaderNodeLayerWeight")
+    gmul = grp.nodes.new("ShaderNodeMath")
+    gmul.operation = "MULTIPLY"
+    grp.links.new(lw.outputs["Facing"], gmul.inputs[0])
+    grp.links.new(_unsupported_texture(grp).outputs[0], gmul.inputs[1])
+    grp.links.new(gmul.outputs[0], gout.inputs[0])
+    mat3, nt3, em3 = new_material("FacingInGroup", "ShaderNodeEmission")
+    g3 = nt3.nodes.new("ShaderNodeGroup")
+    g3.node_tree = grp
+    g3.name = "Facing"
+    nt3.links.new(g3.outputs[0], em3.inputs["Strength"])
+    C.mesh_object("FacingTile", tile_mesh, mat3, location=(4.0, 0.0, 0.0))
     C.world((0.0, 0.0, 0.0), 0.0)
     cam = C.camera((0.0, 0.0, 5.0), (0.0, 0.0, 0.0))
     cam.data.type = "ORTHO"
@@ -459,6 +478,8 @@ def test_unsupported_nodes_are_baked():
     C.check(any("NoUvs" in w and "no UV map" in w for w in warnings), "a mesh without UVs is warned: %s" % warnings)
     C.check(any("ViewDependent" in w and "Spin" in w and "cannot be baked" in w for w in warnings),
             "a node fed by Reflection coordinates is not baked: %s" % warnings)
+    C.check(any("FacingInGroup" in w and "Facing" in w and "cannot be baked" in w for w in warnings),
+            "a group with a Layer Weight inside is not baked: %s" % warnings)
     m = px.mean(axis=(0, 1))
     C.check(m[1] > 4.0 * m[0], "no UVs: the Color input's own value (green): %s" % m)
 

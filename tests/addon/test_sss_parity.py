@@ -225,6 +225,20 @@ def test_textured_subsurface_colour_matches_cycles():
         C.check(rel <= 0.02, "blurred relMSE %.4f <= 0.02" % rel)
 
 
+def test_panel_medium_with_a_textured_colour_renders():
+    """The Prism panel's measured medium replaces the node tree's: a texture on the Base Color
+    then has no colour to drive (before, the exported graph made the scene fail to load); a
+    warning says so."""
+    sc = scene(method="RANDOM_WALK", textured=True)
+    mat = bpy.data.materials["Skin"]
+    mat.prism.sss_mode = "PRESET"
+    sc.render.resolution_x, sc.render.resolution_y = 24, 18
+    C.render_engine(sc, "prism", 4, OUT, "panel_preset", bounces=8)
+    last = prism.engine.LAST
+    C.check(last["error"] is None, "renders: %s" % last["error"])
+    C.check(any("Prism panel's medium" in w for w in last["warnings"]), "warned: %s" % last["warnings"])
+
+
 def test_random_walk_thin_plate_backlit():
     p, c = render_both("rw_thin", method="RANDOM_WALK", thin=True)
     check_ratio("random walk plate lit from behind", p, c, 0.20)
