@@ -21,11 +21,12 @@ import numpy as np
 # along the rotation's arc already, so more keys only follow curved paths more closely.
 MAX_KEYS = 17
 
-# Modifiers that move vertices over time (what Cycles' deformation blur would show).
+# Modifiers that may move vertices over time (what Cycles' deformation blur shows; the keys
+# tell whether they do), or change their number (then warned).
 _DEFORMING_MODIFIERS = {
     "ARMATURE", "CLOTH", "SOFT_BODY", "MESH_DEFORM", "LATTICE", "CURVE", "HOOK", "SURFACE_DEFORM",
     "LAPLACIANDEFORM", "WAVE", "OCEAN", "DYNAMIC_PAINT", "FLUID", "MESH_CACHE", "MESH_SEQUENCE_CACHE",
-    "NODES", "EXPLODE", "SHRINKWRAP", "CAST", "DISPLACE", "SIMPLE_DEFORM", "SMOOTH", "WARP",
+    "NODES", "EXPLODE", "SHRINKWRAP", "CAST", "DISPLACE", "SIMPLE_DEFORM", "SMOOTH", "WARP", "BUILD", "REMESH",
 }
 
 

@@ -185,6 +185,24 @@ def noise_tiles():
     return out
 
 
+def tile_row_scene(make_tiles):
+    """A fresh scene with the (name, material) tiles of `make_tiles()` in a row, 40 px each,
+    over a black world, seen from above by an orthographic camera: (scene, tiles)."""
+    C.reset()
+    sc = bpy.context.scene
+    tiles = make_tiles()
+    for i, (name, mat) in enumerate(tiles):
+        C.mesh_object(name, tile_mesh, mat, location=(i * 1.2 - (len(tiles) - 1) * 0.6, 0.0, 0.0))
+    C.world((0.0, 0.0, 0.0), 0.0)
+    cam = C.camera((0.0, 0.0, 5.0), (0.0, 0.0, 0.0))
+    cam.data.type = "ORTHO"
+    cam.data.ortho_scale = len(tiles) * 1.2
+    sc.render.resolution_x = len(tiles) * 40
+    sc.render.resolution_y = 40
+    sc.render.resolution_percentage = 100
+    return sc, tiles
+
+
 def test_noise_textures_match_cycles():
     """Noise (fBM, ridged, hetero terrain; 1D-4D, distortion, colour) and White Noise on emission
     tiles: per-pixel error against Cycles within 1% of the range (the 99.5th percentile, tile
@@ -192,18 +210,7 @@ def test_noise_textures_match_cycles():
     spp = 256
     results = []
     for engine in ("cycles", "prism"):
-        C.reset()
-        sc = bpy.context.scene
-        tiles = noise_tiles()
-        for i, (name, mat) in enumerate(tiles):
-            C.mesh_object(name, tile_mesh, mat, location=(i * 1.2 - (len(tiles) - 1) * 0.6, 0.0, 0.0))
-        C.world((0.0, 0.0, 0.0), 0.0)
-        cam = C.camera((0.0, 0.0, 5.0), (0.0, 0.0, 0.0))
-        cam.data.type = "ORTHO"
-        cam.data.ortho_scale = len(tiles) * 1.2
-        sc.render.resolution_x = len(tiles) * 40
-        sc.render.resolution_percentage = 100
-        sc.render.resolution_y = 40
+        sc, tiles = tile_row_scene(noise_tiles)
         results.append(C.render_engine(sc, engine, spp, OUT, "noise", 2))
     cy, pr = results
     C.check(not prism.engine.LAST["warnings"], "no warnings: %s" % prism.engine.LAST["warnings"])
@@ -377,18 +384,7 @@ def baked_tiles():
 
 
 def _baked_scene():
-    C.reset()
-    sc = bpy.context.scene
-    tiles = baked_tiles()
-    for i, (name, mat) in enumerate(tiles):
-        C.mesh_object(name, tile_mesh, mat, location=(i * 1.2 - (len(tiles) - 1) * 0.6, 0.0, 0.0))
-    C.world((0.0, 0.0, 0.0), 0.0)
-    cam = C.camera((0.0, 0.0, 5.0), (0.0, 0.0, 0.0))
-    cam.data.type = "ORTHO"
-    cam.data.ortho_scale = len(tiles) * 1.2
-    sc.render.resolution_x = len(tiles) * 40
-    sc.render.resolution_y = 40
-    sc.render.resolution_percentage = 100
+    sc, tiles = tile_row_scene(baked_tiles)
     sc.prism.bake_resolution = "256"
     return sc, tiles
 

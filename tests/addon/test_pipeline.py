@@ -193,7 +193,7 @@ def test_view_layers():
 
 def test_untranslated_features_warn():
     """What Prism cannot render yet is named in a warning (they reach RenderEngine.report):
-    a deforming mesh's motion blur. Particle hair, area light spread, Diffuse / Glossy /
+    the motion blur of a mesh whose vertex count changes over the shutter. Particle hair, area light spread, Diffuse / Glossy /
     Volume Scatter ray visibility and motion blur (on, with nothing deforming) are rendered
     (test_hair.py, test_lights.py, test_motion_blur.py): no warning."""
     from prism import export
@@ -216,11 +216,16 @@ def test_untranslated_features_warn():
             and "volume scatter" not in text,
             "hair, spread, Diffuse / Volume Scatter visibility and motion blur (nothing moves or deforms) are not "
             "warned about: %r" % text)
-    # A deforming mesh under motion blur: its deformation is not blurred.
+    # A deforming mesh under motion blur is blurred (test_motion_blur.py): no warning; one
+    # whose vertex count changes over the shutter (a Build modifier) is named in a warning.
     ball.modifiers.new("Wave", "WAVE")
     _, _, warnings, _ = export.export_scene(bpy.context.evaluated_depsgraph_get(), tempfile.mkdtemp(dir=OUT))
+    C.check(not any("motion" in w for w in warnings), "a deforming mesh is not warned about: %r" % warnings)
+    build = ball.modifiers.new("Build", "BUILD")
+    build.frame_start, build.frame_duration = sc.frame_current - 5, 10
+    _, _, warnings, _ = export.export_scene(bpy.context.evaluated_depsgraph_get(), tempfile.mkdtemp(dir=OUT))
     text = "\n".join(warnings)
-    C.check("deformation blur" in text and "Ball" in text, "deformation blur is warned about: %r" % text)
+    C.check("vertex count" in text and "Ball" in text, "a changing vertex count is warned about: %r" % text)
 
 
 if __name__ == "__main__":
