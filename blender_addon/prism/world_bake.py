@@ -406,7 +406,7 @@ def add_sun_light(gltf_path, name, sun):
     """Adds the sky's sun disc to an already written glTF as a KHR_lights_punctual directional
     light (lux = W/m^2 x 683, the exporter's convention) of the disc's angular diameter
     (extras.prism_angle), under the Z-up root node."""
-    from mathutils import Matrix, Vector
+    from mathutils import Vector
 
     with open(gltf_path) as f:
         gltf = json.load(f)
