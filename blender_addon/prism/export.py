@@ -1414,6 +1414,10 @@ class Exporter:
                     % (name, leaf.name, leaf.bl_idname))
                 continue
             closures.append({"kind": "bsdf", "weight": weight, "inputs": inputs})
+            if t == "BSDF_PRINCIPLED" and leaf.inputs.get("Clearcoat") is not None and "coat_weight" in inputs:
+                # Blender 3.x's Clearcoat adds to the base without dimming it (see _principled_coat):
+                # a material-wide setting of the coat, which every 3.x leaf shares.
+                m["coat_additive"] = True
             if first:
                 first = False
                 for k in ("metallic", "roughness"):
@@ -1654,8 +1658,8 @@ class Exporter:
             weight, roughness, ior, tint = coat
             ext["KHR_materials_clearcoat"] = {"clearcoatFactor": weight, "clearcoatRoughnessFactor": roughness}
             g["extras"] = {"prism_coat_ior": ior, "prism_coat_tint": tint}
-            if m.get("coat_additive"):
-                g["extras"]["prism_coat_additive"] = True
+        if m.get("coat_additive"):
+            g.setdefault("extras", {})["prism_coat_additive"] = True
         sheen = m.get("sheen")
         if sheen is not None:
             ext["KHR_materials_sheen"] = {"sheenColorFactor": sheen[0], "sheenRoughnessFactor": sheen[1]}

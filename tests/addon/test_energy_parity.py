@@ -190,6 +190,27 @@ def test_clearcoat_3x_matches_cycles():
         ratio = added["prism"] / added["cycles"]
         C.check(0.9 < ratio < 1.7, "%s: the coat adds %.4f in Prism, %.4f in Cycles: %.3f in [0.9, 1.7]"
                 % (mname, added["prism"], added["cycles"], ratio))
+    # On a Mix Shader leaf the 3.x Clearcoat adds without dimming too: the material's coat is
+    # marked additive, as for a Principled BSDF on the output.
+    import json
+    import tempfile as tf
+    from prism import export
+    scene(CLEARCOAT_3X)
+    mat = bpy.data.materials.new("MixedClearcoat")
+    mat.use_nodes = True
+    nt = mat.node_tree
+    pr = next(n for n in nt.nodes if n.type == "BSDF_PRINCIPLED")
+    pr.inputs["Clearcoat"].default_value = 1.0
+    mix = nt.nodes.new("ShaderNodeMixShader")
+    diffuse = nt.nodes.new("ShaderNodeBsdfDiffuse")
+    nt.links.new(pr.outputs[0], mix.inputs[1])
+    nt.links.new(diffuse.outputs[0], mix.inputs[2])
+    nt.links.new(mix.outputs[0], next(n for n in nt.nodes if n.type == "OUTPUT_MATERIAL").inputs["Surface"])
+    next(o for o in bpy.data.objects if o.type == "MESH").data.materials[0] = mat
+    gltf, _mj, _w, _t = export.export_scene(bpy.context.evaluated_depsgraph_get(), tf.mkdtemp(dir=OUT))
+    with open(gltf) as f:
+        gm = next(m for m in json.load(f)["materials"] if m["name"] == "MixedClearcoat")
+    C.check(gm.get("extras", {}).get("prism_coat_additive") is True, "a mixed 3.x Clearcoat is additive: %s" % gm)
 
 
 def test_specular_tint_matches_cycles():
