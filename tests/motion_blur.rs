@@ -445,3 +445,37 @@ fn itertools_zip<'a>(
 ) -> impl Iterator<Item = (&'a Vec3, &'a Vec3, &'a Vec3)> {
     a.iter().zip(b).zip(c).map(|((x, y), z)| (x, y, z))
 }
+
+#[test]
+fn a_deforming_emitter_lights_as_a_moving_one() {
+    // The emitter's vertices go -0.8 -> +0.8 in x (deformation keys) instead of its transform:
+    // camera paths that hit it and light samples on it both follow the path's time, so the lit
+    // floor matches the moving emitter's (same time samples; the light tree's bounds are the
+    // swept box either way).
+    let size = 32;
+    let at = |x: f32| Mat4::from_translation(Vec3::new(x, 0.0, 0.0));
+    let moving = blocks(
+        &render(
+            lit_floor(Mat4::IDENTITY, vec![at(-0.8), at(0.8)]),
+            size,
+            256,
+        ),
+        size as usize,
+    );
+    let mut desc = lit_floor(Mat4::IDENTITY, vec![]);
+    let base = desc.meshes[1].positions.clone();
+    desc.meshes[1].deformation = Some(DeformationDesc {
+        positions: [-0.8f32, 0.8]
+            .iter()
+            .map(|&x| base.iter().map(|p| *p + Vec3::new(x, 0.0, 0.0)).collect())
+            .collect(),
+        normals: None,
+    });
+    let deforming = blocks(&render(desc, size, 256), size as usize);
+    for (b, (d, m)) in deforming.iter().zip(&moving).enumerate() {
+        assert!(
+            (d - m).abs() / m.max(0.05) < 0.04,
+            "block {b}: deforming {d:.4}, moving {m:.4}"
+        );
+    }
+}

@@ -295,6 +295,19 @@ impl Mesh {
             .collect()
     }
 
+    /// The object-space box triangle `prim` sweeps over the shutter (None: a rigid mesh).
+    pub fn swept_triangle_bounds(&self, prim: usize) -> Option<(Vec3, Vec3)> {
+        let d = self.deformation.as_ref()?;
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for key in &d.positions {
+            for &v in &self.indices[prim] {
+                lo = lo.min(key[v as usize]);
+                hi = hi.max(key[v as usize]);
+            }
+        }
+        Some((lo, hi))
+    }
+
     /// Object-space vertices of triangle `prim` at shutter time `time`.
     #[inline]
     pub fn vertices_at(&self, prim: usize, time: f32) -> [Vec3; 3] {
@@ -1276,7 +1289,7 @@ fn valid_reflection_normal(n: Vec3, ng: Vec3, wo: Vec3) -> Vec3 {
     (wo + r_new).try_normalize().unwrap_or(ng)
 }
 
-fn transform_aabb(b: &Aabb, m: &Affine3A) -> Aabb {
+pub(crate) fn transform_aabb(b: &Aabb, m: &Affine3A) -> Aabb {
     let mut out = Aabb::empty();
     for i in 0..8 {
         let c = Vec3::new(

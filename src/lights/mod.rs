@@ -298,20 +298,24 @@ impl Lights {
                     prim,
                 });
                 power.push(luminance(rgb) * sp.area * PI * sides);
-                let (lo, hi, cos_theta_o) = match &inst.motion {
-                    None => (
+                let deformed = mesh.swept_triangle_bounds(prim as usize);
+                let (lo, hi, cos_theta_o) = match (&inst.motion, deformed) {
+                    (None, None) => (
                         v[0].min(v[1]).min(v[2]),
                         hi_of(&v),
                         if two_sided { -1.0 } else { 1.0 },
                     ),
-                    // A moving emitter: the box it sweeps, facing every way (it may turn), so
-                    // the tree's estimate is never zero where the light reaches at some time.
-                    Some(m) => {
+                    // A moving or deforming emitter: the box it sweeps, facing every way (it
+                    // may turn), so the tree's estimate is never zero where the light reaches
+                    // at some time.
+                    (motion, deformed) => {
                         let o = mesh.vertices(prim as usize);
-                        let swept = m.bounds(&obvhs::aabb::Aabb::new(
-                            o[0].min(o[1]).min(o[2]).into(),
-                            hi_of(&o).into(),
-                        ));
+                        let (olo, ohi) = deformed.unwrap_or((o[0].min(o[1]).min(o[2]), hi_of(&o)));
+                        let object_box = obvhs::aabb::Aabb::new(olo.into(), ohi.into());
+                        let swept = match motion {
+                            Some(m) => m.bounds(&object_box),
+                            None => crate::geometry::transform_aabb(&object_box, xf),
+                        };
                         (swept.min.into(), swept.max.into(), -1.0)
                     }
                 };
