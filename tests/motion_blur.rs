@@ -203,18 +203,24 @@ fn blocks(px: &[[f32; 4]], size: usize) -> Vec<f32> {
     out
 }
 
-#[test]
-fn a_moving_emitter_lights_as_the_shutter_average() {
-    let size = 32;
+/// The lit floor's blocks (256 spp) under the emitter moving -0.8 -> +0.8 in x.
+fn moving_emitter_blocks(size: u32) -> Vec<f32> {
     let at = |x: f32| Mat4::from_translation(Vec3::new(x, 0.0, 0.0));
-    let moving = blocks(
+    blocks(
         &render(
             lit_floor(Mat4::IDENTITY, vec![at(-0.8), at(0.8)]),
             size,
             256,
         ),
         size as usize,
-    );
+    )
+}
+
+#[test]
+fn a_moving_emitter_lights_as_the_shutter_average() {
+    let size = 32;
+    let at = |x: f32| Mat4::from_translation(Vec3::new(x, 0.0, 0.0));
+    let moving = moving_emitter_blocks(size);
     // The shutter average by the midpoint rule over 8 still positions.
     let stills: Vec<Vec<f32>> = (0..8)
         .map(|k| {
@@ -453,15 +459,7 @@ fn a_deforming_emitter_lights_as_a_moving_one() {
     // floor matches the moving emitter's (same time samples; the light tree's bounds are the
     // swept box either way).
     let size = 32;
-    let at = |x: f32| Mat4::from_translation(Vec3::new(x, 0.0, 0.0));
-    let moving = blocks(
-        &render(
-            lit_floor(Mat4::IDENTITY, vec![at(-0.8), at(0.8)]),
-            size,
-            256,
-        ),
-        size as usize,
-    );
+    let moving = moving_emitter_blocks(size);
     let mut desc = lit_floor(Mat4::IDENTITY, vec![]);
     let base = desc.meshes[1].positions.clone();
     desc.meshes[1].deformation = Some(DeformationDesc {
