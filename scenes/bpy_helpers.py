@@ -81,6 +81,20 @@ def noise_bump(nt, scale=3.0, strength=0.8, distance=0.3):
     return bump
 
 
+def node_group(name, inputs=(), outputs=()):
+    """A new shader node group with (socket name, socket type) inputs and outputs (4.0+: the
+    tree's interface; 3.x: its inputs/outputs), and its Group Input / Output nodes:
+    (group, group input node, group output node)."""
+    group = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    for in_out, sockets in (("INPUT", inputs), ("OUTPUT", outputs)):
+        for sock_name, kind in sockets:
+            if hasattr(group, "interface"):
+                group.interface.new_socket(sock_name, in_out=in_out, socket_type=kind)
+            else:
+                (group.inputs if in_out == "INPUT" else group.outputs).new(kind, sock_name)
+    return group, group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+
+
 def mesh_object(name, build, mat, location=(0, 0, 0), rotation=(0, 0, 0), scale=(1, 1, 1), smooth=False):
     """A mesh object built by `build(bm)` (a bmesh callback), with material `mat` (or None)."""
     me = bpy.data.meshes.new(name)

@@ -293,18 +293,27 @@ fn gltf_node_motion_is_read_and_bad_motion_refused() {
 
 // ------------------------------------------------------------------ deformation blur
 
+/// Deformation keys of `mesh`: its vertices shifted along x by each of `shifts`.
+fn shifted_keys(mesh: &prism::scene::MeshDesc, shifts: &[f32]) -> Option<DeformationDesc> {
+    Some(DeformationDesc {
+        positions: shifts
+            .iter()
+            .map(|&x| {
+                mesh.positions
+                    .iter()
+                    .map(|p| *p + Vec3::new(x, 0.0, 0.0))
+                    .collect()
+            })
+            .collect(),
+        normals: None,
+    })
+}
+
 /// `strip_scene` whose strip deforms: its vertices are shifted by `shifts` (one key each)
 /// instead of the object moving.
 fn deforming_strip(shifts: &[f32]) -> SceneDesc {
     let mut desc = strip_scene(Mat4::IDENTITY, vec![], vec![]);
-    let base = desc.meshes[0].positions.clone();
-    desc.meshes[0].deformation = Some(DeformationDesc {
-        positions: shifts
-            .iter()
-            .map(|&x| base.iter().map(|p| *p + Vec3::new(x, 0.0, 0.0)).collect())
-            .collect(),
-        normals: None,
-    });
+    desc.meshes[0].deformation = shifted_keys(&desc.meshes[0], shifts);
     desc
 }
 
@@ -344,14 +353,7 @@ fn shadowed_floor(deform: bool) -> SceneDesc {
     });
     let at = |x: f32| Mat4::from_translation(Vec3::new(x, 0.0, 0.0));
     if deform {
-        let base = desc.meshes[2].positions.clone();
-        desc.meshes[2].deformation = Some(DeformationDesc {
-            positions: [-0.8f32, 0.8]
-                .iter()
-                .map(|&x| base.iter().map(|p| *p + Vec3::new(x, 0.0, 0.0)).collect())
-                .collect(),
-            normals: None,
-        });
+        desc.meshes[2].deformation = shifted_keys(&desc.meshes[2], &[-0.8, 0.8]);
         desc.instance_motion.push(vec![]);
     } else {
         desc.instance_motion.push(vec![at(-0.8), at(0.8)]);
@@ -461,14 +463,7 @@ fn a_deforming_emitter_lights_as_a_moving_one() {
     let size = 32;
     let moving = moving_emitter_blocks(size);
     let mut desc = lit_floor(Mat4::IDENTITY, vec![]);
-    let base = desc.meshes[1].positions.clone();
-    desc.meshes[1].deformation = Some(DeformationDesc {
-        positions: [-0.8f32, 0.8]
-            .iter()
-            .map(|&x| base.iter().map(|p| *p + Vec3::new(x, 0.0, 0.0)).collect())
-            .collect(),
-        normals: None,
-    });
+    desc.meshes[1].deformation = shifted_keys(&desc.meshes[1], &[-0.8, 0.8]);
     let deforming = blocks(&render(desc, size, 256), size as usize);
     for (b, (d, m)) in deforming.iter().zip(&moving).enumerate() {
         assert!(

@@ -37,11 +37,11 @@ import numpy as np
 
 try:
     from . import exr
-    from .world_bake import _tree_signature
+    from .world_bake import _tree_signature, prune_cache
 except ImportError:  # run as a script by the background Blender (see _main)
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     import exr
-    from world_bake import _tree_signature
+    from world_bake import _tree_signature, prune_cache
 
 DEFAULT_SIZE = 1024
 BAKE_SPP = 4  # anti-aliasing within a texel
@@ -240,7 +240,7 @@ def bake(jobs, frame):
                 cached = os.path.join(cdir, j["key"] + ".exr")
                 shutil.copyfile(j["path"], cached + ".part")
                 os.replace(cached + ".part", cached)
-            _prune(cdir)
+            prune_cache(cdir, CACHE_KEEP, companions=())
         finally:
             shutil.rmtree(work, ignore_errors=True)
     return time.perf_counter() - t0, len(todo) - len(failed), len(jobs) - len(todo), failed
@@ -275,18 +275,6 @@ def _bake_subprocess(jobs, frame, work):
         if j["path"] not in failed and not os.path.exists(j["path"]):
             failed[j["path"]] = "no image was written"
     return failed
-
-
-def _prune(cdir):
-    try:
-        files = sorted((os.path.getmtime(os.path.join(cdir, f)), f) for f in os.listdir(cdir) if f.endswith(".exr"))
-        for _, f in files[:-CACHE_KEEP]:
-            try:
-                os.remove(os.path.join(cdir, f))
-            except OSError:
-                pass
-    except OSError:
-        pass
 
 
 # ----------------------------------------------------------------------------- baking (in the background Blender)

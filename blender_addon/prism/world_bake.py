@@ -381,7 +381,7 @@ def bake_world(world, out_dir, name):
             os.replace(cached_exr + ".part", cached_exr)
             with open(cached_info, "w") as f:
                 json.dump(info, f)
-            _prune(cdir)
+            prune_cache(cdir)
         finally:
             shutil.rmtree(work, ignore_errors=True)
     shutil.copyfile(cached_exr, os.path.join(out_dir, fname))
@@ -389,11 +389,13 @@ def bake_world(world, out_dir, name):
     return fname, info
 
 
-def _prune(cdir):
+def prune_cache(cdir, keep=CACHE_KEEP, companions=(".json",)):
+    """Keeps the `keep` newest .exr files of cache folder `cdir` (and their same-named
+    `companions`); removes the older ones. Never fails."""
     try:
         files = sorted((os.path.getmtime(os.path.join(cdir, f)), f) for f in os.listdir(cdir) if f.endswith(".exr"))
-        for _, f in files[:-CACHE_KEEP]:
-            for ext in (".exr", ".json"):
+        for _, f in files[:-keep]:
+            for ext in (".exr",) + tuple(companions):
                 try:
                     os.remove(os.path.join(cdir, f[:-4] + ext))
                 except OSError:

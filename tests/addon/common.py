@@ -15,7 +15,7 @@ REPO = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)),
 BINARY = os.path.join(REPO, "target", "release", "prism")
 
 sys.path.insert(0, os.path.join(REPO, "scenes"))
-from bpy_helpers import camera, generated_x_range, light, material, mesh_object, noise_bump, shader_node, world  # noqa: E402,F401  (re-exported to the tests)
+from bpy_helpers import camera, generated_x_range, light, material, mesh_object, node_group, noise_bump, shader_node, world  # noqa: E402,F401  (re-exported to the tests)
 
 
 def enable_addon():

@@ -200,15 +200,7 @@ def setups():
     out.append(("InvertGamma", mat))
 
     # A node group with a Math node inside, reached through a reroute.
-    group = bpy.data.node_groups.new("Darken", "ShaderNodeTree")
-    if hasattr(group, "interface"):
-        group.interface.new_socket("Color", in_out="INPUT", socket_type="NodeSocketColor")
-        group.interface.new_socket("Color", in_out="OUTPUT", socket_type="NodeSocketColor")
-    else:
-        group.inputs.new("NodeSocketColor", "Color")
-        group.outputs.new("NodeSocketColor", "Color")
-    gin = group.nodes.new("NodeGroupInput")
-    gout = group.nodes.new("NodeGroupOutput")
+    group, gin, gout = C.node_group("Darken", [("Color", "NodeSocketColor")], [("Color", "NodeSocketColor")])
     mixg = group.nodes.new("ShaderNodeMix")
     mixg.data_type = "RGBA"
     mixg.blend_type = "MULTIPLY"

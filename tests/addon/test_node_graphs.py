@@ -350,12 +350,7 @@ def baked_tiles():
     nt.links.new(ab.outputs[0], em.inputs["Color"])
     out.append(("BakedTexture", mat))
     # Inside a node group, with a Color Ramp after it there: the group's output is baked.
-    grp = bpy.data.node_groups.new("UnsupportedGroup", "ShaderNodeTree")
-    if hasattr(grp, "interface"):
-        grp.interface.new_socket("Color", in_out="OUTPUT", socket_type="NodeSocketColor")
-    else:
-        grp.outputs.new("NodeSocketColor", "Color")
-    gout = grp.nodes.new("NodeGroupOutput")
+    grp, _, gout = C.node_group("UnsupportedGroup", outputs=[("Color", "NodeSocketColor")])
     gtex = _unsupported_texture(grp)
     ramp = grp.nodes.new("ShaderNodeValToRGB")
     ramp.color_ramp.elements[0].color = (0.9, 0.2, 0.1, 1.0)
@@ -446,12 +441,7 @@ def test_unsupported_nodes_are_baked():
     nt2.links.new(rot.outputs["Vector"], em2.inputs["Color"])
     C.mesh_object("ReflTile", tile_mesh, mat2, location=(2.0, 0.0, 0.0))
     # A group with a view-dependent node inside beside the unsupported one: not baked whole.
-    grp = bpy.data.node_groups.new("FacingGroup", "ShaderNodeTree")
-    if hasattr(grp, "interface"):
-        grp.interface.new_socket("Value", in_out="OUTPUT", socket_type="NodeSocketFloat")
-    else:
-        grp.outputs.new("NodeSocketFloat", "Value")
-    gout = grp.nodes.new("NodeGroupOutput")
+    grp, _, gout = C.node_group("FacingGroup", outputs=[("Value", "NodeSocketFloat")])
     lw = grp.nodes.new("ShaderNodeLayerWeight")
     gmul = grp.nodes.new("ShaderNodeMath")
     gmul.operation = "MULTIPLY"
