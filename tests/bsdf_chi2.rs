@@ -119,7 +119,8 @@ fn coated_tilted(base: Bsdf, weight: f32, roughness: f32, n: Vec3) -> Bsdf {
 }
 
 /// A material under a sheen of colour `color` (max component `scale`) and `roughness`
-/// (`prism::bsdf::sheen`).
+/// (`prism::bsdf::sheen`): Cycles' microfibre sheen over an energy-conserving base, the
+/// Charlie sheen of `KHR_materials_sheen` over the glTF BRDF (as `scene::material` pairs them).
 fn sheened(base: Bsdf, color: SampledSpectrum, roughness: f32) -> Bsdf {
     match base {
         Bsdf::MetallicRoughness(b) => Bsdf::MetallicRoughness(MetallicRoughnessBsdf {
@@ -127,6 +128,11 @@ fn sheened(base: Bsdf, color: SampledSpectrum, roughness: f32) -> Bsdf {
                 color,
                 scale: color.max_component(),
                 roughness,
+                model: if b.energy_compensation {
+                    prism::bsdf::SheenModel::Microfibre
+                } else {
+                    prism::bsdf::SheenModel::Charlie
+                },
             },
             ..b
         }),
@@ -1269,25 +1275,90 @@ fn sheen_over_white_base_is_bounded() {
     println!("sheen over a white base: worst |E - 1| = {worst:.4}");
 }
 
-/// The sheen's own albedo table against Monte Carlo integration of its lobe, through the
-/// BSDF (a black base: what is reflected is the sheen alone).
+/// The sheens' own albedo tables against Monte Carlo integration of their lobes through the
+/// BSDF's sampling (a black base: what is reflected is the sheen alone): the fibre layer's
+/// fitted LTC (whose samples weigh exactly its albedo if eval, pdf and sampling agree) and
+/// the Charlie lobe (sampled uniformly).
 #[test]
 fn sheen_albedo_matches_monte_carlo() {
     let black = SampledSpectrum::ZERO;
     for sheen_roughness in [0.1f32, 0.3, 0.6, 1.0] {
         for c in [0.1f32, 0.6, 1.0] {
-            let b = sheened(
+            let fibre = sheened(
                 metallic_roughness(black, 0.0, 0.5, 0.0),
                 SampledSpectrum::ONE,
                 sheen_roughness,
             );
-            let (e, _) = albedo(&b, wo_at(c), 400_000, 47, false);
+            let (e, _) = albedo(&fibre, wo_at(c), 100_000, 47, false);
+            let table = prism::bsdf::fibre_sheen::FibreLobe::at(sheen_roughness, c).albedo as f64;
+            assert!(
+                (e - table).abs() < 1e-3 + 1e-3 * table,
+                "fibre sheen roughness {sheen_roughness} cos_o {c}: Monte Carlo {e}, table {table}"
+            );
+            let charlie = match metallic_roughness(black, 0.0, 0.5, 0.0) {
+                Bsdf::MetallicRoughness(b) => Bsdf::MetallicRoughness(MetallicRoughnessBsdf {
+                    energy_compensation: false,
+                    ..b
+                }),
+                _ => unreachable!(),
+            };
+            let charlie = sheened(charlie, SampledSpectrum::ONE, sheen_roughness);
+            let (e, _) = albedo(&charlie, wo_at(c), 400_000, 47, false);
             let table = prism::bsdf::sheen::lobe_albedo(sheen_roughness, c) as f64;
             assert!(
                 (e - table).abs() < 0.01 + 0.03 * table,
-                "sheen roughness {sheen_roughness} cos_o {c}: Monte Carlo {e}, table {table}"
+                "Charlie sheen roughness {sheen_roughness} cos_o {c}: Monte Carlo {e}, table {table}"
             );
         }
+    }
+}
+
+/// The committed fibre-sheen table (`tools/sheen_ltc.rs`) against a fresh simulation of the
+/// fibre layer between its nodes: the albedo within 0.01 + 3% (interpolation and the
+/// simulations' noise), and the fitted lobe's share of light scattered back towards the view
+/// (azimuth within 90 degrees of it) and its mean exit cosine within 0.03 of the walks'.
+#[test]
+fn fibre_sheen_table_matches_a_fresh_simulation() {
+    use prism::bsdf::fibre_sheen::{bin_centre, bin_solid_angle, simulate_layer, FibreLobe};
+    use prism::bsdf::fibre_sheen::{N_PHI, N_THETA};
+    for (roughness, mu) in [(0.37f64, 0.23f64), (0.55, 0.61), (0.83, 0.12), (0.95, 0.9)] {
+        let st = simulate_layer(mu, roughness, 400_000, 99);
+        let lobe = FibreLobe::at(roughness as f32, mu as f32);
+        let r = st.albedo();
+        assert!(
+            (f64::from(lobe.albedo) - r).abs() < 0.01 + 0.03 * r,
+            "roughness {roughness} mu {mu}: table {} simulated {r}",
+            lobe.albedo
+        );
+        // Moments of the exit distribution: walks' histogram against the LTC's density.
+        let (mut back_w, mut cos_w, mut back_l, mut cos_l, mut total_l) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for t in 0..N_THETA {
+            let omega = 2.0 * bin_solid_angle(t);
+            for p in 0..N_PHI {
+                let w = bin_centre(t, p);
+                let walks = st.density(t, p) * omega / r;
+                let fitted = f64::from(lobe.density(w)) * omega;
+                let back = if p < N_PHI / 2 { 1.0 } else { 0.0 };
+                back_w += back * walks;
+                cos_w += f64::from(w.z) * walks;
+                back_l += back * fitted;
+                cos_l += f64::from(w.z) * fitted;
+                total_l += fitted;
+            }
+        }
+        let (back_l, cos_l) = (back_l / total_l, cos_l / total_l);
+        println!(
+            "roughness {roughness} mu {mu}: albedo {} / {r:.4}, back {back_l:.3} / {back_w:.3}, mean cos {cos_l:.3} / {cos_w:.3}",
+            lobe.albedo
+        );
+        assert!(
+            (back_l - back_w).abs() < 0.03,
+            "back-scattered share {back_l} vs {back_w}"
+        );
+        assert!(
+            (cos_l - cos_w).abs() < 0.03,
+            "mean exit cosine {cos_l} vs {cos_w}"
+        );
     }
 }
 

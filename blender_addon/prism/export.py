@@ -461,28 +461,12 @@ def _principled_coat(node, m):
         m["coat_additive"] = node.inputs.get("Coat Weight") is None
 
 
-# Cycles' Sheen Roughness -> the roughness of Prism's (Charlie) sheen whose directional albedo
-# is closest to Cycles' (microfibre) sheen's, at 0, 0.1, ..., 1.0 (weighted least squares over
-# the view angle; bench/sheen_albedo.py measures both in a white furnace). From 0.2 to 0.8 the
-# albedos then agree within 5%; Cycles' roughest sheens reflect more than any Charlie lobe (0.8x
-# of Cycles' albedo at 0.9, 0.7x at 1.0).
-_SHEEN_ROUGHNESS = [0.0, 0.03, 0.081, 0.167, 0.293, 0.44, 0.595, 0.769, 1.0, 1.0, 1.0]
-_SHEEN_ROUGH_WARNING = ("Sheen Roughness %.2f is rendered with up to 30%% less sheen than Cycles shows "
-                        "(Prism's sheen matches Cycles' from 0.2 to 0.8)")
-
-
-def _sheen_roughness(r):
-    x = min(max(float(r), 0.0), 1.0) * 10.0
-    i = min(int(x), 9)
-    f = x - i
-    return _SHEEN_ROUGHNESS[i] * (1.0 - f) + _SHEEN_ROUGHNESS[i + 1] * f
-
-
 def _principled_sheen(node, m):
     """Principled Sheen (4.x: Sheen Weight, Roughness, Tint) into m["sheen"] = (colour rgb =
-    weight x tint, roughness) or None; written as KHR_materials_sheen, the roughness mapped onto
-    the Charlie sheen's (`_SHEEN_ROUGHNESS`). Blender 3.x's Sheen (the Disney model's grazing
-    tint, no roughness) is not translated (warned)."""
+    weight x tint, roughness) or None; written as KHR_materials_sheen with Blender's roughness,
+    which the renderer's default material model renders with Cycles' microfibre sheen
+    (src/bsdf/fibre_sheen.rs). Blender 3.x's Sheen (the Disney model's grazing tint, no
+    roughness) is not translated (warned)."""
     if node.inputs.get("Sheen Weight") is None:
         return
     weight = float(_val(node, "Sheen Weight"))
@@ -495,9 +479,7 @@ def _principled_sheen(node, m):
     blender_roughness = float(_val(node, "Sheen Roughness", default=0.5))
     color = [min(max(weight * float(c), 0.0), 1.0) for c in tint]
     if max(color) > 0.0:
-        m["sheen"] = (color, _sheen_roughness(blender_roughness))
-        if blender_roughness > 0.85:
-            m["approximation"] = _SHEEN_ROUGH_WARNING % blender_roughness
+        m["sheen"] = (color, min(max(blender_roughness, 0.0), 1.0))
 
 
 def _normal_map(node):
@@ -1229,9 +1211,8 @@ class Exporter:
         return gb.result()
 
     def _graph_sheen(self, gb, node, handled):
-        """Principled Sheen Weight x Tint from textures as the graph's `sheen_color`. A linked
-        Sheen Roughness is used unmapped (the Cycles-matching mapping of _SHEEN_ROUGHNESS
-        applies to values only): warned."""
+        """Principled Sheen Weight x Tint from textures as the graph's `sheen_color`, and a
+        linked Sheen Roughness as its `sheen_roughness`."""
         weight, tint = node.inputs.get("Sheen Weight"), node.inputs.get("Sheen Tint")
         if weight is None or tint is None:
             return
@@ -1247,9 +1228,7 @@ class Exporter:
         rough = node.inputs.get("Sheen Roughness")
         if rough is not None and rough.is_linked:
             handled.add(rough.identifier)
-            if gb.bind("sheen_roughness", rough):
-                gb.warn(node, "a linked Sheen Roughness is used as Prism's sheen roughness, not mapped to match "
-                              "Cycles' sheen (values are)")
+            gb.bind("sheen_roughness", rough)
 
     def _mixed_graph(self, name, root, m):
         """A Mix / Add Shader tree as graph closures: the tree flattened into weighted leaves
@@ -1519,14 +1498,7 @@ class Exporter:
         else:
             return
         rv = V(_socket(leaf, "Sheen Roughness"), 0.5)
-        if isinstance(rv, dict):
-            inputs["sheen_roughness"] = rv
-            self.warnings.append("material '%s': a linked Sheen Roughness is used as Prism's sheen roughness, not "
-                                 "mapped to match Cycles' sheen (values are)" % name)
-        else:
-            inputs["sheen_roughness"] = _sheen_roughness(rv)
-            if float(rv) > 0.85:
-                self.warnings.append("material '%s': %s" % (name, _SHEEN_ROUGH_WARNING % float(rv)))
+        inputs["sheen_roughness"] = rv if isinstance(rv, dict) else min(max(float(rv), 0.0), 1.0)
 
     def _graph_normal(self, gb, node, m, handled):
         """The shader's Normal input through the graph (Bump nodes, ...) unless it is the

@@ -44,7 +44,6 @@ use super::energy::{
 };
 use super::fresnel::{reflect, schlick_weight};
 use super::microfacet::TrowbridgeReitz;
-use super::sheen::Sheen;
 use super::FilmAverages;
 use super::{BsdfSample, LobeFlags, MetallicRoughnessBsdf};
 use crate::math::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
@@ -290,7 +289,7 @@ impl MetallicRoughnessBsdf {
             return 0.0;
         }
         let w_sheen = self.sheen.albedo_estimate(cos_o);
-        let below = below_total.max(0.0) * self.sheen.below(cos_o, cos_o, false);
+        let below = below_total.max(0.0) * self.sheen.below(cos_o, cos_o);
         let total = w_sheen + below;
         if !(total > 0.0) || !total.is_finite() {
             return 0.0;
@@ -542,9 +541,8 @@ impl MetallicRoughnessBsdf {
             pdf += p_coat * self.coat.pdf(wo, h);
         }
         if self.sheen.is_present() {
-            f = f * self.sheen.below(wo.z, wi.z, !self.energy_compensation)
-                + self.sheen.eval(wo, wi);
-            pdf = (1.0 - p_sheen) * pdf + p_sheen * Sheen::pdf();
+            f = f * self.sheen.below(wo.z, wi.z) + self.sheen.eval(wo, wi);
+            pdf = (1.0 - p_sheen) * pdf + p_sheen * self.sheen.pdf(wo, wi);
         }
         if !f.is_finite() || !pdf.is_finite() {
             return (SampledSpectrum::ZERO, 0.0);
@@ -584,7 +582,7 @@ impl MetallicRoughnessBsdf {
             * share
             * (1.0 - self.metallic())
             * self.below_coat(wo, wo.dot(h).clamp(0.0, 1.0))
-            * self.sheen.below(wo.z, wi.z, !self.energy_compensation)
+            * self.sheen.below(wo.z, wi.z)
     }
 
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -600,9 +598,9 @@ impl MetallicRoughnessBsdf {
         let (p_sheen, p_coat, p_spec) = self.all_lobe_probabilities(wo, layers.as_ref());
         let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
         // The sheen on top first; the layers below share the rest of `uc`.
-        let below_sheen = self.sheen.below(wo.z, wo.z, !self.energy_compensation);
+        let below_sheen = self.sheen.below(wo.z, wo.z);
         if uc < p_sheen {
-            let wi = Sheen::sample(u);
+            let wi = self.sheen.sample(wo, u);
             let (f, pdf) = self.eval_pdf_with(wo, wi, layers.as_ref());
             return (pdf > 0.0 && wi.z > 0.0).then_some(BsdfSample {
                 wi,
@@ -742,7 +740,7 @@ impl Layers {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bsdf::Coat;
+    use crate::bsdf::{Coat, Sheen};
 
     /// KHR_materials_ior's `ior = 0` is F0 = ((0 - 1) / (0 + 1))^2 = 1: the dielectric layer
     /// reflects everything at every angle (F0 = F90 = specular), nothing reaches the diffuse.

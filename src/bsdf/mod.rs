@@ -10,6 +10,7 @@ pub mod coat;
 pub mod dielectric;
 pub mod diffuse;
 pub mod energy;
+pub mod fibre_sheen;
 pub mod fresnel;
 pub mod metallic_roughness;
 pub mod microfacet;
@@ -19,7 +20,7 @@ pub mod thin_film;
 pub use coat::Coat;
 pub use fresnel::{fresnel_dielectric, fresnel_schlick, refract};
 pub use microfacet::TrowbridgeReitz;
-pub use sheen::Sheen;
+pub use sheen::{Sheen, SheenModel};
 pub use thin_film::ThinFilm;
 
 use crate::spectrum::SampledSpectrum;

@@ -1,8 +1,14 @@
 //! Sheen: the soft, retro-reflective rim of velvet and other fabrics (Blender's Principled
-//! Sheen, `KHR_materials_sheen`), a layer over the whole material.
+//! Sheen, `KHR_materials_sheen`), a layer over the whole material. Two lobes:
 //!
-//! The lobe is the "Charlie" microfibre sheen of Estevez & Kulla 2017 ("Production Friendly
-//! Microfacet Sheen BRDF"), the model `KHR_materials_sheen` specifies:
+//! - **Microfibre** (the default, what Blender users see in Cycles 4.x and later): the
+//!   multiple-scattering fibre layer of Zeltner et al. 2022, fitted by a linearly transformed
+//!   cosine per view angle and roughness (`fibre_sheen.rs`). The material below is dimmed by
+//!   `1 - max(colour) R(mu_o)`, the layer's albedo at `wo` (energy-conserving: a white base
+//!   under a sheen of colour c reflects exactly c R + (1 - c R) = 1; not reciprocal, as in
+//!   Cycles). Sampled exactly by the LTC.
+//! - **Charlie** (`"model": "gltf"`, the lobe `KHR_materials_sheen` specifies): the microfibre
+//!   sheen of Estevez & Kulla 2017 ("Production Friendly Microfacet Sheen BRDF"),
 //!
 //! ```text
 //! D(h)     = (2 + 1/alpha) sin(theta_h)^(1/alpha) / (2 pi)              (fibres lying flat)
@@ -10,33 +16,31 @@
 //! sheen    = colour D V
 //! ```
 //!
-//! with alpha = roughness^2 and the paper's fitted Lambda (its eq. 3 and table 1: a curve
-//! L(x) = a / (1 + b x^c) + d x + e whose five constants blend between two fits by
-//! (1 - alpha)^2; Lambda(mu) = exp(L(mu)) below mu = 1/2 and exp(2 L(1/2) - L(1 - mu)) above).
-//!
-//! The material below is scaled by what the sheen does not reflect, `1 - max(colour) E`, with E
-//! the lobe's directional albedo (colour 1), tabulated here over (mu, roughness) by numerical
-//! integration at first use. Two forms, as for the coat (`coat.rs`):
-//!
-//! - energy-conserving (Cycles' Principled, the default): E at `wo` alone. A white base under a
-//!   sheen of colour c reflects exactly c E + (1 - c E) = 1, but the product is not reciprocal;
-//! - the extension's (`"model": "gltf"`): `min(1 - c E(mu_o), 1 - c E(mu_i))`, reciprocal, at
-//!   most 1, and up to 10% darker than 1 for rough sheens (the base is dimmed by the grazing
-//!   side's larger albedo).
-//!
-//! Cycles (4.x) uses a different fibre model for its Sheen (Zeltner et al. 2022, fitted to a
-//! simulated fibre volume); both brighten grazing views by similar amounts, and the layering
-//! (a sheen over the coat over the base, the base dimmed by the sheen's albedo) is the same.
-//! `tests/addon/test_energy_parity.py` measures how far the two are apart.
-//!
-//! Sampling: uniform over the hemisphere (the lobe is broad and strongest at grazing angles,
-//! where cosine-weighted sampling would be thin).
+//!   with alpha = roughness^2 and the paper's fitted Lambda (its eq. 3 and table 1: a curve
+//!   L(x) = a / (1 + b x^c) + d x + e whose five constants blend between two fits by
+//!   (1 - alpha)^2; Lambda(mu) = exp(L(mu)) below mu = 1/2 and exp(2 L(1/2) - L(1 - mu))
+//!   above). The material below is dimmed by the extension's reciprocal
+//!   `min(1 - c E(mu_o), 1 - c E(mu_i))`, with E the lobe's directional albedo (colour 1),
+//!   tabulated here over (mu, roughness) by numerical integration at first use: at most 1,
+//!   and up to 10% darker than 1 for rough sheens (the base is dimmed by the grazing side's
+//!   larger albedo). Sampled uniformly over the hemisphere (the lobe is broad and strongest at
+//!   grazing angles, where cosine-weighted sampling would be thin).
 
+use super::fibre_sheen::{from_lobe_frame, to_lobe_frame, FibreLobe};
 use crate::math::sampling::{sample_uniform_hemisphere, uniform_hemisphere_pdf};
 use crate::math::{INV_PI, PI};
 use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
 use std::sync::OnceLock;
+
+/// Which sheen lobe (see the module doc).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SheenModel {
+    /// Zeltner et al. 2022's fibre layer (Cycles' Principled Sheen).
+    Microfibre,
+    /// The Charlie lobe of `KHR_materials_sheen`, with the extension's reciprocal layering.
+    Charlie,
+}
 
 /// Sheen parameters; a black colour is no sheen.
 #[derive(Clone, Copy, Debug)]
@@ -46,8 +50,10 @@ pub struct Sheen {
     /// The largest RGB component of weight x tint (the extension's max3(sheenColor)): what
     /// dims the layers below, the same for every wavelength.
     pub scale: f32,
-    /// Perceptual roughness in [0, 1] (alpha = roughness^2).
+    /// Perceptual roughness in [0, 1] (Blender's Sheen Roughness; the Charlie lobe's
+    /// alpha = roughness^2).
     pub roughness: f32,
+    pub model: SheenModel,
 }
 
 /// Smallest alpha evaluated: the lobe's exponent 1/alpha stays finite.
@@ -58,6 +64,7 @@ impl Sheen {
         color: SampledSpectrum::ZERO,
         scale: 0.0,
         roughness: 0.5,
+        model: SheenModel::Microfibre,
     };
 
     #[inline]
@@ -75,16 +82,21 @@ impl Sheen {
         (r * r).max(MIN_ALPHA)
     }
 
-    /// The lobe with colour 1 (f without the cosine), `wo` and `wi` in the upper hemisphere.
-    /// The fitted shadowing lets the smoothest sheens reflect a few percent more than they
-    /// receive at grazing views (E up to 1.03 at roughness 0.1): the lobe is divided by
-    /// max(1, E(mu_o), E(mu_i)), which keeps it reciprocal and its albedo at most 1.
+    /// The Charlie lobe with colour 1 (f without the cosine), `wo` and `wi` in the upper
+    /// hemisphere. The fitted shadowing lets the smoothest sheens reflect a few percent more
+    /// than they receive at grazing views (E up to 1.03 at roughness 0.1): the lobe is divided
+    /// by max(1, E(mu_o), E(mu_i)), which keeps it reciprocal and its albedo at most 1.
     #[inline]
-    pub(super) fn lobe(&self, wo: Vec3, wi: Vec3) -> f32 {
+    fn charlie_lobe(&self, wo: Vec3, wi: Vec3) -> f32 {
         let excess = albedo(self.roughness, wo.z)
             .max(albedo(self.roughness, wi.z))
             .max(1.0);
         charlie(self.alpha(), wo, wi) / excess
+    }
+
+    #[inline]
+    fn fibre_lobe(&self, cos_o: f32) -> FibreLobe {
+        FibreLobe::at(self.roughness, cos_o)
     }
 
     /// f(wo, wi) of the sheen itself.
@@ -92,20 +104,34 @@ impl Sheen {
         if !(self.is_present() && wo.z > 0.0 && wi.z > 0.0) {
             return SampledSpectrum::ZERO;
         }
-        self.color * self.lobe(wo, wi)
+        let f = match self.model {
+            SheenModel::Microfibre => {
+                // f cos_i = R D(wi) (fibre_sheen.rs).
+                let lobe = self.fibre_lobe(wo.z);
+                lobe.albedo * lobe.density(to_lobe_frame(wo, wi)) / wi.z
+            }
+            SheenModel::Charlie => self.charlie_lobe(wo, wi),
+        };
+        if f.is_finite() {
+            self.color * f
+        } else {
+            SampledSpectrum::ZERO
+        }
     }
 
-    /// The factor on everything below the sheen for the pair (`cos_o`, `cos_i`): the
-    /// extension's reciprocal form when `reciprocal`, else Cycles' (see the module doc).
-    pub fn below(&self, cos_o: f32, cos_i: f32, reciprocal: bool) -> f32 {
+    /// The factor on everything below the sheen for the pair (`cos_o`, `cos_i`): Cycles'
+    /// albedo scaling at `wo` (microfibre) or the extension's reciprocal form (Charlie).
+    pub fn below(&self, cos_o: f32, cos_i: f32) -> f32 {
         if !self.is_present() {
             return 1.0;
         }
         let c = self.scale.min(1.0);
-        let mut e = lobe_albedo(self.roughness, cos_o);
-        if reciprocal {
-            e = e.max(lobe_albedo(self.roughness, cos_i));
-        }
+        let e = match self.model {
+            SheenModel::Microfibre => self.fibre_lobe(cos_o).albedo.clamp(0.0, 1.0),
+            SheenModel::Charlie => {
+                lobe_albedo(self.roughness, cos_o).max(lobe_albedo(self.roughness, cos_i))
+            }
+        };
         (1.0 - c * e).max(0.0)
     }
 
@@ -115,17 +141,31 @@ impl Sheen {
         if !self.is_present() {
             return 0.0;
         }
-        self.scale.min(1.0) * lobe_albedo(self.roughness, cos_o)
+        let e = match self.model {
+            SheenModel::Microfibre => self.fibre_lobe(cos_o).albedo.clamp(0.0, 1.0),
+            SheenModel::Charlie => lobe_albedo(self.roughness, cos_o),
+        };
+        self.scale.min(1.0) * e
     }
 
-    /// A direction uniformly over the upper hemisphere (density `Sheen::pdf`).
-    pub fn sample(u: Vec2) -> Vec3 {
-        sample_uniform_hemisphere(u)
+    /// A direction from the sheen's sampling density (`Sheen::pdf`) for the view `wo`.
+    pub fn sample(&self, wo: Vec3, u: Vec2) -> Vec3 {
+        match self.model {
+            SheenModel::Microfibre => from_lobe_frame(wo, self.fibre_lobe(wo.z).sample(u)),
+            SheenModel::Charlie => sample_uniform_hemisphere(u),
+        }
     }
 
+    /// The density `Sheen::sample` draws `wi` with.
     #[inline]
-    pub fn pdf() -> f32 {
-        uniform_hemisphere_pdf()
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if !(wi.z > 0.0) {
+            return 0.0;
+        }
+        match self.model {
+            SheenModel::Microfibre => self.fibre_lobe(wo.z).density(to_lobe_frame(wo, wi)),
+            SheenModel::Charlie => uniform_hemisphere_pdf(),
+        }
     }
 }
 

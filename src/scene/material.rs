@@ -6,8 +6,8 @@ use super::desc::{
 };
 use super::texture::sample_texture;
 use crate::bsdf::{
-    Bsdf, Coat, DielectricBsdf, DiffuseBsdf, Iridescence, MetallicRoughnessBsdf, Sheen, ThinFilm,
-    TranslucentBsdf,
+    Bsdf, Coat, DielectricBsdf, DiffuseBsdf, Iridescence, MetallicRoughnessBsdf, Sheen, SheenModel,
+    ThinFilm, TranslucentBsdf,
 };
 use crate::bssrdf::{SubsurfaceAt, SubsurfaceMaterial};
 use crate::geometry::{Geometry, SurfacePoint};
@@ -154,7 +154,11 @@ impl Material {
                 tint: RgbAlbedoSpectrum::new(g.coat_tint),
                 additive: g.coat_additive,
             },
-            sheen: MaterialSheen::new(g.sheen_color, g.sheen_roughness),
+            sheen: MaterialSheen::new(
+                g.sheen_color,
+                g.sheen_roughness,
+                sheen_model(desc.gltf_brdf),
+            ),
             emission,
             spread: Spread::new(g.emission_spread),
             interior,
@@ -818,7 +822,17 @@ impl Material {
         if let Some(v) = roughness_in {
             roughness = v.x;
         }
-        MaterialSheen::new(rgb, roughness).map_or(Sheen::NONE, |s| s.sample(w))
+        MaterialSheen::new(rgb, roughness, sheen_model(!self.energy_compensation))
+            .map_or(Sheen::NONE, |s| s.sample(w))
+    }
+}
+
+/// The sheen lobe of a material: Cycles' microfibre sheen unless it asks for the glTF BRDF.
+fn sheen_model(gltf_brdf: bool) -> SheenModel {
+    if gltf_brdf {
+        SheenModel::Charlie
+    } else {
+        SheenModel::Microfibre
     }
 }
 
@@ -828,11 +842,12 @@ struct MaterialSheen {
     color: RgbAlbedoSpectrum,
     scale: f32,
     roughness: f32,
+    model: SheenModel,
 }
 
 impl MaterialSheen {
     /// None for a black (or invalid) colour.
-    fn new(rgb: Vec3, roughness: f32) -> Option<MaterialSheen> {
+    fn new(rgb: Vec3, roughness: f32, model: SheenModel) -> Option<MaterialSheen> {
         let rgb = rgb.clamp(Vec3::ZERO, Vec3::ONE);
         let scale = rgb.max_element();
         (scale > 0.0 && rgb.is_finite()).then(|| MaterialSheen {
@@ -843,6 +858,7 @@ impl MaterialSheen {
             } else {
                 0.5
             },
+            model,
         })
     }
 
@@ -851,6 +867,7 @@ impl MaterialSheen {
             color: self.color.sample(w),
             scale: self.scale,
             roughness: self.roughness,
+            model: self.model,
         }
     }
 }
