@@ -343,6 +343,43 @@ fn graph_specular_tint_and_thin_film_inputs() {
 }
 
 #[test]
+fn graph_coat_ior_sets_the_coat_fresnel() {
+    // A black base without a specular layer under a smooth coat, seen head-on in a white
+    // world, reflects the coat's F0 = ((n - 1) / (n + 1))^2: n the graph's `coat_ior` (Blender's
+    // Coat IOR, also on Mix leaves), else the material's 1.5.
+    let render = |name: &str, inputs: Value| {
+        let path = scene_with(
+            name,
+            json!({ "KHR_materials_specular": { "specularFactor": 0.0 },
+                    "KHR_materials_clearcoat": { "clearcoatFactor": 1.0,
+                                                 "clearcoatRoughnessFactor": 0.0 } }),
+            [65535, 65535, 65535, 65535],
+        );
+        let doc = json!({ "version": 1, "world": { "color": [1.0, 1.0, 1.0], "strength": 1.0 },
+                          "materials": { "Layered": { "graph": { "version": 1, "nodes": {},
+                                                                 "inputs": inputs } } } });
+        std::fs::write(path.with_extension("materials.json"), doc.to_string()).unwrap();
+        halves_rgb(&path).1
+    };
+    for (name, inputs, n) in [
+        (
+            "graph_coat_default_ior",
+            json!({ "coat_weight": 1.0 }),
+            1.5f32,
+        ),
+        ("graph_coat_ior_2", json!({ "coat_ior": 2.0 }), 2.0),
+        ("graph_coat_ior_3", json!({ "coat_ior": 3.0 }), 3.0),
+    ] {
+        let f0 = ((n - 1.0) / (n + 1.0)).powi(2);
+        let got = render(name, inputs);
+        assert!(
+            got.iter().all(|c| (c - f0).abs() < 0.01 + 0.03 * f0),
+            "coat IOR {n}: reflects {got:?}, F0 {f0}"
+        );
+    }
+}
+
+#[test]
 fn clearcoat_normal_texture_tilts_the_coat() {
     // A black base under a rough (0.3) coat, lit only by a sun 40 degrees off the view axis
     // (towards +x): the coat's highlight peaks where its normal is the half vector, 20 degrees

@@ -1156,6 +1156,7 @@ class Exporter:
             bind("coat_weight", cw, scale=0.25 if cw is not None and cw.name == "Clearcoat" else None)
             bind("coat_roughness", S("Coat Roughness", "Clearcoat Roughness"))
             bind("coat_tint", S("Coat Tint"))
+            bind("coat_ior", S("Coat IOR"))
             # Coat Normal (4.x; 3.x: Clearcoat Normal): the coat's own; unlinked, the coat keeps
             # the surface's unperturbed normal under a bumped base (the renderer's default).
             bind("coat_normal", S("Coat Normal", "Clearcoat Normal"))
@@ -1369,7 +1370,7 @@ class Exporter:
                 self._principled_warnings(name, leaf, {"Base Color", "Metallic", "Roughness", "Specular IOR Level",
                                                         "Specular", "Transmission Weight", "Transmission",
                                                         "Emission Color", "Emission", "Emission Strength", "IOR",
-                                                        "Normal", "Coat Weight", "Coat Roughness", "Coat Tint",
+                                                        "Normal", "Coat Weight", "Coat Roughness", "Coat Tint", "Coat IOR",
                                                         "Clearcoat", "Clearcoat Roughness", "Sheen Weight",
                                                         "Sheen Tint", "Sheen Roughness", "Subsurface Weight",
                                                         "Subsurface", "Specular Tint", "Thin Film Thickness",
@@ -1445,8 +1446,7 @@ class Exporter:
     def _leaf_layers(self, name, leaf, inputs, gb, node_name, V):
         """A Principled leaf's Specular Tint, Thin Film, Coat and Sheen as its closure's inputs
         (`specular_tint`, `thin_film_thickness`, `thin_film_ior`, `coat_weight`,
-        `coat_roughness`, `coat_tint`, `sheen_color`, `sheen_roughness`). The coat's IOR is the
-        material's (1.5): another value is warned about."""
+        `coat_roughness`, `coat_tint`, `coat_ior`, `sheen_color`, `sheen_roughness`)."""
         tint = leaf.inputs.get("Specular Tint")
         if tint is not None and tint.type == "RGBA":
             tv = V(tint, [1.0, 1.0, 1.0])
@@ -1482,8 +1482,10 @@ class Exporter:
                 tint = _socket(leaf, "Coat Tint")
                 if tint is not None:
                     inputs["coat_tint"] = V(tint, [1.0, 1.0, 1.0])
-                if abs(float(_val(leaf, "Coat IOR", default=1.5)) - 1.5) > 1e-3:
-                    self.warnings.append("material '%s': Coat IOR inside a Mix/Add Shader is rendered as 1.5" % name)
+                ior = _socket(leaf, "Coat IOR")
+                if ior is not None:
+                    iv = V(ior, 1.5)
+                    inputs["coat_ior"] = iv if isinstance(iv, dict) else min(max(float(iv), 1.0), 4.0)
         sw = _socket(leaf, "Sheen Weight")
         if sw is None:
             return

@@ -749,13 +749,19 @@ impl Material {
         w: &SampledWavelengths,
     ) -> Coat {
         let g = &self.gltf;
-        let (weight_in, roughness_in, tint_in) = (
+        let (weight_in, roughness_in, tint_in, ior_in) = (
             get(MaterialInput::CoatWeight),
             get(MaterialInput::CoatRoughness),
             get(MaterialInput::CoatTint),
+            get(MaterialInput::CoatIor),
         );
         let textured = g.coat_texture.is_some() || g.coat_roughness_texture.is_some();
-        if weight_in.is_none() && roughness_in.is_none() && tint_in.is_none() && !textured {
+        if weight_in.is_none()
+            && roughness_in.is_none()
+            && tint_in.is_none()
+            && ior_in.is_none()
+            && !textured
+        {
             return self.coat.sample(w);
         }
         let mut weight = self.coat.weight;
@@ -779,7 +785,14 @@ impl Material {
         Coat {
             weight: weight.clamp(0.0, 1.0),
             alpha: if alpha < MIN_ALPHA { 0.0 } else { alpha },
-            ior: self.coat.ior,
+            // Blender clamps Coat IOR to [1, 4]; NaN keeps the material's.
+            ior: ior_in.map_or(self.coat.ior, |v| {
+                if v.x.is_nan() {
+                    self.coat.ior
+                } else {
+                    v.x.clamp(1.0, 4.0)
+                }
+            }),
             tint: match tint_in {
                 Some(c) => RgbAlbedoSpectrum::new(c.xyz().clamp(Vec3::ZERO, Vec3::ONE)).sample(w),
                 None => self.coat.tint.sample(w),

@@ -591,6 +591,8 @@ pub enum MaterialInput {
     /// The colour of a subsurface medium given by a colour (`crate::bssrdf::SubsurfaceMaterial::at`):
     /// Blender's subsurface colour (4.x Base Color), textured.
     SubsurfaceColor,
+    /// The clear coat's IOR (Blender's Coat IOR; at least 1).
+    CoatIor,
 }
 
 pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
@@ -616,9 +618,10 @@ pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
     ("thin_film_ior", MaterialInput::ThinFilmIor, F),
     ("coat_normal", MaterialInput::CoatNormal, V),
     ("subsurface_color", MaterialInput::SubsurfaceColor, C),
+    ("coat_ior", MaterialInput::CoatIor, F),
 ];
 
-pub const N_MATERIAL_INPUTS: usize = 22;
+pub const N_MATERIAL_INPUTS: usize = 23;
 
 impl MaterialInput {
     pub fn index(self) -> usize {

@@ -22,7 +22,7 @@
 //! * `inputs` binds material inputs (`base_color`, `metallic`, `roughness`, `specular`,
 //!   `transmission`, `emission`, `emission_strength`, `alpha`, `normal`, `translucent`,
 //!   `volume_density`, `refraction`: 1 makes a closure Blender's Refraction BSDF, the
-//!   dielectric's refraction alone; `coat_weight`, `coat_roughness`, `coat_tint`,
+//!   dielectric's refraction alone; `coat_weight`, `coat_roughness`, `coat_tint`, `coat_ior`,
 //!   `sheen_color`, `sheen_roughness`, `specular_tint` (Blender 4.x's colour),
 //!   `thin_film_thickness` (nm, 0: none), `thin_film_ior`, and `coat_normal`, the clear
 //!   coat's own normal like `normal`; without it a coat keeps the unperturbed normal under a
