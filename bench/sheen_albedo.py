@@ -2,9 +2,8 @@
 a unit sphere of black Principled (Specular IOR Level 0) with Sheen Weight 1 at roughness r
 in a uniform white world, seen by an orthographic camera, so each pixel shows E(mu) for its
 mu = n.v. Prints E in ten mu bins per roughness for both renderers and writes
-/tmp/sheen_albedo.json; export.py's _SHEEN_ROUGHNESS is the least-squares roughness mapping
-fitted to the unmapped measurement (Prism's column goes through the add-on, so it now shows
-the mapped sheen: the two columns agree from 0.2 to 0.8). Run with the add-on enabled as in
+/tmp/sheen_albedo.json (bench/README.md: every bin within 0.001 since Prism renders the fibre
+layer of Zeltner et al. 2022, src/bsdf/fibre_sheen.rs). Run with the add-on enabled as in
 tests/addon:
 
     .venv-bpy/bin/python bench/sheen_albedo.py
