@@ -2076,11 +2076,12 @@ class Exporter:
         if spread < math.pi - 1e-4:
             # Blender's Spread: the soft-box profile of `lights/spread.rs`, same power.
             mat["extras"] = {"prism_emission_spread": max(spread, 0.0)}
-            if bpy_version() < (4, 0, 0):
-                # Cycles 3.x emits a spread area light pi/4 as strongly, at every spread (the
-                # same profile; measured in 3.4.1 from 10 to 150 degrees: 1.2732 = 4/pi).
-                strength = mat["extensions"]["KHR_materials_emissive_strength"]
-                strength["emissiveStrength"] *= math.pi / 4.0
+        if bpy_version() < (4, 0, 0):
+            # Cycles 3.x emits an area light pi/4 as strongly as 4.x and later for the same
+            # power, at every spread including the default 180 degrees (measured in 3.4.1,
+            # square and disc, sizes 0.5 and 2, spreads 10 to 180 degrees: 1.2732 = 4/pi).
+            strength = mat["extensions"]["KHR_materials_emissive_strength"]
+            strength["emissiveStrength"] *= math.pi / 4.0
         self.materials.append(mat)
         prim = {
             "attributes": {

@@ -174,17 +174,23 @@ def test_coat_matches_cycles():
     compare_principled("coat", COATED, 0.05)
 
 
+LO_3X, HI_3X = 0.75, 1.35
+
+
 def test_clearcoat_3x_matches_cycles():
     """Blender 3.x's Clearcoat against Cycles 3.x (Debian's Blender 3.4, `blender -b`): Cycles
     adds the Disney clear coat, 0.25 x Clearcoat x a Schlick-like Fresnel of F0 0.04 over a
     GTR1 distribution, on top of the base without dimming it; the add-on exports a coat of
     weight 0.25 x Clearcoat that adds without dimming (`prism_coat_additive`). What the coat
     adds (each sphere's mean with its coat minus without) is compared. Prism's coat lobe is
-    GGX, whose albedo exceeds the heavy-tailed GTR1's: measured 1.12 (smooth coat), 1.44
-    (rough), 1.53 (over a metal), 0.97 (over black); bound [0.9, 1.7]. Before (the full Clearcoat as the weight,
-    dimming the base) it was 0.76 / 0.99 / 0.28 and the coated spheres' means 1.17-1.32x
-    Cycles'. (The bases themselves differ from Cycles 3.x's Principled v1, Disney diffuse and
-    single-scattering GGX, which Prism does not model: 1.13-1.15x on a plain sphere.)"""
+    GGX, whose highlight differs from the heavy-tailed GTR1's: measured 0.90 (smooth coat), 1.17
+    (rough), 1.23 (over a metal), 0.83 (over black); bound [0.75, 1.35]. (Until the add-on
+    scaled Cycles 3.x's area lights by pi/4 at the default spread too, the scene's light was
+    1.27x too bright in Prism and these read 1.12 / 1.44 / 1.53 / 0.97; before the coat was
+    made additive, 0.76 / 0.99 / 0.28.) The bases themselves differ from Cycles 3.x's
+    Principled v1 (Disney diffuse, single-scattering GGX, the specular added on an undimmed
+    base), which Prism does not model: plain spheres 0.92-0.95 (dielectrics), 0.88 (near-black),
+    1.09 (metal) of Cycles 3.4."""
     if bpy.app.version >= (4, 0, 0):
         return  # 4.x has Coat Weight (test_coat_matches_cycles)
     uncoated = [(name, color, {k: v for k, v in inputs.items() if not k.startswith("Clearcoat")})
@@ -197,11 +203,14 @@ def test_clearcoat_3x_matches_cycles():
             out[label, engine] = means(C.render_engine(sc, engine, spp, OUT, label, bounces=16), boxes)
     prism = sys.modules["prism"]
     C.check(not prism.engine.LAST["warnings"], "no warnings: %s" % prism.engine.LAST["warnings"])
+    results = []
     for (slot, _), (mname, _, _) in zip(SPHERES, CLEARCOAT_3X):
         added = {e: (out["clearcoat3x", e][slot] - out["noclearcoat3x", e][slot]).mean() for e in ("cycles", "prism")}
-        ratio = added["prism"] / added["cycles"]
-        C.check(0.9 < ratio < 1.7, "%s: the coat adds %.4f in Prism, %.4f in Cycles: %.3f in [0.9, 1.7]"
-                % (mname, added["prism"], added["cycles"], ratio))
+        results.append((mname, added["prism"], added["cycles"], added["prism"] / added["cycles"]))
+        print("  %s: the coat adds %.4f in Prism, %.4f in Cycles: %.3f" % results[-1])
+    for mname, p_added, c_added, ratio in results:
+        C.check(LO_3X < ratio < HI_3X, "%s: the coat adds %.4f in Prism, %.4f in Cycles: %.3f in [%.2f, %.2f]"
+                % (mname, p_added, c_added, ratio, LO_3X, HI_3X))
     # On a Mix Shader leaf the 3.x Clearcoat adds without dimming too: the material's coat is
     # marked additive, as for a Principled BSDF on the output.
     import json
