@@ -54,6 +54,7 @@ fn bench_bsdf(c: &mut Criterion) {
                 specular_color: SampledSpectrum::ONE,
                 ior: 1.5,
                 energy_compensation: true,
+                principled_v1: false,
                 coat: prism::bsdf::Coat::NONE,
                 sheen: prism::bsdf::Sheen::NONE,
                 iridescence: None,

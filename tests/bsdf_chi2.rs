@@ -60,6 +60,7 @@ fn metallic_roughness(base: SampledSpectrum, metallic: f32, roughness: f32, spec
         specular_color: SampledSpectrum([1.0, 0.9, 0.8, 1.0]),
         ior: 1.5,
         energy_compensation: true,
+        principled_v1: false,
         coat: prism::bsdf::Coat::NONE,
         sheen: prism::bsdf::Sheen::NONE,
         iridescence: None,
@@ -189,6 +190,20 @@ fn gltf_metallic_roughness(base: SampledSpectrum, metallic: f32, roughness: f32)
     }
 }
 
+/// Blender 3.x's Principled BSDF as Cycles 3.x renders it (`principled_v1`): Burley's diffuse
+/// under an additive single-scattering specular layer.
+fn principled_v1(base: SampledSpectrum, metallic: f32, roughness: f32, specular: f32) -> Bsdf {
+    match metallic_roughness(base, metallic, roughness, specular) {
+        Bsdf::MetallicRoughness(b) => Bsdf::MetallicRoughness(MetallicRoughnessBsdf {
+            energy_compensation: false,
+            principled_v1: true,
+            specular_color: SampledSpectrum::ONE,
+            ..b
+        }),
+        _ => unreachable!(),
+    }
+}
+
 fn relative_eq(a: f32, b: f32, tol: f32) -> bool {
     (a - b).abs() <= tol * a.abs().max(b.abs()) || (a - b).abs() < 1e-30
 }
@@ -269,6 +284,16 @@ fn chi2_cases() -> Vec<Chi2Case> {
             "metallic_roughness",
             "gltf-model metallic_roughness(metallic, roughness, specular)",
             Target::Bsdf(gltf_metallic_roughness(color(), metallic, roughness)),
+            wo_at(0.4),
+            [metallic, roughness, 1.0],
+        );
+    }
+    // Blender 3.x's Principled (Burley's diffuse, Cycles 3.x's Fresnel, added layers).
+    for (metallic, roughness) in [(0.0, 0.5), (0.3, 0.9), (1.0, 0.3)] {
+        push(
+            "metallic_roughness",
+            "principled-v1 metallic_roughness(metallic, roughness, specular)",
+            Target::Bsdf(principled_v1(color(), metallic, roughness, 1.0)),
             wo_at(0.4),
             [metallic, roughness, 1.0],
         );
@@ -1091,6 +1116,7 @@ fn metallic_roughness_energy_is_bounded() {
                     specular_color: white,
                     ior: 1.5,
                     energy_compensation: false,
+                    principled_v1: false,
                     coat: prism::bsdf::Coat::NONE,
                     sheen: prism::bsdf::Sheen::NONE,
                     iridescence: None,
@@ -1395,6 +1421,8 @@ fn reflection_lobes_are_reciprocal() {
         // The glTF spec's clear coat (1 - F(wo.h) on the base) is reciprocal.
         let base = gltf_metallic_roughness(color(), metallic, 0.5);
         bsdfs.push(coated(base, 0.7, 0.4, SampledSpectrum::ONE));
+        // Blender 3.x's Principled: Burley's diffuse and the Fresnel at wo.h are symmetric.
+        bsdfs.push(principled_v1(color(), metallic, 0.5, 1.0));
         // The glTF model's sheen dims the base reciprocally (min over both directions).
         let base = gltf_metallic_roughness(color(), metallic, 0.5);
         bsdfs.push(sheened(base, color(), 0.4));
@@ -1409,6 +1437,53 @@ fn reflection_lobes_are_reciprocal() {
             }
         }
     }
+}
+
+/// Blender 3.x's Principled without a specular layer is Burley's diffuse (2015, section 5.3):
+/// base/pi at normal view and light; base/pi (1/2 + roughness) with a grazing view and the
+/// light along the normal (retro-reflection grows with roughness); and with a specular layer
+/// the Fresnel runs from F0 = 0.04 at normal incidence (added to the undimmed base) to 1 at
+/// grazing.
+#[test]
+fn principled_v1_is_burleys_diffuse_plus_cycles_3x_fresnel() {
+    let base = SampledSpectrum::splat(0.5);
+    let inv_pi = std::f32::consts::FRAC_1_PI;
+    for roughness in [0.2f32, 0.5, 1.0] {
+        let b = principled_v1(base, 0.0, roughness, 0.0);
+        let n = Vec3::Z;
+        let f = b.eval(n, n)[0];
+        assert!((f - 0.5 * inv_pi).abs() < 1e-5, "normal: {f}");
+        let grazing = Vec3::new(1.0, 0.0, 1e-4).normalize();
+        let f = b.eval(grazing, n)[0];
+        let want = 0.5 * inv_pi * (0.5 + roughness);
+        assert!(
+            (f - want).abs() < 2e-3 * want,
+            "grazing view, roughness {roughness}: {f} vs {want}"
+        );
+        assert!(relative_eq(f, b.eval(n, grazing)[0], 1e-5));
+    }
+    // Rough specular layer of F0 0.04: at normal incidence (wo = wi = n, h = n) the GGX term
+    // adds F0 D G / 4 to the undimmed base's base/pi.
+    let b = principled_v1(base, 0.0, 0.5, 1.0);
+    let g = principled_v1(base, 0.0, 0.5, 0.0);
+    let n = Vec3::Z;
+    let spec = b.eval(n, n)[0] - g.eval(n, n)[0];
+    let d = 1.0 / (std::f32::consts::PI * 0.25 * 0.25); // GGX D(n) = 1 / (pi alpha^2)
+    let want = 0.04 * d / 4.0;
+    assert!(
+        (spec - want).abs() < 1e-3 * want,
+        "specular at normal incidence {spec} vs {want}"
+    );
+    // A metal's Fresnel reaches 1 at grazing: its grazing mirror-like reflection is white.
+    let metal = principled_v1(SampledSpectrum::splat(0.2), 1.0, 0.05, 1.0);
+    let wo = Vec3::new(0.999, 0.0, 0.0447).normalize();
+    let wi = Vec3::new(-wo.x, 0.0, wo.z);
+    let white = principled_v1(SampledSpectrum::splat(1.0), 1.0, 0.05, 1.0);
+    let ratio = metal.eval(wo, wi)[0] / white.eval(wo, wi)[0];
+    assert!(
+        ratio > 0.75 && ratio <= 1.0,
+        "grazing metal / white metal {ratio}"
+    );
 }
 
 /// Rough dielectric: reflection is symmetric; for refraction the radiance BTDF satisfies

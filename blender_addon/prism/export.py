@@ -330,7 +330,15 @@ def convert_material(mat):
         if node.inputs.get("Specular IOR Level") is not None:
             m["specular"] = 2.0 * _val(node, "Specular IOR Level")  # 4.x: 0.5 is neutral
         elif node.inputs.get("Specular") is not None:
-            m["specular"] = 2.0 * _val(node, "Specular")  # 3.x: 0.5 = F0 0.04
+            # 3.x: F0 = 0.08 x Specular whatever the IOR (which only refracts): the factor on
+            # the IOR's own F0 that gives it.
+            ior = max(float(m["ior"]), 1.0 + 1e-3)
+            m["specular"] = 0.08 * _val(node, "Specular") / ((ior - 1.0) / (ior + 1.0)) ** 2
+            # Cycles 3.x renders it as the Disney BRDF (material JSON "model": "principled_v1").
+            m["principled_v1"] = True
+            if getattr(node, "distribution", "GGX") != "GGX":
+                m["approximation"] = ("Principled BSDF '%s': Multiscatter GGX is rendered single-scattering (rough "
+                                      "metals up to about 10%% darker than in Cycles 3.x)" % node.name)
         sss = _principled_subsurface(node, m)
         _principled_coat(node, m)
         _principled_sheen(node, m)
@@ -1577,6 +1585,10 @@ class Exporter:
         graph = None if holdout else mixed or (self._graph(mat, name, m, sss) if ok and mat is not None else None)
         if holdout:
             self.material_json.setdefault(name, {})["holdout"] = True
+        elif m.get("principled_v1") and mixed is None:
+            # Blender 3.x's Principled BSDF as Cycles 3.x renders it (a Disney diffuse base the
+            # specular layer adds to, single-scattering GGX; src/bsdf/metallic_roughness.rs).
+            self.material_json.setdefault(name, {})["model"] = "principled_v1"
         g = {
             "name": name,
             "pbrMetallicRoughness": {

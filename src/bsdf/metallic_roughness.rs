@@ -37,12 +37,29 @@
 //! approximation); Cycles scales its diffuse by `1 - A_d(mu_o)` alone, which has the same
 //! albedo but is not reciprocal. The multiple-scattering lobes are sampled together with the
 //! diffuse one (all cosine-weighted).
+//!
+//! With `principled_v1` (Blender 3.x's Principled BSDF, whose Cycles 3.x closure is the Disney
+//! BRDF of Burley 2012 as extended by Burley 2015, "Extending the Disney BRDF to a BSDF with
+//! Integrated Subsurface Scattering", section 5.3) the layers are added, not coupled: the
+//! diffuse base is not dimmed by the specular layer, and its lobe is Burley's, with a
+//! roughness-driven retro-reflection at grazing angles:
+//!
+//! ```text
+//! diffuse  = base/pi [(1 - F_L/2)(1 - F_V/2) + R_R (F_L + F_V + F_L F_V (R_R - 1))]
+//!            F_x = (1 - cos_x)^5, R_R = 2 roughness cos^2(theta_d) = roughness (1 + wo.wi)
+//! F        = F0 (1 - F_H) + F_H,   F_H = (F_dielectric(wo.h, eta) - F0_s) / (1 - F0_s)
+//! ```
+//!
+//! where F0 is the dielectric's or the conductor's (base colour) normal reflectance and
+//! `F0_s = ((eta - 1) / (eta + 1))^2` that of the untinted specular layer (Blender's Specular
+//! x 0.08, here `specular x ((ior - 1) / (ior + 1))^2`): the exact dielectric Fresnel curve
+//! rescaled to run from F0 to 1. The GGX lobe scatters once (Blender 3.x's default "GGX").
 
 use super::energy::{
     ggx_reflection_albedo, ggx_reflection_average, multiscatter_fresnel, ReflectionAlbedo,
     SCHLICK_WEIGHT_AVERAGE,
 };
-use super::fresnel::{reflect, schlick_weight};
+use super::fresnel::{fresnel_dielectric, reflect, schlick_weight};
 use super::microfacet::TrowbridgeReitz;
 use super::FilmAverages;
 use super::{BsdfSample, LobeFlags, MetallicRoughnessBsdf};
@@ -64,6 +81,27 @@ impl MetallicRoughnessBsdf {
         } else {
             self.metallic.clamp(0.0, 1.0)
         }
+    }
+
+    /// Cycles 3.x's Fresnel weight `F_H` (module doc): the exact dielectric Fresnel at `cos`
+    /// for the untinted specular layer's IOR, rescaled from [F0_s, 1] to [0, 1].
+    fn v1_fresnel_weight(&self, cos: f32) -> f32 {
+        let f0_s = (sqr((self.ior - 1.0) / (self.ior + 1.0)) * self.specular).clamp(0.0, 0.99);
+        if !(f0_s > 0.0) {
+            // No specular layer: Fresnel's rise at grazing alone, as a Schlick weight.
+            return schlick_weight(cos);
+        }
+        let r = f0_s.sqrt();
+        let eta = (1.0 + r) / (1.0 - r);
+        ((fresnel_dielectric(cos.clamp(0.0, 1.0), eta) - f0_s) / (1.0 - f0_s)).clamp(0.0, 1.0)
+    }
+
+    /// Burley's diffuse lobe over base/pi (module doc), for Blender 3.x's Principled.
+    fn disney_diffuse(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let roughness = self.alpha.max(0.0).sqrt();
+        let (f_o, f_i) = (schlick_weight(wo.z), schlick_weight(wi.z));
+        let rr = roughness * (1.0 + wo.dot(wi));
+        (1.0 - 0.5 * f_o) * (1.0 - 0.5 * f_i) + rr * (f_o + f_i + f_o * f_i * (rr - 1.0))
     }
 
     /// Dielectric normal-incidence reflectance (KHR_materials_specular).
@@ -158,6 +196,10 @@ impl MetallicRoughnessBsdf {
     /// metal, which has no dielectric part).
     #[inline]
     fn dielectric_fresnel(&self, cos: f32) -> SampledSpectrum {
+        if self.principled_v1 {
+            let fh = self.v1_fresnel_weight(cos);
+            return self.dielectric_f0().map(|f0| f0 + (1.0 - f0) * fh);
+        }
         let w5 = schlick_weight(cos);
         let f0 = self.dielectric_f0();
         let f90 = self.dielectric_f90();
@@ -203,6 +245,10 @@ impl MetallicRoughnessBsdf {
     /// term of scale `f82` (`f82_tint_scale`) when there is one.
     #[inline]
     fn conductor_fresnel(&self, cos: f32, f82: Option<SampledSpectrum>) -> SampledSpectrum {
+        if self.principled_v1 {
+            let fh = self.v1_fresnel_weight(cos);
+            return self.base_color.map(|b| b + (1.0 - b) * fh);
+        }
         let w5 = schlick_weight(cos);
         let fc = self.base_color.map(|b| b + (1.0 - b) * w5);
         match f82 {
@@ -328,6 +374,8 @@ impl MetallicRoughnessBsdf {
                         (1.0 - m) * (l.diffuse_o * self.base_color + l.fms_d * ms).average()
                             + m * l.fms_c.average() * ms
                     }
+                    // Burley's diffuse is undimmed (its albedo is about 1).
+                    None if self.principled_v1 => (1.0 - m) * self.base_color.average(),
                     None => (1.0 - m) * ((SampledSpectrum::ONE - fd) * self.base_color).average(),
                 };
         (w_coat, w_spec, w_cos)
@@ -514,6 +562,10 @@ impl MetallicRoughnessBsdf {
                 let ms = l.ms_scale_o * at_i.ms_scale * l.ms_norm;
                 (diffuse + l.fms_d * ms, l.fms_c * ms)
             }
+            None if self.principled_v1 => (
+                self.base_color * (INV_PI * self.disney_diffuse(wo, wi)),
+                SampledSpectrum::ZERO,
+            ),
             None => (
                 self.base_color * INV_PI * (SampledSpectrum::ONE - fd),
                 SampledSpectrum::ZERO,
@@ -567,6 +619,7 @@ impl MetallicRoughnessBsdf {
                         .diffuse
                     * l.diffuse_norm
             }
+            None if self.principled_v1 => SampledSpectrum::splat(self.disney_diffuse(wo, wi)),
             None => {
                 let h = (wo + wi).normalize_or_zero();
                 if h == Vec3::ZERO {
@@ -754,6 +807,7 @@ mod tests {
             specular_color: SampledSpectrum::ONE,
             ior: 0.0,
             energy_compensation: false,
+            principled_v1: false,
             coat: Coat::NONE,
             sheen: Sheen::NONE,
             iridescence: None,
@@ -785,6 +839,7 @@ mod tests {
             specular_color: tint,
             ior: 1.5,
             energy_compensation: true,
+            principled_v1: false,
             coat: Coat::NONE,
             sheen: Sheen::NONE,
             iridescence: None,

@@ -198,6 +198,10 @@ pub struct MetallicRoughnessBsdf {
     /// Energy-conserving layers with multiple-scattering GGX (Cycles' Principled; see
     /// `metallic_roughness.rs`); false: the glTF 2.0 spec's BRDF as written.
     pub energy_compensation: bool,
+    /// Blender 3.x's Principled BSDF as Cycles 3.x renders it (with `energy_compensation`
+    /// off): a Disney diffuse base that the specular layer does not dim, and Cycles 3.x's
+    /// Fresnel (`metallic_roughness.rs`, "Principled v1").
+    pub principled_v1: bool,
     /// A clear coat over all of it (`coat.rs`; `Coat::NONE` for none).
     pub coat: Coat,
     /// A sheen over the coat and all below (`sheen.rs`; `Sheen::NONE` for none).

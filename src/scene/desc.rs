@@ -322,6 +322,10 @@ pub struct MaterialDesc {
     /// The glTF 2.0 spec's single-scattering BRDF as written, without energy compensation
     /// (material JSON `"model": "gltf"`); else Cycles' energy-conserving layering.
     pub gltf_brdf: bool,
+    /// Blender 3.x's Principled BSDF as Cycles 3.x renders it (material JSON `"model":
+    /// "principled_v1"`, which also sets `gltf_brdf`: single-scattering lobes): a Disney
+    /// diffuse base the specular layer adds to (`crate::bsdf::metallic_roughness`).
+    pub principled_v1: bool,
 }
 
 /// A homogeneous volume (`crate::media::Medium`): coefficients per scene unit in

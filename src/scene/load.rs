@@ -121,6 +121,13 @@ fn load_scene_inner(
                 }
             }
         }
+        for name in &mf.principled_v1_models {
+            for (i, n) in imported.material_names.iter().enumerate() {
+                if n.as_deref() == Some(name.as_str()) {
+                    scene.materials[i].principled_v1 = true;
+                }
+            }
+        }
         for (name, graph) in &mf.graphs {
             for (i, n) in imported.material_names.iter().enumerate() {
                 if n.as_deref() == Some(name.as_str()) {

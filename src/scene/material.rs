@@ -53,6 +53,8 @@ pub struct Material {
     base_albedo: RgbAlbedoSpectrum,
     /// Multiple-scattering GGX and energy-conserving layers (not `"model": "gltf"`).
     energy_compensation: bool,
+    /// Blender 3.x's Principled as Cycles 3.x renders it (`MaterialDesc::principled_v1`).
+    principled_v1: bool,
     /// The clear coat (weight 0: none).
     coat: MaterialCoat,
     /// The sheen (None: none).
@@ -164,6 +166,7 @@ impl Material {
             interior,
             null_surface: desc.null_surface && desc.volume.is_some(),
             energy_compensation: !desc.gltf_brdf,
+            principled_v1: desc.principled_v1,
             graph: desc.graph.clone(),
             uses_uv_sets: [
                 g.base_color_texture,
@@ -708,6 +711,7 @@ impl Material {
         let sheen = self.sheen_at(textures, uv, inputs, &get, w);
         if metallic <= 0.0
             && specular <= 0.0
+            && !self.principled_v1
             && !coat.is_present()
             && !sheen.is_present()
             && iridescence.is_none()
@@ -730,6 +734,7 @@ impl Material {
                 },
                 ior: g.ior,
                 energy_compensation: self.energy_compensation,
+                principled_v1: self.principled_v1,
                 coat,
                 sheen,
                 iridescence,

@@ -34,7 +34,9 @@
 //!   "sigma_a": [0.25, 0.25, 0.25]}, "surface": "none"}`. `model`: `"cycles"` (the default:
 //!   energy-conserving layers and multiple-scattering GGX as Cycles' Principled BSDF, see
 //!   `crate::bsdf::metallic_roughness`) | `"gltf"` (the glTF 2.0 spec's BRDF as written, single
-//!   scattering, for glTF viewer conformance).
+//!   scattering, for glTF viewer conformance) | `"principled_v1"` (Blender 3.x's Principled BSDF
+//!   as Cycles 3.x renders it: Burley's diffuse under an added single-scattering specular layer;
+//!   the add-on writes it for 3.x Principled materials).
 //! * `subsurface`: exactly one of `preset` | `sigma_a` + `sigma_s` | `reflectance` + `mfp` |
 //!   `color` + `radius` (Blender's random walk: subsurface colour and radius per channel in
 //!   scene units, `method` must be `"random_walk"`; optional `skin` (default false): Random Walk
@@ -164,8 +166,12 @@ pub struct MaterialsFile {
     /// Volumes by glTF material name (`materials.<name>.volume`), and whether the material's
     /// surface is `"none"`.
     pub volumes: Vec<(String, VolumeDesc, bool)>,
-    /// Materials rendered with the glTF 2.0 spec's BRDF as written (`"model": "gltf"`).
+    /// Materials rendered with the glTF 2.0 spec's BRDF as written (`"model": "gltf"`), or
+    /// with single-scattering lobes as Blender 3.x's Principled (`"model": "principled_v1"`).
     pub gltf_models: Vec<String>,
+    /// Materials rendered as Blender 3.x's Principled BSDF in Cycles 3.x (`"model":
+    /// "principled_v1"`).
+    pub principled_v1_models: Vec<String>,
     /// Problems the user should see that do not stop the render (an unreadable texture).
     pub warnings: Vec<String>,
     /// `None` when the file has no `world` block. Its `texture` is decoded by
@@ -609,8 +615,13 @@ impl Validator<'_> {
                 };
                 if let Some(v) = def_map.get("model") {
                     let mp = p.key("model");
-                    if self.string(v, &mp, &["gltf", "cycles"], "model")? == "gltf" {
-                        out.gltf_models.push(name.clone());
+                    match self.string(v, &mp, &["gltf", "cycles", "principled_v1"], "model")? {
+                        "gltf" => out.gltf_models.push(name.clone()),
+                        "principled_v1" => {
+                            out.gltf_models.push(name.clone());
+                            out.principled_v1_models.push(name.clone());
+                        }
+                        _ => {}
                     }
                 }
                 let null_surface = match def_map.get("surface") {
@@ -1448,9 +1459,13 @@ mod tests {
 
     #[test]
     fn model_chooses_the_gltf_spec_brdf() {
-        let m = parse(r#"{"version": 1, "materials": {"Wax": {"model": "gltf"}, "Skin": {"model": "cycles"}}}"#)
+        let m = parse(r#"{"version": 1, "materials": {"Wax": {"model": "gltf"}, "Skin": {"model": "cycles"}, "Marble": {"model": "principled_v1"}}}"#)
             .unwrap();
-        assert_eq!(m.gltf_models, vec!["Wax".to_string()]);
+        let mut gltf = m.gltf_models.clone();
+        gltf.sort();
+        // Blender 3.x's Principled scatters once, as the glTF model does.
+        assert_eq!(gltf, vec!["Marble".to_string(), "Wax".to_string()]);
+        assert_eq!(m.principled_v1_models, vec!["Marble".to_string()]);
         let e = parse(r#"{"version": 1, "materials": {"Wax": {"model": "pbr"}}}"#).unwrap_err();
         assert!(
             e.contains("materials.Wax.model") && e.contains("unknown model 'pbr'"),

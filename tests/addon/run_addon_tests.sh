@@ -97,8 +97,8 @@ if [ "$WHICH" = all ] || [ "$WHICH" = background ]; then
         test_camera_shift_parity test_panoramic_camera_parity
     step "shader node setups and Cycles bakes of unsupported nodes vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))" blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_node_graphs.py -- \
         test_node_setups_match_cycles test_refraction_bsdf_matches_cycles test_unsupported_nodes_are_baked
-    step "Blender 3.x's Clearcoat vs Cycles 3.x in blender -b" blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_energy_parity.py -- \
-        test_clearcoat_3x_matches_cycles
+    step "Blender 3.x's Principled and Clearcoat vs Cycles 3.x in blender -b" blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_energy_parity.py -- \
+        test_principled_3x_matches_cycles test_clearcoat_3x_matches_cycles
     step "worlds baked by Cycles vs Cycles in blender -b ($(blender --version 2>/dev/null | head -1))" env PRISM_SKY_MODELS=NISHITA blender -b --factory-startup --python-exit-code 1 --python tests/addon/test_world_bake.py
 fi
 if [ "$WHICH" = all ] || [ "$WHICH" = interactive ]; then
