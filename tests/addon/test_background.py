@@ -165,7 +165,11 @@ def principled_export(blender_cmd, tag):
           and abs(ext("Glassy")["KHR_materials_ior"]["ior"] - 1.33) < 1e-6, "%s: transmission + IOR" % tag)
     e = [c * ext("Glow")["KHR_materials_emissive_strength"]["emissiveStrength"] for c in mats["Glow"]["emissiveFactor"]]
     check(all(abs(a - b) < 1e-5 for a, b in zip(e, [4.0, 2.0, 1.0])), "%s: emission colour x strength = %s" % (tag, e))
-    check(abs(ext("Spec")["KHR_materials_specular"]["specularFactor"] - 0.5) < 1e-6, "%s: specular 0.25 -> factor 0.5" % tag)
+    # Specular 0.25 (3.x) / Specular IOR Level 0.25 (4.x) is F0 = 0.08 x 0.25 = 0.02 with the
+    # default IOR (4.x: 1.5), and in 3.x whatever the IOR (the factor on the IOR's own F0).
+    ior = ext("Spec").get("KHR_materials_ior", {}).get("ior", 1.5)
+    f0 = ext("Spec")["KHR_materials_specular"]["specularFactor"] * ((ior - 1.0) / (ior + 1.0)) ** 2
+    check(abs(f0 - 0.02) < 1e-6, "%s: specular 0.25 -> F0 %.5f (IOR %.3f)" % (tag, f0, ior))
     # Principled default method Random Walk (3.4: the radius-adjusting one, 4.x's Skin): Blender's
     # colour and radius for a random walk with Cycles' Lambertian boundary (the renderer derives
     # the coefficients, src/bssrdf/media.rs).
