@@ -179,6 +179,12 @@ def _output_node(mat, socket="Surface"):
     return None
 
 
+# Nodes whose lobe is a plain microfacet distribution, and the distributions of those without
+# multiple scattering (Blender 3.x's defaults for Glass and Glossy).
+_SINGLE_SCATTER_NODES = {"BSDF_GLASS", "BSDF_GLOSSY", "BSDF_ANISOTROPIC"}
+_SINGLE_SCATTER_DISTRIBUTIONS = {"GGX", "BECKMANN", "ASHIKHMIN_SHIRLEY"}
+
+
 def _surface_node(mat):
     return _output_node(mat, "Surface")
 
@@ -1589,6 +1595,17 @@ class Exporter:
             # Blender 3.x's Principled BSDF as Cycles 3.x renders it (a Disney diffuse base the
             # specular layer adds to, single-scattering GGX; src/bsdf/metallic_roughness.rs).
             self.material_json.setdefault(name, {})["model"] = "principled_v1"
+        elif (mixed is None and surface is not None and surface.type in _SINGLE_SCATTER_NODES
+              and getattr(surface, "distribution", "MULTI_GGX") in _SINGLE_SCATTER_DISTRIBUTIONS):
+            # A Glass or Glossy BSDF whose distribution scatters once (Blender 3.x's defaults:
+            # GGX, Beckmann): Cycles adds no multiple-scattering energy, so neither does the
+            # renderer's glTF model (Beckmann's lobe is rendered as GGX's of the same roughness).
+            self.material_json.setdefault(name, {})["model"] = "gltf"
+        if (surface is not None and surface.type == "BSDF_PRINCIPLED" and not m.get("principled_v1")
+                and getattr(surface, "distribution", "MULTI_GGX") == "GGX"):
+            self.warnings.append("material '%s': Principled BSDF '%s' with the GGX distribution is rendered as "
+                                 "Multiscatter GGX (rough surfaces up to about 10%% brighter than in Cycles)"
+                                 % (name, surface.name))
         g = {
             "name": name,
             "pbrMetallicRoughness": {
