@@ -302,22 +302,28 @@ fn iridescence_textures_vary_the_film() {
     }
 }
 
+/// The quad with the material's `extensions` under a white world, its material's shading graph
+/// binding `inputs` (constants): the right half's mean RGB.
+fn graph_inputs_render(name: &str, extensions: Value, inputs: Value) -> [f32; 3] {
+    let path = scene_with(name, extensions, [65535, 65535, 65535, 65535]);
+    let doc = json!({ "version": 1, "world": { "color": [1.0, 1.0, 1.0], "strength": 1.0 },
+                      "materials": { "Layered": { "graph": { "version": 1, "nodes": {},
+                                                             "inputs": inputs } } } });
+    std::fs::write(path.with_extension("materials.json"), doc.to_string()).unwrap();
+    halves_rgb(&path).1
+}
+
 #[test]
 fn graph_specular_tint_and_thin_film_inputs() {
     // A shading graph's `specular_tint` tints the F0 of the black dielectric (0.04 in red only),
     // and its `thin_film_thickness` / `thin_film_ior` put a film on it (a coloured reflection);
     // thickness 0 is no film.
     let render = |name: &str, inputs: Value| {
-        let path = scene_with(
+        graph_inputs_render(
             name,
             json!({ "KHR_materials_specular": { "specularFactor": 1.0 } }),
-            [65535, 65535, 65535, 65535],
-        );
-        let doc = json!({ "version": 1, "world": { "color": [1.0, 1.0, 1.0], "strength": 1.0 },
-                          "materials": { "Layered": { "graph": { "version": 1, "nodes": {},
-                                                                 "inputs": inputs } } } });
-        std::fs::write(path.with_extension("materials.json"), doc.to_string()).unwrap();
-        halves_rgb(&path).1
+            inputs,
+        )
     };
     let red = render(
         "graph_specular_tint",
@@ -348,18 +354,13 @@ fn graph_coat_ior_sets_the_coat_fresnel() {
     // world, reflects the coat's F0 = ((n - 1) / (n + 1))^2: n the graph's `coat_ior` (Blender's
     // Coat IOR, also on Mix leaves), else the material's 1.5.
     let render = |name: &str, inputs: Value| {
-        let path = scene_with(
+        graph_inputs_render(
             name,
             json!({ "KHR_materials_specular": { "specularFactor": 0.0 },
                     "KHR_materials_clearcoat": { "clearcoatFactor": 1.0,
                                                  "clearcoatRoughnessFactor": 0.0 } }),
-            [65535, 65535, 65535, 65535],
-        );
-        let doc = json!({ "version": 1, "world": { "color": [1.0, 1.0, 1.0], "strength": 1.0 },
-                          "materials": { "Layered": { "graph": { "version": 1, "nodes": {},
-                                                                 "inputs": inputs } } } });
-        std::fs::write(path.with_extension("materials.json"), doc.to_string()).unwrap();
-        halves_rgb(&path).1
+            inputs,
+        )
     };
     for (name, inputs, n) in [
         (
