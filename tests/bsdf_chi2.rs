@@ -121,7 +121,8 @@ fn coated_tilted(base: Bsdf, weight: f32, roughness: f32, n: Vec3) -> Bsdf {
 
 /// A material under a sheen of colour `color` (max component `scale`) and `roughness`
 /// (`prism::bsdf::sheen`): Cycles' microfibre sheen over an energy-conserving base, the
-/// Charlie sheen of `KHR_materials_sheen` over the glTF BRDF (as `scene::material` pairs them).
+/// Charlie sheen of `KHR_materials_sheen` over the glTF BRDF, Blender 3.x's Disney sheen over
+/// its Principled (as `scene::material` pairs them).
 fn sheened(base: Bsdf, color: SampledSpectrum, roughness: f32) -> Bsdf {
     match base {
         Bsdf::MetallicRoughness(b) => Bsdf::MetallicRoughness(MetallicRoughnessBsdf {
@@ -129,7 +130,9 @@ fn sheened(base: Bsdf, color: SampledSpectrum, roughness: f32) -> Bsdf {
                 color,
                 scale: color.max_component(),
                 roughness,
-                model: if b.energy_compensation {
+                model: if b.principled_v1 {
+                    prism::bsdf::SheenModel::Disney
+                } else if b.energy_compensation {
                     prism::bsdf::SheenModel::Microfibre
                 } else {
                     prism::bsdf::SheenModel::Charlie
@@ -288,6 +291,18 @@ fn chi2_cases() -> Vec<Chi2Case> {
             [metallic, roughness, 1.0],
         );
     }
+    // Blender 3.x's Principled under its Disney sheen (cosine-weighted).
+    push(
+        "metallic_roughness",
+        "sheened principled-v1 metallic_roughness(metallic, roughness, specular)",
+        Target::Bsdf(sheened(
+            principled_v1(color(), 0.3, 0.5, 1.0),
+            SampledSpectrum([0.9, 0.6, 0.8, 0.7]),
+            0.5,
+        )),
+        wo_at(0.3),
+        [0.3, 0.5, 1.0],
+    );
     // Blender 3.x's Principled (Burley's diffuse, Cycles 3.x's Fresnel, added layers).
     for (metallic, roughness) in [(0.0, 0.5), (0.3, 0.9), (1.0, 0.3)] {
         push(
@@ -1474,6 +1489,21 @@ fn principled_v1_is_burleys_diffuse_plus_cycles_3x_fresnel() {
         (spec - want).abs() < 1e-3 * want,
         "specular at normal incidence {spec} vs {want}"
     );
+    // The Disney sheen adds colour x (1 - wi.h)^5 (not over pi) to the undimmed base, on the
+    // dielectric part only (1 - metallic).
+    let wo = Vec3::new(0.8, 0.0, 0.6);
+    let wi = Vec3::new(-0.6, 0.0, 0.8);
+    let cos_d = wi.dot((wo + wi).normalize());
+    for metallic in [0.0f32, 0.25] {
+        let plain = principled_v1(base, metallic, 0.5, 1.0);
+        let sheen = sheened(plain, SampledSpectrum::splat(0.8), 0.5);
+        let added = sheen.eval(wo, wi)[0] - plain.eval(wo, wi)[0];
+        let want = 0.8 * (1.0 - cos_d).powi(5) * (1.0 - metallic);
+        assert!(
+            (added - want).abs() < 1e-5,
+            "Disney sheen {added} vs {want}"
+        );
+    }
     // A metal's Fresnel reaches 1 at grazing: its grazing mirror-like reflection is white.
     let metal = principled_v1(SampledSpectrum::splat(0.2), 1.0, 0.05, 1.0);
     let wo = Vec3::new(0.999, 0.0, 0.0447).normalize();

@@ -348,6 +348,7 @@ def convert_material(mat):
         sss = _principled_subsurface(node, m)
         _principled_coat(node, m)
         _principled_sheen(node, m)
+        _principled_sheen_3x(node, m)
         m["specular_tint"] = _principled_specular_tint(node, m["base"])
         # Thin Film (4.2+): exact per wavelength in Prism, on the dielectric (not the metal).
         thickness = _val(node, "Thin Film Thickness", default=0.0)
@@ -480,7 +481,7 @@ def _principled_sheen(node, m):
     weight x tint, roughness) or None; written as KHR_materials_sheen with Blender's roughness,
     which the renderer's default material model renders with Cycles' microfibre sheen
     (src/bsdf/fibre_sheen.rs). Blender 3.x's Sheen (the Disney model's grazing tint, no
-    roughness) is not translated (warned)."""
+    roughness): `_principled_sheen_3x`."""
     if node.inputs.get("Sheen Weight") is None:
         return
     weight = float(_val(node, "Sheen Weight"))
@@ -494,6 +495,28 @@ def _principled_sheen(node, m):
     color = [min(max(weight * float(c), 0.0), 1.0) for c in tint]
     if max(color) > 0.0:
         m["sheen"] = (color, min(max(blender_roughness, 0.0), 1.0))
+
+
+def _principled_sheen_3x(node, m):
+    """Blender 3.x's Sheen on a Principled BSDF rendered as Cycles 3.x does (the Disney sheen of
+    "model": "principled_v1"): m["sheen"] = (Sheen x mix(1, base / luminance(base), Sheen Tint),
+    unused roughness), with Cycles 3.x's luminance 0.3 R + 0.6 G + 0.1 B of the Base Color's
+    value. A linked Sheen or Sheen Tint is warned about (`_principled_warnings`)."""
+    sock = node.inputs.get("Sheen")
+    if not m.get("principled_v1") or sock is None or sock.is_linked:
+        return
+    tint_sock = node.inputs.get("Sheen Tint")
+    if tint_sock is not None and tint_sock.is_linked:
+        return
+    sheen = max(float(sock.default_value), 0.0)
+    if not sheen > 0.0:
+        return
+    tint = min(max(float(tint_sock.default_value), 0.0), 1.0) if tint_sock is not None else 0.5
+    base = m["base"]
+    lum = 0.3 * base[0] + 0.6 * base[1] + 0.1 * base[2]
+    hue = [c / lum for c in base] if lum > 0.0 else [1.0, 1.0, 1.0]
+    m["sheen"] = ([min(sheen * ((1.0 - tint) + tint * c), 1.0) for c in hue], 0.5)
+    m["sheen_3x"] = True
 
 
 def _normal_map(node):
@@ -1192,6 +1215,8 @@ class Exporter:
             if colour is not None:
                 gb.inputs["subsurface_color"] = colour
                 handled.add(_subsurface_colour_socket(node))
+            if m.get("sheen_3x"):
+                handled.add("Sheen")  # translated (Blender 3.x's Disney sheen)
             self._principled_warnings(name, node, handled)
         elif t in {"BSDF_DIFFUSE", "BSDF_GLOSSY", "BSDF_ANISOTROPIC", "BSDF_GLASS"}:
             if bind("base_color", S("Color")):
@@ -1542,13 +1567,14 @@ class Exporter:
         # Inputs the exporter translates from their values (subsurface, IOR) are handled when unlinked.
         self._linked_warnings(name, node, handled)
         checks = [
-            # Blender 3.x's Sheen (the Disney model): 4.x's Sheen Weight is exported.
+            # Blender 3.x's Sheen (the Disney model): translated on a Principled BSDF on the
+            # output (`_principled_sheen_3x`), not inside Mix / Add Shaders.
             ("Sheen", lambda v: v > 0.0, "Sheen (Blender 3.x's model)"),
             ("Anisotropic", lambda v: v > 0.0, "Anisotropic"),
         ]
         for sock_name, bad, what in checks:
             sock = node.inputs.get(sock_name)
-            if sock is None or sock.is_linked:
+            if sock is None or sock.is_linked or sock_name in handled:
                 continue
             try:
                 if bad(float(sock.default_value)):

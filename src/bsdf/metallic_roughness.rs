@@ -62,7 +62,7 @@ use super::energy::{
 use super::fresnel::{fresnel_dielectric, reflect, schlick_weight};
 use super::microfacet::TrowbridgeReitz;
 use super::FilmAverages;
-use super::{BsdfSample, LobeFlags, MetallicRoughnessBsdf};
+use super::{BsdfSample, LobeFlags, MetallicRoughnessBsdf, SheenModel};
 use crate::math::sampling::{cosine_hemisphere_pdf, sample_cosine_hemisphere};
 use crate::math::{sqr, INV_PI, PI};
 use crate::spectrum::SampledSpectrum;
@@ -328,13 +328,24 @@ impl MetallicRoughnessBsdf {
         }
     }
 
+    /// The share of the sheen on this BSDF: Blender 3.x's (Disney) sheen covers the dielectric
+    /// part only, the layered sheens everything.
+    #[inline]
+    fn sheen_share(&self) -> f32 {
+        if self.sheen.model == SheenModel::Disney {
+            1.0 - self.metallic()
+        } else {
+            1.0
+        }
+    }
+
     /// Probability of sampling the sheen lobe at `cos_o` (the layers below get the rest): its
     /// albedo against `below_total`, the estimated albedo of the layers below, dimmed by it.
     fn sheen_probability(&self, cos_o: f32, below_total: f32) -> f32 {
         if !self.sheen.is_present() {
             return 0.0;
         }
-        let w_sheen = self.sheen.albedo_estimate(cos_o);
+        let w_sheen = self.sheen.albedo_estimate(cos_o) * self.sheen_share();
         let below = below_total.max(0.0) * self.sheen.below(cos_o, cos_o);
         let total = w_sheen + below;
         if !(total > 0.0) || !total.is_finite() {
@@ -593,7 +604,7 @@ impl MetallicRoughnessBsdf {
             pdf += p_coat * self.coat.pdf(wo, h);
         }
         if self.sheen.is_present() {
-            f = f * self.sheen.below(wo.z, wi.z) + self.sheen.eval(wo, wi);
+            f = f * self.sheen.below(wo.z, wi.z) + self.sheen.eval(wo, wi) * self.sheen_share();
             pdf = (1.0 - p_sheen) * pdf + p_sheen * self.sheen.pdf(wo, wi);
         }
         if !f.is_finite() || !pdf.is_finite() {

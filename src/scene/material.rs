@@ -159,7 +159,7 @@ impl Material {
             sheen: MaterialSheen::new(
                 g.sheen_color,
                 g.sheen_roughness,
-                sheen_model(desc.gltf_brdf),
+                sheen_model(desc.gltf_brdf, desc.principled_v1),
             ),
             emission,
             spread: Spread::new(g.emission_spread),
@@ -840,14 +840,21 @@ impl Material {
         if let Some(v) = roughness_in {
             roughness = v.x;
         }
-        MaterialSheen::new(rgb, roughness, sheen_model(!self.energy_compensation))
-            .map_or(Sheen::NONE, |s| s.sample(w))
+        MaterialSheen::new(
+            rgb,
+            roughness,
+            sheen_model(!self.energy_compensation, self.principled_v1),
+        )
+        .map_or(Sheen::NONE, |s| s.sample(w))
     }
 }
 
-/// The sheen lobe of a material: Cycles' microfibre sheen unless it asks for the glTF BRDF.
-fn sheen_model(gltf_brdf: bool) -> SheenModel {
-    if gltf_brdf {
+/// The sheen lobe of a material: Cycles' microfibre sheen, Blender 3.x's Disney sheen for its
+/// Principled BSDF, the Charlie lobe for the glTF BRDF.
+fn sheen_model(gltf_brdf: bool, principled_v1: bool) -> SheenModel {
+    if principled_v1 {
+        SheenModel::Disney
+    } else if gltf_brdf {
         SheenModel::Charlie
     } else {
         SheenModel::Microfibre
