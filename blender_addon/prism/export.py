@@ -1333,6 +1333,7 @@ class Exporter:
         first = True
         media = []  # (leaf, subsurface block): the material has one medium, the first leaf's
         normals = []  # (leaf, the graph value driving its Normal input, or None)
+        coat_normals = []  # (leaf, the graph value driving its linked Coat Normal)
 
         def subsurface_leaf(leaf, block, weight, sock_name):
             if block is None:
@@ -1356,6 +1357,9 @@ class Exporter:
             if t not in {"BSDF_TRANSPARENT", "EMISSION"} and leaf.inputs.get("Normal") is not None:
                 sock = leaf.inputs["Normal"]
                 normals.append((leaf, gb.value(sock, ()) if gb._live_link(sock) is not None else None))
+            coat_sock = leaf.inputs.get("Coat Normal", leaf.inputs.get("Clearcoat Normal")) if t == "BSDF_PRINCIPLED" else None
+            if coat_sock is not None and gb._live_link(coat_sock) is not None:
+                coat_normals.append((leaf, gb.value(coat_sock, ())))
             if t == "SUBSURFACE_SCATTERING":
                 subsurface_leaf(leaf, _sss_node_subsurface(leaf), weight, "Color")
                 for sock_name in ("Radius", "Scale", "IOR", "Roughness", "Anisotropy"):
@@ -1410,6 +1414,7 @@ class Exporter:
                                                         "Specular", "Transmission Weight", "Transmission",
                                                         "Emission Color", "Emission", "Emission Strength", "IOR",
                                                         "Normal", "Coat Weight", "Coat Roughness", "Coat Tint", "Coat IOR",
+                                                        "Coat Normal", "Clearcoat Normal",
                                                         "Clearcoat", "Clearcoat Roughness", "Sheen Weight",
                                                         "Sheen Tint", "Sheen Roughness", "Subsurface Weight",
                                                         "Subsurface", "Specular Tint", "Thin Film Thickness",
@@ -1468,6 +1473,16 @@ class Exporter:
                     self.warnings.append(
                         "material '%s': the Normal input of '%s' inside a Mix/Add Shader is not applied: the leaves"
                         " of the tree take their normals from different sources (Prism shades them all with one)"
+                        % (name, leaf.name))
+        # Likewise the coat's own normal (Coat Normal) of the coated Principled leaves.
+        if coat_normals:
+            if all(v == coat_normals[0][1] for _, v in coat_normals):
+                graph.setdefault("inputs", {})["coat_normal"] = coat_normals[0][1]
+            else:
+                for leaf, _ in coat_normals:
+                    self.warnings.append(
+                        "material '%s': the Coat Normal input of '%s' inside a Mix/Add Shader is not applied: the"
+                        " leaves take their coat normals from different sources (Prism shades them all with one)"
                         % (name, leaf.name))
         return graph
 
