@@ -336,10 +336,7 @@ def convert_material(mat):
         if node.inputs.get("Specular IOR Level") is not None:
             m["specular"] = 2.0 * _val(node, "Specular IOR Level")  # 4.x: 0.5 is neutral
         elif node.inputs.get("Specular") is not None:
-            # 3.x: F0 = 0.08 x Specular whatever the IOR (which only refracts): the factor on
-            # the IOR's own F0 that gives it.
-            ior = max(float(m["ior"]), 1.0 + 1e-3)
-            m["specular"] = 0.08 * _val(node, "Specular") / ((ior - 1.0) / (ior + 1.0)) ** 2
+            m["specular"] = _specular_3x_scale(m["ior"]) * _val(node, "Specular")
             # Cycles 3.x renders it as the Disney BRDF (material JSON "model": "principled_v1").
             m["principled_v1"] = True
             if getattr(node, "distribution", "GGX") != "GGX":
@@ -495,6 +492,14 @@ def _principled_sheen(node, m):
     color = [min(max(weight * float(c), 0.0), 1.0) for c in tint]
     if max(color) > 0.0:
         m["sheen"] = (color, min(max(blender_roughness, 0.0), 1.0))
+
+
+def _specular_3x_scale(ior):
+    """Blender 3.x's Specular is F0 / 0.08 whatever the IOR (which only refracts): the factor
+    on Specular that makes the IOR's own F0, ((ior - 1) / (ior + 1))^2, times the exported
+    specular factor equal 0.08 x Specular."""
+    ior = max(float(ior), 1.0 + 1e-3)
+    return 0.08 / ((ior - 1.0) / (ior + 1.0)) ** 2
 
 
 def _principled_sheen_3x(node, m):
@@ -1400,10 +1405,12 @@ class Exporter:
                 m["ior"] = float(_val(leaf, "IOR", default=1.45))
             elif t == "BSDF_PRINCIPLED":
                 spec = S("Specular IOR Level", "Specular")
-                inputs = {"base_color": V(S("Base Color"), [0.8, 0.8, 0.8]), "metallic": V(S("Metallic"), 0.0),
-                          "roughness": V(S("Roughness"), 0.5), "specular": math("multiply", V(spec, 0.5), 2.0),
-                          "transmission": V(S("Transmission Weight", "Transmission"), 0.0)}
                 m["ior"] = float(_val(leaf, "IOR", default=1.5))
+                # 4.x: 0.5 is neutral; 3.x: F0 = 0.08 x Specular whatever the IOR.
+                spec_scale = 2.0 if spec is None or spec.name != "Specular" else _specular_3x_scale(m["ior"])
+                inputs = {"base_color": V(S("Base Color"), [0.8, 0.8, 0.8]), "metallic": V(S("Metallic"), 0.0),
+                          "roughness": V(S("Roughness"), 0.5), "specular": math("multiply", V(spec, 0.5), spec_scale),
+                          "transmission": V(S("Transmission Weight", "Transmission"), 0.0)}
                 e_col, e_str = S("Emission Color", "Emission"), S("Emission Strength")
                 ev, sv = V(e_col, [0.0, 0.0, 0.0]), V(e_str, 1.0)
                 if isinstance(ev, dict) or isinstance(sv, dict) or (max(ev[:3]) > 0.0 and sv > 0.0):

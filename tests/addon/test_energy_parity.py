@@ -288,10 +288,22 @@ def test_clearcoat_3x_matches_cycles():
     nt.links.new(diffuse.outputs[0], mix.inputs[2])
     nt.links.new(mix.outputs[0], next(n for n in nt.nodes if n.type == "OUTPUT_MATERIAL").inputs["Surface"])
     next(o for o in bpy.data.objects if o.type == "MESH").data.materials[0] = mat
-    gltf, _mj, _w, _t = export.export_scene(bpy.context.evaluated_depsgraph_get(), tf.mkdtemp(dir=OUT))
+    gltf, mj, _w, _t = export.export_scene(bpy.context.evaluated_depsgraph_get(), tf.mkdtemp(dir=OUT))
     with open(gltf) as f:
         gm = next(m for m in json.load(f)["materials"] if m["name"] == "MixedClearcoat")
     C.check(gm.get("extras", {}).get("prism_coat_additive") is True, "a mixed 3.x Clearcoat is additive: %s" % gm)
+    # Its Principled leaf's F0 is 0.08 x Specular (0.04) whatever the IOR (3.x's default 1.45),
+    # as on the output: the leaf's specular factor times the material's IOR's own F0.
+    with open(mj) as f:
+        graph = json.load(f)["materials"]["MixedClearcoat"]["graph"]
+    ior = gm.get("extensions", {}).get("KHR_materials_ior", {}).get("ior", 1.5)
+    leaf = next(c for c in graph["closures"] if c["inputs"].get("metallic") is not None
+                and c["inputs"].get("transmission") is not None and "coat_weight" in c["inputs"])
+    spec = leaf["inputs"]["specular"]  # a constant (folded) or a multiply node
+    if isinstance(spec, dict):
+        spec = graph["nodes"][spec["node"]]["inputs"]["a"] * graph["nodes"][spec["node"]]["inputs"]["b"]
+    f0 = spec * ((ior - 1.0) / (ior + 1.0)) ** 2
+    C.check(abs(f0 - 0.04) < 1e-4, "the 3.x Principled leaf's F0 %.4f = 0.08 x Specular (IOR %.2f)" % (f0, ior))
 
 
 def test_specular_tint_matches_cycles():
