@@ -506,7 +506,8 @@ def _principled_sheen_3x(node, m):
     """Blender 3.x's Sheen on a Principled BSDF rendered as Cycles 3.x does (the Disney sheen of
     "model": "principled_v1"): m["sheen"] = (Sheen x mix(1, base / luminance(base), Sheen Tint),
     unused roughness), with Cycles 3.x's luminance 0.3 R + 0.6 G + 0.1 B of the Base Color's
-    value. A linked Sheen or Sheen Tint is warned about (`_principled_warnings`)."""
+    value (warned when Base Color is linked and the tint is not 0). A linked Sheen or Sheen Tint
+    is warned about (`_principled_warnings`)."""
     sock = node.inputs.get("Sheen")
     if not m.get("principled_v1") or sock is None or sock.is_linked:
         return
@@ -522,6 +523,10 @@ def _principled_sheen_3x(node, m):
     hue = [c / lum for c in base] if lum > 0.0 else [1.0, 1.0, 1.0]
     m["sheen"] = ([min(sheen * ((1.0 - tint) + tint * c), 1.0) for c in hue], 0.5)
     m["sheen_3x"] = True
+    base_sock = node.inputs.get("Base Color")
+    if tint > 0.0 and base_sock is not None and base_sock.is_linked:
+        m["sheen_3x_note"] = ("Principled BSDF '%s': Sheen Tint takes the hue of Base Color's value, not of its "
+                              "linked texture" % node.name)
 
 
 def _normal_map(node):
@@ -1470,28 +1475,26 @@ class Exporter:
             m["mixed_subsurface"] = dict(media[0][1], weight=1.0)
         graph = {"version": 1, "world_up": "z", "nodes": gb.nodes, "closures": closures}
         # The shading normal is the material's: exact when every scattering leaf takes its Normal
-        # from the same source (the usual Bump or Normal Map feeding all the shaders).
-        linked = [(leaf, v) for leaf, v in normals if v is not None]
-        if linked:
-            if len(linked) == len(normals) and all(v == linked[0][1] for _, v in linked):
-                graph["inputs"] = {"normal": linked[0][1]}
-            else:
-                for leaf, _ in linked:
-                    self.warnings.append(
-                        "material '%s': the Normal input of '%s' inside a Mix/Add Shader is not applied: the leaves"
-                        " of the tree take their normals from different sources (Prism shades them all with one)"
-                        % (name, leaf.name))
-        # Likewise the coat's own normal (Coat Normal) of the coated Principled leaves.
-        if coat_normals:
-            if all(v == coat_normals[0][1] for _, v in coat_normals):
-                graph.setdefault("inputs", {})["coat_normal"] = coat_normals[0][1]
-            else:
-                for leaf, _ in coat_normals:
-                    self.warnings.append(
-                        "material '%s': the Coat Normal input of '%s' inside a Mix/Add Shader is not applied: the"
-                        " leaves take their coat normals from different sources (Prism shades them all with one)"
-                        % (name, leaf.name))
+        # from the same source (the usual Bump or Normal Map feeding all the shaders); likewise
+        # the coat's own normal (Coat Normal) of the coated Principled leaves.
+        self._one_leaf_source(name, graph, "normal", "Normal", normals)
+        self._one_leaf_source(name, graph, "coat_normal", "Coat Normal", coat_normals)
         return graph
+
+    def _one_leaf_source(self, name, graph, input_name, socket_name, leaves):
+        """Binds the graph input `input_name` to the value the leaves' `socket_name` links carry
+        when every leaf in `leaves` [(leaf, value or None when unlinked)] takes it from the same
+        source; otherwise warns, naming each linked leaf (the material has one such input)."""
+        linked = [(leaf, v) for leaf, v in leaves if v is not None]
+        if not linked:
+            return
+        if len(linked) == len(leaves) and all(v == linked[0][1] for _, v in linked):
+            graph.setdefault("inputs", {})[input_name] = linked[0][1]
+            return
+        for leaf, _ in linked:
+            self.warnings.append(
+                "material '%s': the %s input of '%s' inside a Mix/Add Shader is not applied: the leaves of the tree"
+                " take it from different sources (Prism shades them all with one)" % (name, socket_name, leaf.name))
 
     @staticmethod
     def _subsurface_colour(gb, node, sock_name, block):
@@ -1626,8 +1629,9 @@ class Exporter:
         if volume is not None and surface is None:
             # Only a Volume shader: the surface does not scatter (Cycles makes it transparent).
             ok = True
-        if m.get("approximation"):
-            self.warnings.append("material '%s': %s" % (name, m["approximation"]))
+        for note in (m.get("approximation"), m.get("sheen_3x_note")):
+            if note:
+                self.warnings.append("material '%s': %s" % (name, note))
         if not ok:
             self.unsupported.append(name)
             node = _surface_node(mat)

@@ -32,6 +32,7 @@
 //! of mu_o and roughness in [0, 1], read bilinearly. `tests/bsdf_chi2.rs` checks the table's
 //! albedos against a fresh simulation of the layer and the lobe's sampling by chi-square.
 
+use crate::math::frame::Frame;
 use crate::math::sampling::sample_cosine_hemisphere;
 use crate::math::INV_PI;
 use crate::sampler::Pcg32;
@@ -318,7 +319,9 @@ fn projected_area(w: DVec3, s: f64) -> f64 {
 /// its silhouette disc, and the ellipsoid's normal there is `A^-1 p` for the sphere's point `p`.
 fn sample_visible_flake_normal(w: DVec3, s: f64, u1: f64, u2: f64) -> DVec3 {
     let d = DVec3::new(-w.x, -w.y, -w.z * s).normalize();
-    let (e1, e2) = orthonormal_pair(d);
+    // Any basis of the disc's plane does (f32 is ample for it).
+    let frame = Frame::from_normal(d.as_vec3());
+    let (e1, e2) = (frame.s.as_dvec3(), frame.t.as_dvec3());
     let r = u1.sqrt();
     let phi = 2.0 * std::f64::consts::PI * u2;
     let q = e1 * (r * phi.cos()) + e2 * (r * phi.sin());
@@ -326,26 +329,30 @@ fn sample_visible_flake_normal(w: DVec3, s: f64, u1: f64, u2: f64) -> DVec3 {
     DVec3::new(p.x, p.y, p.z * s).normalize()
 }
 
-fn orthonormal_pair(n: DVec3) -> (DVec3, DVec3) {
-    // Duff et al. 2017, "Building an Orthonormal Basis, Revisited".
-    let sign = 1f64.copysign(n.z);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    (
-        DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        DVec3::new(b, sign + n.y * n.y * a, -n.y),
-    )
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// The sampled flake normals face the viewer and follow the visible-normal density
-    /// `<w, m> D(m) / sigma(w)`: their mean cosine with the view matches a quadrature of it.
+    /// The sampled flake normals are unit vectors facing the viewer; for round flakes (s = 1,
+    /// a sphere) the visible normals' density is proportional to <w, m>, whose mean is 2/3.
     #[test]
     fn visible_normals_face_the_view() {
         let mut rng = Pcg32::new(3, 0, 0);
+        let w = DVec3::new(0.3, -0.5, 0.6).normalize();
+        let n = 200_000;
+        let mean = (0..n)
+            .map(|_| {
+                let m = sample_visible_flake_normal(
+                    w,
+                    1.0,
+                    f64::from(rng.next_1d()),
+                    f64::from(rng.next_1d()),
+                );
+                m.dot(w)
+            })
+            .sum::<f64>()
+            / f64::from(n);
+        assert!((mean - 2.0 / 3.0).abs() < 3e-3, "mean cosine {mean}");
         for s in [0.05, 0.5, 1.0] {
             for w in [
                 DVec3::Z,

@@ -186,6 +186,12 @@ impl MetallicRoughnessBsdf {
     /// conductor's with the film's over the metal's complex IOR.
     #[inline]
     fn fresnels(&self, cos: f32) -> (SampledSpectrum, SampledSpectrum) {
+        if self.principled_v1 {
+            // One Fresnel weight for both parts (Blender 3.x has no thin film).
+            let fh = self.v1_fresnel_weight(cos);
+            let rise = |f0: f32| f0 + (1.0 - f0) * fh;
+            return (self.dielectric_f0().map(rise), self.base_color.map(rise));
+        }
         (
             self.dielectric_fresnel(cos),
             self.filmed_conductor_fresnel(cos),
