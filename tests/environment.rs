@@ -126,7 +126,6 @@ fn environment_sampling_matches_its_pdf_chi_square() {
         let Some(ls) = lights.sample(
             &scene.geometry,
             &scene.materials,
-            &scene.textures,
             &ORIGIN,
             rng.next_f32(),
             u,
@@ -228,7 +227,6 @@ fn environment_samples_concentrate_on_the_bright_spot() {
         if let Some(ls) = lights.sample(
             &scene.geometry,
             &scene.materials,
-            &scene.textures,
             &ORIGIN,
             0.5,
             u,

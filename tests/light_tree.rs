@@ -240,7 +240,6 @@ fn a_hit_light_has_the_density_that_sampled_it() {
                 let Some(ls) = lights.sample(
                     &scene.geometry,
                     &scene.materials,
-                    &scene.textures,
                     &ctx,
                     u_select,
                     Vec2::new(rng.next_1d(), rng.next_1d()),

@@ -408,14 +408,14 @@ fn furnace_with_a_wild_normal_map_gains_no_energy() {
             })
             .collect();
         desc.meshes[0].uvs = Some(uvs);
-        desc.textures.push(TextureDesc {
-            name: "wild".into(),
-            width: n,
-            height: n,
-            texels: texels.clone(),
-            wrap_repeat: [true, true],
-            bilinear: false,
-        });
+        desc.textures.push(TextureDesc::new(
+            "wild".into(),
+            n,
+            n,
+            texels.clone(),
+            [prism::shading::image::Extension::Repeat; 2],
+            false,
+        ));
         let scene = Scene::build(desc).expect("scene builds");
         let settings = RenderSettings {
             width: 16,
@@ -600,7 +600,7 @@ fn normal_texture_fields_are_loaded() {
         nt.uv_transform
     );
     assert!(
-        s.textures[nt.texture].texels[0].x < 0.51,
+        s.textures[nt.texture].image.texels[0].x < 0.51,
         "linear, not sRGB-decoded"
     );
     assert!(s.meshes[0].tangents.is_some());

@@ -523,14 +523,23 @@ fn material_fields() {
     assert_eq!(mt.uv_transform, Mat3::IDENTITY);
     let srgb = &s.textures[bt.texture];
     let lin = &s.textures[mt.texture];
-    assert_eq!((srgb.width, srgb.height), (2, 1));
+    assert_eq!((srgb.image.width, srgb.image.height), (2, 1));
     let grey = prism::spectrum::rgb::srgb_to_linear(128.0 / 255.0);
-    assert!(approx(srgb.texels[0].x, grey), "{:?}", srgb.texels[0]);
-    assert!(approx(srgb.texels[0].w, 1.0));
-    assert!(approx(lin.texels[0].x, 128.0 / 255.0));
-    assert!(approx(lin.texels[1].y, 64.0 / 255.0));
+    assert!(
+        approx(srgb.image.texels[0].x, grey),
+        "{:?}",
+        srgb.image.texels[0]
+    );
+    assert!(approx(srgb.image.texels[0].w, 1.0));
+    assert!(approx(lin.image.texels[0].x, 128.0 / 255.0));
+    assert!(approx(lin.image.texels[1].y, 64.0 / 255.0));
     assert!(!srgb.bilinear, "magFilter NEAREST");
-    assert_eq!(srgb.wrap_repeat, [false, true], "wrapS clamp, wrapT repeat");
+    use prism::shading::image::Extension;
+    assert_eq!(
+        srgb.wrap,
+        [Extension::Extend, Extension::Repeat],
+        "wrapS clamp, wrapT repeat"
+    );
 
     let g = &s.materials[glass].gltf;
     assert_eq!(g.transmission, 1.0);
@@ -581,7 +590,7 @@ fn missing_image_file_is_magenta_with_a_warning() {
     let s = load(&path);
     assert_eq!(s.textures.len(), 1);
     assert_eq!(
-        s.textures[0].texels,
+        s.textures[0].image.texels,
         vec![glam::Vec4::new(1.0, 0.0, 1.0, 1.0)]
     );
     assert!(
@@ -598,7 +607,7 @@ fn missing_image_file_is_magenta_with_a_warning() {
     std::fs::write(dir.join("textures/albedo map.png"), b"not a png").unwrap();
     let s = load(&path);
     assert_eq!(
-        s.textures[0].texels,
+        s.textures[0].image.texels,
         vec![glam::Vec4::new(1.0, 0.0, 1.0, 1.0)]
     );
     assert!(
@@ -618,7 +627,7 @@ fn missing_image_file_is_magenta_with_a_warning() {
     .unwrap();
     let s = load(&path);
     assert_eq!(s.textures.len(), 1);
-    assert!(approx(s.textures[0].texels[0].x, 1.0));
+    assert!(approx(s.textures[0].image.texels[0].x, 1.0));
     // The quad has no TEXCOORD_0: one warning names it (the texture is read at uv (0, 0)).
     assert!(
         s.warnings

@@ -240,6 +240,54 @@ fn gltf_texture_on_texcoord_1() {
 }
 
 #[test]
+fn gltf_sampler_wraps_each_axis_mirrored_included() {
+    // glTF textures are graph nodes now: MIRRORED_REPEAT along u and CLAMP_TO_EDGE along v
+    // each apply on their own axis, after KHR_texture_transform, on the panel's TEXCOORD_1
+    // (its TEXCOORD_0 is all 0). The offset (0.5, 0.5) puts the view's UVs (about
+    // [0.17, 0.83] of the panel) at [0.67, 1.33]: texel column 1 and row 1 (white) on the
+    // near side of 1; past it, mirroring reads column 1 again (repeating would read blue /
+    // red) and clamping row 1 again (repeating would read green / red).
+    let dir = test_dir("gltf_mirrored_repeat");
+    let png = png_bytes(
+        2,
+        2,
+        &[
+            [255, 0, 0, 255],
+            [0, 255, 0, 255],
+            [0, 0, 255, 255],
+            [255, 255, 255, 255],
+        ],
+    );
+    let gltf = panel_scene_with(&dir, None, [1.0; 4], |b| {
+        let img = b.image_embedded(&png, "image/png");
+        let tex = b.texture(
+            img,
+            Some(json!({"magFilter": 9728, "minFilter": 9728, "wrapS": 33648, "wrapT": 33071})),
+        );
+        b.use_ext("KHR_materials_emissive_strength");
+        b.use_ext("KHR_texture_transform");
+        b.material(json!({"name": "Panel", "emissiveFactor": [1.0, 1.0, 1.0],
+            "emissiveTexture": {"index": tex, "texCoord": 1,
+                "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.5]}}},
+            "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0]},
+            "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2.0}}}))
+    });
+    let size = 32;
+    let (img, warnings) = render_file(&gltf, size, 16);
+    assert!(
+        !warnings.iter().any(|w| w.contains("MIRRORED")),
+        "{warnings:?}"
+    );
+    for (x, y) in [(6, 6), (22, 6), (6, 22), (22, 22)] {
+        let got = block(&img, size, x, y, 4);
+        assert!(
+            (got - Vec3::splat(2.0)).abs().max_element() < 0.06,
+            "pixels ({x}, {y}): {got}, want white"
+        );
+    }
+}
+
+#[test]
 fn vertex_colour_through_a_mix_node() {
     let dir = test_dir("graph_color_attribute");
     let gltf = panel_scene(

@@ -926,6 +926,19 @@ impl Geometry {
         wo: Vec3,
         camera_ray: bool,
     ) -> crate::shading::ShadingInputs {
+        self.surface_inputs(sp, wo, camera_ray, true)
+    }
+
+    /// As [`Geometry::shading_inputs`]; without `object_space` the object-space and
+    /// tangent-frame inputs keep their defaults (for graphs that do not read them,
+    /// `ShadingGraph::reads_object_space`).
+    pub fn surface_inputs(
+        &self,
+        sp: &SurfacePoint,
+        wo: Vec3,
+        camera_ray: bool,
+        object_space: bool,
+    ) -> crate::shading::ShadingInputs {
         use crate::shading::graph::blender_uv;
         let inst = &self.instances[sp.instance as usize];
         let mesh = &self.meshes[inst.mesh as usize];
@@ -955,6 +968,9 @@ impl Geometry {
         out.backfacing = backfacing;
         out.normal = sp.ns * flip;
         out.true_normal = sp.ng * flip;
+        if !object_space {
+            return out;
+        }
         (out.tangent, out.bitangent) = self.normal_map_frame(sp);
         let placement = inst.placement_at(sp.time);
         out.object = placement.world_to_object.transform_point3(sp.p);

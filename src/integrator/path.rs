@@ -315,7 +315,6 @@ impl<'a> PathTracer<'a> {
         let Some(ls) = scene.lights.sample(
             &scene.geometry,
             &scene.materials,
-            &scene.textures,
             ctx,
             u_light,
             u_light2,
@@ -382,14 +381,12 @@ impl<'a> PathTracer<'a> {
         if !m.has_alpha() {
             return None;
         }
-        let inputs = m
-            .has_graph()
-            .then(|| scene.geometry.shading_inputs(sp, -dir, camera_ray));
+        let inputs = m.graph_inputs(&scene.geometry, sp, -dir, camera_ray);
         if !m.has_tinted_transparency() {
-            let alpha = m.alpha(&scene.textures, sp.uv, inputs.as_ref());
+            let alpha = m.alpha(inputs.as_ref());
             return (sampler.next_1d() >= alpha).then_some(SampledSpectrum::ONE);
         }
-        let (alpha, pass) = m.transparency(&scene.textures, sp.uv, inputs.as_ref(), w);
+        let (alpha, pass) = m.transparency(inputs.as_ref(), w);
         // u >= alpha implies alpha < 1: the division is safe.
         (sampler.next_1d() >= alpha).then(|| pass / (1.0 - alpha))
     }
@@ -430,12 +427,8 @@ impl<'a> PathTracer<'a> {
                 } else if !m.has_alpha() {
                     return SampledSpectrum::ZERO;
                 } else {
-                    let inputs = m
-                        .has_graph()
-                        .then(|| geometry.shading_inputs(&sp, -ray.dir, false));
-                    t *= m
-                        .transparency(&self.scene.textures, sp.uv, inputs.as_ref(), w)
-                        .1;
+                    let inputs = m.graph_inputs(geometry, &sp, -ray.dir, false);
+                    t *= m.transparency(inputs.as_ref(), w).1;
                 }
                 if t.is_black() {
                     return SampledSpectrum::ZERO;
@@ -809,9 +802,7 @@ impl<'a> PathTracer<'a> {
             let mut coat_normal = material.coat_normal_map(geometry, &scene.textures, &sp);
             material.apply_normal_map(geometry, &scene.textures, &mut sp, Some(wo_world));
             // What a shading graph reads here (only gathered for materials that have one).
-            let mut graph_inputs = material
-                .has_graph()
-                .then(|| geometry.shading_inputs(&sp, wo_world, depth == 0));
+            let mut graph_inputs = material.graph_inputs(geometry, &sp, wo_world, depth == 0);
             let graph_normals = material.has_graph_normal() || material.has_graph_coat_normal();
             if let Some(inputs) = graph_inputs.filter(|_| graph_normals) {
                 // Bump offsets of about a pixel's footprint at the camera (the height's
@@ -823,19 +814,13 @@ impl<'a> PathTracer<'a> {
                 }
                 if let Some(n) = material.graph_normal(&inputs, &bump) {
                     geometry.apply_world_normal(&mut sp, n, None);
-                    graph_inputs = Some(geometry.shading_inputs(&sp, wo_world, depth == 0));
+                    graph_inputs = material.graph_inputs(geometry, &sp, wo_world, depth == 0);
                 }
             }
 
             if material.is_emissive() {
                 let cos_light = sp.ng.dot(wo_world);
-                let le = material.emitted(
-                    &scene.textures,
-                    sp.uv,
-                    graph_inputs.as_ref(),
-                    cos_light,
-                    &alive,
-                );
+                let le = material.emitted(graph_inputs.as_ref(), cos_light, &alive);
                 let seen = last_lobe.is_none_or(|fl| {
                     geometry.instances[hit.instance as usize]
                         .light_visibility
@@ -868,8 +853,6 @@ impl<'a> PathTracer<'a> {
             }
 
             let (bsdf, subsurface) = material.scattering(
-                &scene.textures,
-                sp.uv,
                 graph_inputs.as_ref(),
                 &alive,
                 sampler.material_component(),
@@ -946,7 +929,6 @@ impl<'a> PathTracer<'a> {
                 if let Some(ls) = lights.sample(
                     geometry,
                     &scene.materials,
-                    &scene.textures,
                     &ctx,
                     u_light,
                     u_light2,

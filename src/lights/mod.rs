@@ -26,11 +26,11 @@ pub mod tree;
 
 use crate::geometry::Geometry;
 use crate::math::{sampling, DiscreteDistribution, Frame, PI};
-use crate::scene::desc::{PunctualKind, PunctualLightDesc, RayVisibility, TextureDesc};
+use crate::scene::desc::{PunctualKind, PunctualLightDesc, RayVisibility};
 use crate::scene::material::Material;
 use crate::spectrum::{RgbIlluminantSpectrum, SampledSpectrum, SampledWavelengths};
 use envmap::EnvironmentMap;
-use glam::{Vec2, Vec3, Vec4Swizzles};
+use glam::{Vec2, Vec3};
 pub use round::RoundEmitter;
 pub use tree::{LightBounds, LightTree, ShadingContext};
 
@@ -207,13 +207,6 @@ pub struct Lights {
 
 use crate::spectrum::rgb::luminance;
 
-fn mean_texture_rgb(tex: &TextureDesc) -> Vec3 {
-    if tex.texels.is_empty() {
-        return Vec3::ONE;
-    }
-    tex.texels.iter().map(|t| t.xyz()).sum::<Vec3>() / tex.texels.len() as f32
-}
-
 /// A spot light's cone.
 #[derive(Clone, Copy, Debug)]
 pub struct SpotCone {
@@ -250,7 +243,6 @@ impl Lights {
     pub fn build(
         geometry: &Geometry,
         materials: &[Material],
-        textures: &[TextureDesc],
         punctual: &[PunctualLightDesc],
         world: World,
     ) -> Self {
@@ -273,10 +265,7 @@ impl Lights {
             if !mat.is_emissive() {
                 continue;
             }
-            let mut rgb = mat.emissive_rgb();
-            if let Some(t) = mat.emissive_texture() {
-                rgb *= textures.get(t.texture).map_or(Vec3::ONE, mean_texture_rgb);
-            }
+            let rgb = mat.emissive_rgb();
             let graph_emission = mat.has_graph();
             let two_sided = mat.double_sided();
             let sides = if two_sided { 2.0 } else { 1.0 };
@@ -288,7 +277,7 @@ impl Lights {
                 // triangle (the estimate only steers light selection; the pdf stays exact).
                 let rgb = if graph_emission {
                     let inputs = geometry.shading_inputs(&sp, sp.ng, false);
-                    mat.emitted_rgb_at(textures, sp.uv, &inputs)
+                    mat.emitted_rgb_at(&inputs)
                 } else {
                     rgb
                 };
@@ -778,7 +767,6 @@ impl Lights {
         &self,
         geometry: &Geometry,
         materials: &[Material],
-        textures: &[TextureDesc],
         ctx: &ShadingContext,
         u_select: f32,
         u: Vec2,
@@ -806,10 +794,8 @@ impl Lights {
                 let wi = d / dist;
                 let cos_light = sp.ng.dot(-wi);
                 let mat = &materials[sp.material as usize];
-                let inputs = mat
-                    .has_graph()
-                    .then(|| geometry.shading_inputs(&sp, -wi, false));
-                let le = mat.emitted(textures, sp.uv, inputs.as_ref(), cos_light, w);
+                let inputs = mat.graph_inputs(geometry, &sp, -wi, false);
+                let le = mat.emitted(inputs.as_ref(), cos_light, w);
                 if le.is_black() || cos_light.abs() < 1e-7 {
                     return None;
                 }

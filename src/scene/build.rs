@@ -278,14 +278,21 @@ fn build_shading(
     shading: &ShadingDescs,
     textures: &[TextureDesc],
 ) -> Result<(Vec<Material>, Lights)> {
-    let mut materials: Vec<Material> = shading.materials.iter().map(Material::new).collect();
-    materials.push(Material::new(&MaterialDesc {
-        gltf: super::desc::GltfMaterialDesc {
-            name: "(glTF default)".into(),
+    let mut materials: Vec<Material> = shading
+        .materials
+        .iter()
+        .map(|m| Material::new(m, textures))
+        .collect();
+    materials.push(Material::new(
+        &MaterialDesc {
+            gltf: super::desc::GltfMaterialDesc {
+                name: "(glTF default)".into(),
+                ..Default::default()
+            },
             ..Default::default()
         },
-        ..Default::default()
-    }));
+        textures,
+    ));
     estimate_density_bounds(geometry, &mut materials);
     let world = &shading.world;
     let tint = if world.strength > 0.0 {
@@ -315,7 +322,7 @@ fn build_shading(
         Some(_) => World::Black,
         None => World::Uniform(tint),
     };
-    let lights = Lights::build(geometry, &materials, textures, &shading.lights, world_light);
+    let lights = Lights::build(geometry, &materials, &shading.lights, world_light);
     Ok((materials, lights))
 }
 

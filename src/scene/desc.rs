@@ -56,23 +56,52 @@ pub enum ColorSpace {
     Linear,
 }
 
-/// A decoded image, linear values, row 0 = top of the image (glTF UV (0,0) is the top-left).
+/// A glTF texture: a decoded image (linear values, row 0 = top) and its sampler.
 #[derive(Clone, Debug)]
 pub struct TextureDesc {
-    pub name: String,
-    pub width: u32,
-    pub height: u32,
-    pub texels: Vec<Vec4>,
-    /// Repeat (true) or clamp (false) per axis, from the glTF sampler.
-    pub wrap_repeat: [bool; 2],
+    pub image: std::sync::Arc<crate::shading::image::Image>,
+    /// The sampler's wrapS and wrapT (REPEAT, CLAMP_TO_EDGE = Extend, MIRRORED_REPEAT).
+    pub wrap: [crate::shading::image::Extension; 2],
     /// Nearest-neighbour (false) or bilinear (true) magnification.
     pub bilinear: bool,
+}
+
+impl TextureDesc {
+    /// Linear texels, row 0 = top, under the sampler `wrap` / `bilinear`.
+    pub fn new(
+        name: String,
+        width: u32,
+        height: u32,
+        texels: Vec<Vec4>,
+        wrap: [crate::shading::image::Extension; 2],
+        bilinear: bool,
+    ) -> Self {
+        TextureDesc {
+            image: std::sync::Arc::new(crate::shading::image::Image {
+                name,
+                width,
+                height,
+                texels,
+                srgb_encoded: false,
+            }),
+            wrap,
+            bilinear,
+        }
+    }
+
+    pub fn interpolation(&self) -> crate::shading::image::Interpolation {
+        if self.bilinear {
+            crate::shading::image::Interpolation::Linear
+        } else {
+            crate::shading::image::Interpolation::Closest
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug)]
 pub struct TextureRef {
     pub texture: usize,
-    /// Which TEXCOORD_n set; only 0 is loaded, others fall back to 0 with a warning.
+    /// Which TEXCOORD_n set (0 to `shading::MAX_ATTRIBUTE_SETS - 1`).
     pub tex_coord: u32,
     /// KHR_texture_transform as a 3x3 (affine, column-major) UV matrix.
     pub uv_transform: glam::Mat3,

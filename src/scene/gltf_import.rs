@@ -30,6 +30,7 @@ use crate::scene::desc::*;
 use crate::scene::gltf_json::{prepare, TextureSource};
 use crate::scene::materials_json::io_msg;
 use crate::scene::texture::{decode_image, parse_data_uri, percent_decode, to_linear_texels};
+use crate::shading::image::Extension;
 
 /// Luminous efficacy used by Blender's glTF I/O to convert between watts and lumens
 /// (`PBR_WATTS_TO_LUMENS = 683` in glTF-Blender-IO `io_scene_gltf2/blender/com/conversion.py`).
@@ -352,7 +353,7 @@ struct Importer<'d> {
     mesh_cache: HashMap<(usize, usize, Vec<u32>), Option<usize>>,
     image_cache: HashMap<usize, crate::scene::texture::DecodedImage>,
     /// (image, colour space is sRGB, wrap s, wrap t, bilinear) -> texture index.
-    texture_cache: HashMap<(usize, bool, bool, bool, bool), usize>,
+    texture_cache: HashMap<(usize, bool, Extension, Extension, bool), usize>,
     /// By texture index: the image it reads, or why it reads none.
     texture_sources: Vec<TextureSource>,
     /// KHR_lights_punctual lights of types this renderer does not know: (index, type).
@@ -2468,8 +2469,8 @@ impl<'d> Importer<'d> {
             }
             uv_transform = texture_transform_matrix(o, r, s);
         }
-        // Base colour, metallic-roughness and emissive slots read any set up to TEXCOORD_3
-        // (`Material::lookup_at`); normal maps take their tangent frame from TEXCOORD_0.
+        // Every slot but the normal maps reads its own set up to TEXCOORD_3 (its UV Map node,
+        // `scene::gltf_graph`); normal maps take their tangent frame from TEXCOORD_0.
         let readable =
             slot != "normalTexture" && (tex_coord as usize) < crate::shading::MAX_ATTRIBUTE_SETS;
         if tex_coord != 0 && !readable {
@@ -2478,17 +2479,13 @@ impl<'d> Importer<'d> {
             ));
         }
         let sampler = texture.sampler();
-        let repeat = |w: gltf::texture::WrappingMode| -> bool {
-            !matches!(w, gltf::texture::WrappingMode::ClampToEdge)
+        let wrap = |w: gltf::texture::WrappingMode| -> Extension {
+            match w {
+                gltf::texture::WrappingMode::ClampToEdge => Extension::Extend,
+                gltf::texture::WrappingMode::MirroredRepeat => Extension::Mirror,
+                gltf::texture::WrappingMode::Repeat => Extension::Repeat,
+            }
         };
-        let (ws, wt) = (sampler.wrap_s(), sampler.wrap_t());
-        if matches!(ws, gltf::texture::WrappingMode::MirroredRepeat)
-            || matches!(wt, gltf::texture::WrappingMode::MirroredRepeat)
-        {
-            self.warn_once(format!(
-                "{label}: {slot}: MIRRORED_REPEAT wrapping is treated as REPEAT"
-            ));
-        }
         let bilinear = !matches!(
             sampler.mag_filter(),
             Some(gltf::texture::MagFilter::Nearest)
@@ -2496,8 +2493,8 @@ impl<'d> Importer<'d> {
         let key = (
             image,
             space == ColorSpace::Srgb,
-            repeat(ws),
-            repeat(wt),
+            wrap(sampler.wrap_s()),
+            wrap(sampler.wrap_t()),
             bilinear,
         );
         let index = match self.texture_cache.get(&key) {
@@ -2512,14 +2509,14 @@ impl<'d> Importer<'d> {
                     .clone()
                     .or_else(|| img_json.uri.clone().filter(|u| !u.starts_with("data:")))
                     .unwrap_or_else(|| format!("image {image}"));
-                self.scene.textures.push(TextureDesc {
-                    name: tname,
+                self.scene.textures.push(TextureDesc::new(
+                    tname,
                     width,
                     height,
                     texels,
-                    wrap_repeat: [key.2, key.3],
+                    [key.2, key.3],
                     bilinear,
-                });
+                ));
                 let i = self.scene.textures.len() - 1;
                 self.texture_cache.insert(key, i);
                 i

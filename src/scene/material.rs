@@ -4,7 +4,7 @@
 use super::desc::{
     GltfMaterialDesc, IorDesc, MaterialDesc, MaterialOverride, TextureDesc, TextureRef,
 };
-use super::texture::sample_texture;
+use super::gltf_graph;
 use crate::bsdf::{
     Bsdf, Coat, DielectricBsdf, DiffuseBsdf, Iridescence, MetallicRoughnessBsdf, Sheen, SheenModel,
     ThinFilm, TranslucentBsdf,
@@ -72,10 +72,9 @@ pub struct Material {
     interior: Option<Medium>,
     /// The surface does not scatter (`MaterialDesc::null_surface`).
     null_surface: bool,
-    /// A shading graph driving some inputs (they replace the glTF factors and textures).
+    /// The shading graph driving the inputs that are not constants: the sidecar's, with the
+    /// glTF texture slots bound where it leaves inputs free (`scene::gltf_graph`).
     graph: Option<Arc<ShadingGraph>>,
-    /// A glTF texture slot reads TEXCOORD_1 or above (from `ShadingInputs`).
-    uses_uv_sets: bool,
 }
 
 /// Smallest GGX alpha treated as rough; below it lobes are taken as perfectly specular.
@@ -93,7 +92,8 @@ pub fn eval_ior(ior: &IorDesc, lambda_nm: f32) -> f32 {
 }
 
 impl Material {
-    pub fn new(desc: &MaterialDesc) -> Self {
+    /// The runtime material of `desc`, whose texture slots index `textures`.
+    pub fn new(desc: &MaterialDesc, textures: &[TextureDesc]) -> Self {
         let g = &desc.gltf;
         let model = match &desc.sidecar {
             None => SurfaceModel::Gltf,
@@ -167,19 +167,7 @@ impl Material {
             null_surface: desc.null_surface && desc.volume.is_some(),
             energy_compensation: !desc.gltf_brdf,
             principled_v1: desc.principled_v1,
-            graph: desc.graph.clone(),
-            uses_uv_sets: [
-                g.base_color_texture,
-                g.metallic_roughness_texture,
-                g.emissive_texture,
-                g.coat_texture,
-                g.coat_roughness_texture,
-                g.sheen_color_texture,
-                g.sheen_roughness_texture,
-            ]
-            .iter()
-            .flatten()
-            .any(|t| t.tex_coord > 0),
+            graph: material_graph(desc, textures),
         }
     }
 
@@ -206,8 +194,6 @@ impl Material {
     /// colour(s) upsampled as a reflectance.
     pub fn transparency(
         &self,
-        textures: &[TextureDesc],
-        uv: Vec2,
         inputs: Option<&ShadingInputs>,
         w: &SampledWavelengths,
     ) -> (f32, SampledSpectrum) {
@@ -217,12 +203,13 @@ impl Material {
                 return (alpha, RgbAlbedoSpectrum::new(pass).sample(w));
             }
         }
-        let alpha = self.alpha(textures, uv, inputs);
+        let alpha = self.alpha(inputs);
         (alpha, SampledSpectrum::splat(1.0 - alpha))
     }
 
-    /// Coverage in [0, 1] at a surface point (1 = opaque). A graph's alpha replaces glTF's.
-    pub fn alpha(&self, textures: &[TextureDesc], uv: Vec2, inputs: Option<&ShadingInputs>) -> f32 {
+    /// Coverage in [0, 1] at a surface point (1 = opaque): the graph's (a textured glTF
+    /// alpha is bound there too), else glTF's constant factor under its alpha mode.
+    pub fn alpha(&self, inputs: Option<&ShadingInputs>) -> f32 {
         use crate::scene::desc::AlphaMode;
         if let (Some(g), Some(inputs)) = (&self.graph, inputs) {
             if g.has_alpha() {
@@ -232,11 +219,7 @@ impl Material {
         let g = &self.gltf;
         let a = match g.alpha_mode {
             AlphaMode::Opaque => return 1.0,
-            _ => {
-                g.base_color.w
-                    * g.base_color_texture
-                        .map_or(1.0, |t| lookup_at(textures, &t, uv, inputs).w)
-            }
+            _ => g.base_color.w,
         };
         match g.alpha_mode {
             AlphaMode::Mask => {
@@ -280,33 +263,37 @@ impl Material {
         Some(if inputs.backfacing { -n } else { n })
     }
 
-    /// The material reads [`ShadingInputs`] (a shading graph, or glTF textures on TEXCOORD_1
-    /// and above): the integrator then gathers them.
+    /// The material reads [`ShadingInputs`] (a shading graph, glTF textures included): the
+    /// integrator then gathers them.
     pub fn has_graph(&self) -> bool {
-        self.graph.is_some() || self.uses_uv_sets
+        self.graph.is_some()
+    }
+
+    /// What the material's graph reads at `sp` seen from `wo` (None without a graph): only
+    /// the inputs it uses are gathered.
+    pub fn graph_inputs(
+        &self,
+        geometry: &Geometry,
+        sp: &SurfacePoint,
+        wo: Vec3,
+        camera_ray: bool,
+    ) -> Option<ShadingInputs> {
+        let graph = self.graph.as_ref()?;
+        Some(geometry.surface_inputs(sp, wo, camera_ray, graph.reads_object_space()))
     }
 
     /// Linear RGB emitted radiance at a surface point (front side), for light power estimates.
-    pub fn emitted_rgb_at(
-        &self,
-        textures: &[TextureDesc],
-        uv: Vec2,
-        inputs: &ShadingInputs,
-    ) -> Vec3 {
-        let texture_rgb = || match self.gltf.emissive_texture {
-            None => self.gltf.emissive,
-            Some(t) => self.gltf.emissive * lookup_at(textures, &t, uv, Some(inputs)).xyz(),
-        };
+    pub fn emitted_rgb_at(&self, inputs: &ShadingInputs) -> Vec3 {
         match &self.graph {
             Some(g) if g.has_closures() => g.mixed_emission(inputs),
             Some(g) if g.drives_emission() => {
                 let v = g.evaluate(inputs, true);
                 let color =
-                    v[MaterialInput::Emission.index()].map_or_else(texture_rgb, |c| c.xyz());
+                    v[MaterialInput::Emission.index()].map_or(self.gltf.emissive, |c| c.xyz());
                 let strength = v[MaterialInput::EmissionStrength.index()].map_or(1.0, |s| s.x);
                 (color * strength).max(Vec3::ZERO)
             }
-            _ => texture_rgb(),
+            _ => self.gltf.emissive,
         }
     }
 
@@ -331,13 +318,9 @@ impl Material {
         }
     }
 
-    /// Linear RGB emitted radiance factor (before texture), for light power estimates.
+    /// Linear RGB emitted radiance where no graph drives it, for light power estimates.
     pub fn emissive_rgb(&self) -> Vec3 {
         self.gltf.emissive
-    }
-
-    pub fn emissive_texture(&self) -> Option<TextureRef> {
-        self.gltf.emissive_texture
     }
 
     /// Light leaves the back face too (glTF doubleSided; Blender writes it for every material
@@ -365,8 +348,6 @@ impl Material {
     /// `inputs`: the shading graph's inputs at the point (needed when [`Material::has_graph`]).
     pub fn emitted(
         &self,
-        textures: &[TextureDesc],
-        uv: Vec2,
         inputs: Option<&ShadingInputs>,
         cos_emit: f32,
         w: &SampledWavelengths,
@@ -375,8 +356,8 @@ impl Material {
             return SampledSpectrum::ZERO;
         }
         match &self.spread {
-            None => self.emitted_lambertian(textures, uv, inputs, w),
-            Some(s) => self.emitted_lambertian(textures, uv, inputs, w) * s.attenuation(cos_emit),
+            None => self.emitted_lambertian(inputs, w),
+            Some(s) => self.emitted_lambertian(inputs, w) * s.attenuation(cos_emit),
         }
     }
 
@@ -388,27 +369,18 @@ impl Material {
 
     fn emitted_lambertian(
         &self,
-        textures: &[TextureDesc],
-        uv: Vec2,
         inputs: Option<&ShadingInputs>,
         w: &SampledWavelengths,
     ) -> SampledSpectrum {
         if let (Some(g), Some(inputs)) = (&self.graph, inputs) {
             if g.drives_emission() {
-                let rgb = self.emitted_rgb_at(textures, uv, inputs);
+                let rgb = self.emitted_rgb_at(inputs);
                 return RgbIlluminantSpectrum::new(rgb).sample(w);
             }
         }
-        let Some(e) = &self.emission else {
-            return SampledSpectrum::ZERO;
-        };
-        match self.gltf.emissive_texture {
-            None => e.sample(w),
-            Some(t) => {
-                let rgb = self.gltf.emissive * lookup_at(textures, &t, uv, inputs).xyz();
-                RgbIlluminantSpectrum::new(rgb).sample(w)
-            }
-        }
+        self.emission
+            .as_ref()
+            .map_or(SampledSpectrum::ZERO, |e| e.sample(w))
     }
 
     /// Whether the material has a normal map (the integrator then calls
@@ -474,25 +446,10 @@ impl Material {
         }
     }
 
-    /// The thin film at a shading point: the factor times `iridescenceTexture` (R), the
-    /// thickness mix(minimum, maximum, G) of `iridescenceThicknessTexture` where there is one.
-    fn iridescence(
-        &self,
-        textures: &[TextureDesc],
-        uv: Vec2,
-        inputs: Option<&ShadingInputs>,
-        w: &SampledWavelengths,
-    ) -> Option<Iridescence> {
-        let (mut film, mut weight) = self.thin_film?;
-        let g = &self.gltf;
-        if let Some(t) = g.iridescence_texture {
-            weight *= lookup_at(textures, &t, uv, inputs).x;
-        }
-        if let Some(t) = g.iridescence_thickness_texture {
-            let f = lookup_at(textures, &t, uv, inputs).y.clamp(0.0, 1.0);
-            film.thickness_nm = g.iridescence_thickness_min
-                + (g.iridescence_thickness - g.iridescence_thickness_min) * f;
-        }
+    /// The material's constant thin film (KHR_materials_iridescence's factors; textured
+    /// ones are the graph's `thin_film_*` inputs).
+    fn iridescence(&self, w: &SampledWavelengths) -> Option<Iridescence> {
+        let (film, weight) = self.thin_film?;
         (weight > 0.0).then(|| Iridescence {
             film,
             weight,
@@ -518,8 +475,6 @@ impl Material {
     /// where only the medium's boundary makes sense.
     pub fn scattering(
         &self,
-        textures: &[TextureDesc],
-        uv: Vec2,
         inputs: Option<&ShadingInputs>,
         w: &SampledWavelengths,
         u_select: f32,
@@ -527,22 +482,17 @@ impl Material {
     ) -> (Bsdf, Option<SubsurfaceAt<'_>>) {
         if let SurfaceModel::Subsurface { medium, weight, .. } = &self.model {
             if inside_medium {
-                return (
-                    self.bsdf(textures, uv, inputs, w, u_select),
-                    Some(medium.at(None)),
-                );
+                return (self.bsdf(inputs, w, u_select), Some(medium.at(None)));
             }
             if let (Some(graph), Some(ctx)) = (&self.graph, inputs) {
                 if graph.has_subsurface_closure() {
                     return match graph.pick_closure(ctx, u_select) {
-                        Some((ClosurePick::Subsurface(colour), u)) => (
-                            self.bsdf(textures, uv, inputs, w, u),
-                            Some(medium.at(colour)),
-                        ),
-                        Some((ClosurePick::Bsdf(values), u)) => (
-                            self.gltf_bsdf_from(textures, uv, inputs, Some(values), w, u),
-                            None,
-                        ),
+                        Some((ClosurePick::Subsurface(colour), u)) => {
+                            (self.bsdf(inputs, w, u), Some(medium.at(colour)))
+                        }
+                        Some((ClosurePick::Bsdf(values), u)) => {
+                            (self.gltf_bsdf_from(Some(values), w, u), None)
+                        }
                         None => (Bsdf::black(), None),
                     };
                 }
@@ -557,24 +507,19 @@ impl Material {
                     }
                     _ => None,
                 };
-                return (
-                    self.bsdf(textures, uv, inputs, w, u),
-                    Some(medium.at(colour)),
-                );
+                return (self.bsdf(inputs, w, u), Some(medium.at(colour)));
             }
             // The glTF part: reuse the leftover of `u_select` for its own choices.
             let u = ((u_select - weight) / (1.0 - weight)).clamp(0.0, 1.0);
-            return (self.gltf_bsdf(textures, uv, inputs, w, u), None);
+            return (self.gltf_bsdf(inputs, w, u), None);
         }
-        (self.bsdf(textures, uv, inputs, w, u_select), None)
+        (self.bsdf(inputs, w, u_select), None)
     }
 
     /// The BSDF at a surface point (for a subsurface material, always its boundary). `u_select`
     /// picks one component of stochastic mixtures (partial transmission).
     pub fn bsdf(
         &self,
-        textures: &[TextureDesc],
-        uv: Vec2,
         inputs: Option<&ShadingInputs>,
         w: &SampledWavelengths,
         u_select: f32,
@@ -602,14 +547,12 @@ impl Material {
                 refraction_only: false,
                 energy_compensation: self.energy_compensation,
             }),
-            SurfaceModel::Gltf => self.gltf_bsdf(textures, uv, inputs, w, u_select),
+            SurfaceModel::Gltf => self.gltf_bsdf(inputs, w, u_select),
         }
     }
 
     fn gltf_bsdf(
         &self,
-        textures: &[TextureDesc],
-        uv: Vec2,
         inputs: Option<&ShadingInputs>,
         w: &SampledWavelengths,
         u_select: f32,
@@ -626,29 +569,22 @@ impl Material {
             (Some(graph), Some(ctx)) => (Some(graph.evaluate(ctx, false)), u_select),
             _ => (None, u_select),
         };
-        self.gltf_bsdf_from(textures, uv, inputs, driven, w, u_select)
+        self.gltf_bsdf_from(driven, w, u_select)
     }
 
     /// The glTF model with the graph-driven input values `driven` (one closure's, or the
-    /// graph's inputs) over the glTF factors and textures.
+    /// graph's inputs) over the material's constant factors.
     fn gltf_bsdf_from(
         &self,
-        textures: &[TextureDesc],
-        uv: Vec2,
-        inputs: Option<&ShadingInputs>,
         driven: Option<InputValues>,
         w: &SampledWavelengths,
         u_select: f32,
     ) -> Bsdf {
         let g = &self.gltf;
         let get = |m: MaterialInput| driven.as_ref().and_then(|d| d[m.index()]);
-        let base = match (get(MaterialInput::BaseColor), g.base_color_texture) {
-            (Some(c), _) => RgbAlbedoSpectrum::new(c.xyz().clamp(Vec3::ZERO, Vec3::ONE)).sample(w),
-            (None, None) => self.base_albedo.sample(w),
-            (None, Some(t)) => {
-                let rgb = g.base_color.xyz() * lookup_at(textures, &t, uv, inputs).xyz();
-                RgbAlbedoSpectrum::new(rgb).sample(w)
-            }
+        let base = match get(MaterialInput::BaseColor) {
+            Some(c) => RgbAlbedoSpectrum::new(c.xyz().clamp(Vec3::ZERO, Vec3::ONE)).sample(w),
+            None => self.base_albedo.sample(w),
         };
         if get(MaterialInput::Translucent).is_some_and(|t| t.x > 0.5) {
             return Bsdf::Translucent(TranslucentBsdf {
@@ -656,47 +592,38 @@ impl Material {
             });
         }
         let (mut metallic, mut roughness) = (g.metallic, g.roughness);
-        if let Some(t) = g.metallic_roughness_texture {
-            let texel = lookup_at(textures, &t, uv, inputs);
-            roughness *= texel.y;
-            metallic *= texel.z;
-        }
         if let Some(m) = get(MaterialInput::Metallic) {
             metallic = m.x.clamp(0.0, 1.0);
         }
         if let Some(r) = get(MaterialInput::Roughness) {
             roughness = r.x.clamp(0.0, 1.0);
         }
-        let specular = match (get(MaterialInput::Specular), g.specular_texture) {
-            (Some(s), _) => s.x.max(0.0),
-            (None, Some(t)) => g.specular * lookup_at(textures, &t, uv, inputs).w,
-            (None, None) => g.specular,
-        };
+        let specular = get(MaterialInput::Specular).map_or(g.specular, |s| s.x.max(0.0));
         let alpha = roughness_to_alpha(roughness);
         // glTF transmission replaces the diffuse part of the dielectric base: we pick the
         // transmissive component with probability `transmission` (metals do not transmit).
         let refraction_only = get(MaterialInput::Refraction).is_some_and(|r| r.x > 0.5);
+        let film_weight = get(MaterialInput::ThinFilmWeight).map_or(1.0, |v| v.x.clamp(0.0, 1.0));
         let iridescence = match get(MaterialInput::ThinFilmThickness) {
-            // The graph's Thin Film (a Mix Shader leaf's, or a textured thickness).
-            Some(t) if t.x > 0.0 => Some(Iridescence {
+            // The graph's Thin Film (a Mix Shader leaf's, a textured thickness or a textured
+            // glTF iridescence).
+            Some(t) if t.x > 0.0 && film_weight > 0.0 => Some(Iridescence {
                 film: ThinFilm {
                     thickness_nm: t.x,
                     ior: get(MaterialInput::ThinFilmIor)
                         .map_or(self.gltf.iridescence_ior, |n| n.x)
                         .max(1.0),
                 },
-                weight: 1.0,
+                weight: film_weight,
                 lambda: SampledSpectrum::from_fn(|i| w.lambda[i]),
                 averages: None,
             }),
             Some(_) => None,
-            None => self.iridescence(textures, uv, inputs, w),
+            None => self.iridescence(w),
         };
-        let transmission = match (get(MaterialInput::Transmission), g.transmission_texture) {
-            (Some(t), _) => t.x.clamp(0.0, 1.0),
-            (None, Some(t)) => g.transmission * lookup_at(textures, &t, uv, inputs).x,
-            (None, None) => g.transmission,
-        } * (1.0 - metallic);
+        let transmission = get(MaterialInput::Transmission)
+            .map_or(g.transmission, |t| t.x.clamp(0.0, 1.0))
+            * (1.0 - metallic);
         if refraction_only || (transmission > 0.0 && u_select < transmission) {
             return Bsdf::Dielectric(DielectricBsdf {
                 eta: SampledSpectrum::from_fn(|i| self.gltf_ior.eval(w.lambda[i])),
@@ -707,8 +634,8 @@ impl Material {
                 energy_compensation: self.energy_compensation,
             });
         }
-        let coat = self.coat_at(textures, uv, inputs, &get, w);
-        let sheen = self.sheen_at(textures, uv, inputs, &get, w);
+        let coat = self.coat_at(&get, w);
+        let sheen = self.sheen_at(&get, w);
         if metallic <= 0.0
             && specular <= 0.0
             && !self.principled_v1
@@ -724,13 +651,9 @@ impl Material {
                 metallic,
                 alpha: alpha.max(MIN_ALPHA),
                 specular,
-                specular_color: match (get(MaterialInput::SpecularTint), g.specular_color_texture) {
-                    (Some(c), _) => RgbAlbedoSpectrum::new(c.xyz().max(Vec3::ZERO)).sample(w),
-                    (None, Some(t)) => {
-                        let texel = lookup_at(textures, &t, uv, inputs).xyz();
-                        RgbAlbedoSpectrum::new((g.specular_color * texel).max(Vec3::ZERO)).sample(w)
-                    }
-                    (None, None) => self.specular_color.sample(w),
+                specular_color: match get(MaterialInput::SpecularTint) {
+                    Some(c) => RgbAlbedoSpectrum::new(c.xyz().max(Vec3::ZERO)).sample(w),
+                    None => self.specular_color.sample(w),
                 },
                 ior: g.ior,
                 energy_compensation: self.energy_compensation,
@@ -743,13 +666,10 @@ impl Material {
         )
     }
 
-    /// The coat at a shading point: the glTF factors times `clearcoatTexture` (R) and
-    /// `clearcoatRoughnessTexture` (G), or what the shading graph drives.
+    /// The coat at a shading point: the glTF factors, or what the shading graph drives
+    /// (textured glTF clear coats included).
     fn coat_at(
         &self,
-        textures: &[TextureDesc],
-        uv: Vec2,
-        inputs: Option<&ShadingInputs>,
         get: &impl Fn(MaterialInput) -> Option<Vec4>,
         w: &SampledWavelengths,
     ) -> Coat {
@@ -760,32 +680,14 @@ impl Material {
             get(MaterialInput::CoatTint),
             get(MaterialInput::CoatIor),
         );
-        let textured = g.coat_texture.is_some() || g.coat_roughness_texture.is_some();
-        if weight_in.is_none()
-            && roughness_in.is_none()
-            && tint_in.is_none()
-            && ior_in.is_none()
-            && !textured
-        {
+        if weight_in.is_none() && roughness_in.is_none() && tint_in.is_none() && ior_in.is_none() {
             return self.coat.sample(w);
         }
-        let mut weight = self.coat.weight;
-        if let Some(t) = g.coat_texture {
-            weight *= lookup_at(textures, &t, uv, inputs).x;
-        }
-        if let Some(v) = weight_in {
-            weight = v.x;
-        }
+        let weight = weight_in.map_or(self.coat.weight, |v| v.x);
         if !(weight > 0.0) {
             return Coat::NONE;
         }
-        let mut roughness = g.coat_roughness;
-        if let Some(t) = g.coat_roughness_texture {
-            roughness *= lookup_at(textures, &t, uv, inputs).y;
-        }
-        if let Some(v) = roughness_in {
-            roughness = v.x;
-        }
+        let roughness = roughness_in.map_or(g.coat_roughness, |v| v.x);
         let alpha = roughness_to_alpha(roughness);
         Coat {
             weight: weight.clamp(0.0, 1.0),
@@ -807,13 +709,10 @@ impl Material {
         }
     }
 
-    /// The sheen at a shading point: the glTF factors times `sheenColorTexture` (RGB) and
-    /// `sheenRoughnessTexture` (A), or what the shading graph drives.
+    /// The sheen at a shading point: the glTF factors, or what the shading graph drives
+    /// (textured glTF sheens included).
     fn sheen_at(
         &self,
-        textures: &[TextureDesc],
-        uv: Vec2,
-        inputs: Option<&ShadingInputs>,
         get: &impl Fn(MaterialInput) -> Option<Vec4>,
         w: &SampledWavelengths,
     ) -> Sheen {
@@ -822,24 +721,11 @@ impl Material {
             get(MaterialInput::SheenColor),
             get(MaterialInput::SheenRoughness),
         );
-        let textured = g.sheen_color_texture.is_some() || g.sheen_roughness_texture.is_some();
-        if color_in.is_none() && roughness_in.is_none() && !textured {
+        if color_in.is_none() && roughness_in.is_none() {
             return self.sheen.as_ref().map_or(Sheen::NONE, |s| s.sample(w));
         }
-        let mut rgb = g.sheen_color;
-        if let Some(t) = g.sheen_color_texture {
-            rgb *= lookup_at(textures, &t, uv, inputs).xyz();
-        }
-        if let Some(c) = color_in {
-            rgb = c.xyz();
-        }
-        let mut roughness = g.sheen_roughness;
-        if let Some(t) = g.sheen_roughness_texture {
-            roughness *= lookup_at(textures, &t, uv, inputs).w;
-        }
-        if let Some(v) = roughness_in {
-            roughness = v.x;
-        }
+        let rgb = color_in.map_or(g.sheen_color, |c| c.xyz());
+        let roughness = roughness_in.map_or(g.sheen_roughness, |v| v.x);
         MaterialSheen::new(
             rgb,
             roughness,
@@ -927,28 +813,24 @@ impl MaterialCoat {
     }
 }
 
-/// Like [`lookup`], at the texture's own TEXCOORD set when it is not 0 and the shading
-/// inputs are known (they hold every set, in Blender's v-up convention).
-fn lookup_at(
-    textures: &[TextureDesc],
-    tref: &TextureRef,
-    uv: Vec2,
-    inputs: Option<&ShadingInputs>,
-) -> Vec4 {
-    let uv = match (tref.tex_coord as usize, inputs) {
-        (n @ 1..crate::shading::MAX_ATTRIBUTE_SETS, Some(i)) => {
-            Vec2::new(i.uv[n].x, 1.0 - i.uv[n].y)
-        }
-        _ => uv,
-    };
-    lookup(textures, tref, uv)
-}
-
-/// Texture value at `uv` for a material's texture reference (white if the index is invalid).
+/// A glTF normal texture's value at TEXCOORD_0 `uv` (white if the index is invalid).
 fn lookup(textures: &[TextureDesc], tref: &TextureRef, uv: Vec2) -> Vec4 {
     textures
         .get(tref.texture)
-        .map_or(Vec4::ONE, |t| sample_texture(t, tref, uv))
+        .map_or(Vec4::ONE, |t| gltf_graph::sample_slot(t, tref, uv))
+}
+
+/// The material's graph: the sidecar's, with glTF's texture slots bound where it leaves the
+/// inputs free; glTF's alone when there is no sidecar graph; none without either.
+fn material_graph(desc: &MaterialDesc, textures: &[TextureDesc]) -> Option<Arc<ShadingGraph>> {
+    let (nodes, bindings) = gltf_graph::texture_graph(&desc.gltf, textures);
+    if bindings.is_empty() {
+        return desc.graph.clone();
+    }
+    Some(Arc::new(match &desc.graph {
+        Some(sidecar) => sidecar.with_fallbacks(nodes, bindings),
+        None => ShadingGraph::new(nodes, bindings),
+    }))
 }
 
 #[cfg(test)]

@@ -3,6 +3,7 @@
 pub mod build;
 pub mod camera;
 pub mod desc;
+pub mod gltf_graph;
 pub mod gltf_import;
 pub mod gltf_json;
 pub mod load;

@@ -1,10 +1,10 @@
 //! Texture helpers for the scene loaders: decoding encoded images (PNG/JPEG) into linear texels,
-//! `data:` URIs, base64 and percent-decoding of glTF URIs, and a small texture lookup
-//! (`sample_texture`) honouring `TextureRef::uv_transform` and the sampler's wrap/filter modes.
+//! `data:` URIs, base64 and percent-decoding of glTF URIs. Lookups are the shading graph's Image
+//! Texture node (`scene::gltf_graph`).
 
-use glam::{Vec2, Vec3, Vec4};
+use glam::Vec4;
 
-use crate::scene::desc::{ColorSpace, TextureDesc, TextureRef};
+use crate::scene::desc::ColorSpace;
 use crate::spectrum::rgb::srgb_to_linear;
 
 /// An image decoded to normalised RGBA in [0,1], still encoded (sRGB or linear as stored).
@@ -180,54 +180,9 @@ pub fn percent_decode(s: &str) -> Vec<u8> {
     out
 }
 
-/// Wraps or clamps a texel coordinate.
-fn wrap(i: i64, n: u32, repeat: bool) -> usize {
-    let n = n as i64;
-    if repeat {
-        i.rem_euclid(n) as usize
-    } else {
-        i.clamp(0, n - 1) as usize
-    }
-}
-
-/// Looks up `tex` at glTF UV `uv` (origin top-left, v down), after `r.uv_transform`.
-/// Bilinear or nearest according to the sampler; non-finite UVs return texel (0,0).
-pub fn sample_texture(tex: &TextureDesc, r: &TextureRef, uv: Vec2) -> Vec4 {
-    let t = r.uv_transform * Vec3::new(uv.x, uv.y, 1.0);
-    sample_texture_raw(tex, Vec2::new(t.x, t.y))
-}
-
-/// Like [`sample_texture`] without a UV transform.
-pub fn sample_texture_raw(tex: &TextureDesc, uv: Vec2) -> Vec4 {
-    if tex.width == 0 || tex.height == 0 || tex.texels.is_empty() {
-        return Vec4::ONE;
-    }
-    let (w, h) = (tex.width, tex.height);
-    let uv = if uv.is_finite() { uv } else { Vec2::ZERO };
-    // Keep the arithmetic in a range where f32 -> i64 is exact enough and cannot overflow.
-    let x = (uv.x as f64 * w as f64).clamp(-1e12, 1e12);
-    let y = (uv.y as f64 * h as f64).clamp(-1e12, 1e12);
-    let at = |ix: i64, iy: i64| -> Vec4 {
-        let xi = wrap(ix, w, tex.wrap_repeat[0]);
-        let yi = wrap(iy, h, tex.wrap_repeat[1]);
-        tex.texels[yi * w as usize + xi]
-    };
-    if !tex.bilinear {
-        return at(x.floor() as i64, y.floor() as i64);
-    }
-    let (fx, fy) = (x - 0.5, y - 0.5);
-    let (x0, y0) = (fx.floor(), fy.floor());
-    let (tx, ty) = ((fx - x0) as f32, (fy - y0) as f32);
-    let (x0, y0) = (x0 as i64, y0 as i64);
-    let a = at(x0, y0).lerp(at(x0 + 1, y0), tx);
-    let b = at(x0, y0 + 1).lerp(at(x0 + 1, y0 + 1), tx);
-    a.lerp(b, ty)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::Mat3;
 
     #[test]
     fn base64_roundtrip_known_vectors() {
@@ -252,32 +207,5 @@ mod tests {
         assert_eq!(percent_decode("a%20b.bin"), b"a b.bin");
         assert_eq!(percent_decode("a%2"), b"a%2");
         assert_eq!(percent_decode("%"), b"%");
-    }
-
-    #[test]
-    fn sampling_nearest_and_bilinear() {
-        let tex = TextureDesc {
-            name: "t".into(),
-            width: 2,
-            height: 1,
-            texels: vec![Vec4::ZERO, Vec4::ONE],
-            wrap_repeat: [false, false],
-            bilinear: false,
-        };
-        let r = TextureRef {
-            texture: 0,
-            tex_coord: 0,
-            uv_transform: Mat3::IDENTITY,
-        };
-        assert_eq!(sample_texture(&tex, &r, Vec2::new(0.25, 0.5)), Vec4::ZERO);
-        assert_eq!(sample_texture(&tex, &r, Vec2::new(0.75, 0.5)), Vec4::ONE);
-        let bil = TextureDesc {
-            bilinear: true,
-            ..tex
-        };
-        let m = sample_texture(&bil, &r, Vec2::new(0.5, 0.5));
-        assert!((m.x - 0.5).abs() < 1e-6);
-        let nan = sample_texture(&bil, &r, Vec2::new(f32::NAN, 0.5));
-        assert!(nan.is_finite());
     }
 }

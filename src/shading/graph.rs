@@ -104,8 +104,12 @@ pub enum NodeOp {
     ImageTexture {
         image: Arc<Image>,
         interpolation: Interpolation,
-        extension: Extension,
+        /// Along u and v (Blender's node: the same mode; glTF samplers: each its own).
+        extension: [Extension; 2],
     },
+    /// glTF's KHR_texture_transform (offset, rotation, scale), as an affine map of Blender
+    /// UVs (the glTF matrix conjugated by the v flip; see `scene::gltf_graph`).
+    UvTransform(Mat3),
     Math {
         op: MathOp,
         clamp: bool,
@@ -267,6 +271,10 @@ impl NodeOp {
             ImageTexture { .. } => (
                 const { &[vec("vector", 0.0, 0.0, 0.0)] },
                 const { &[out("color", C), out("alpha", F)] },
+            ),
+            UvTransform(_) => (
+                const { &[vec("vector", 0.0, 0.0, 0.0)] },
+                const { &[out("vector", V)] },
             ),
             Math { .. } => (
                 const { &[f("a", 0.5), f("b", 0.5), f("c", 0.0)] },
@@ -593,6 +601,9 @@ pub enum MaterialInput {
     SubsurfaceColor,
     /// The clear coat's IOR (Blender's Coat IOR; at least 1).
     CoatIor,
+    /// The thin film's weight where `ThinFilmThickness` is driven (1 when unbound):
+    /// KHR_materials_iridescence's factor, textured.
+    ThinFilmWeight,
 }
 
 pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
@@ -619,9 +630,10 @@ pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
     ("coat_normal", MaterialInput::CoatNormal, V),
     ("subsurface_color", MaterialInput::SubsurfaceColor, C),
     ("coat_ior", MaterialInput::CoatIor, F),
+    ("thin_film_weight", MaterialInput::ThinFilmWeight, F),
 ];
 
-pub const N_MATERIAL_INPUTS: usize = 23;
+pub const N_MATERIAL_INPUTS: usize = 24;
 
 impl MaterialInput {
     pub fn index(self) -> usize {
@@ -635,12 +647,13 @@ impl MaterialInput {
     }
 
     /// Which evaluation program computes the input: 0 scattering, 1 emission, 2 normal,
-    /// 3 volume density.
+    /// 3 volume density, `ALPHA_PROGRAM` coverage (BSDFs never read Alpha).
     fn program(self) -> usize {
         match self {
             MaterialInput::Emission | MaterialInput::EmissionStrength => 1,
             MaterialInput::Normal | MaterialInput::CoatNormal => 2,
             MaterialInput::VolumeDensity => 3,
+            MaterialInput::Alpha => ALPHA_PROGRAM,
             _ => 0,
         }
     }
@@ -689,12 +702,20 @@ pub struct ShadingGraph {
     emission_program: Vec<u32>,
     normal_program: Vec<u32>,
     volume_program: Vec<u32>,
+    /// The nodes coverage needs (Alpha, the Transparent leaves' weights and colours): shadow
+    /// rays and alpha tests run only these.
+    alpha_program: Vec<u32>,
     /// World-space inputs and the normal output are in a Z-up frame (Blender's; the add-on's
     /// graphs) rather than the scene's glTF Y-up one.
     pub z_up: bool,
     /// (Bump node, the nodes its height input needs), for evaluation at offset points.
     bump_cones: Vec<(u32, Vec<u32>)>,
+    /// See [`ShadingGraph::reads_object_space`].
+    reads_object_space: bool,
 }
+
+/// `ShadingGraph::run_with`'s index of the coverage program.
+const ALPHA_PROGRAM: usize = 4;
 
 thread_local! {
     static SLOTS: RefCell<Vec<Vec4>> = const { RefCell::new(Vec::new()) };
@@ -789,10 +810,73 @@ impl ShadingGraph {
             }
             cone(sources)
         };
+        // Nodes that read only UVs, colours, the normals, the position, the view and the
+        // ray type (a whitelist: a new node counts as reading everything until listed).
+        let cheap = |op: &NodeOp| {
+            use NodeOp::*;
+            matches!(
+                op,
+                UvMap(_)
+                    | ColorAttribute(_)
+                    | Geometry
+                    | LightPath
+                    | Fresnel
+                    | LayerWeight
+                    | Mapping(_)
+                    | ImageTexture { .. }
+                    | UvTransform(_)
+                    | Math { .. }
+                    | VectorMath(_)
+                    | MixFloat { .. }
+                    | MixVector { .. }
+                    | MixColor { .. }
+                    | Invert
+                    | HueSaturation
+                    | BrightContrast
+                    | Gamma
+                    | RgbToBw
+                    | SeparateColor(_)
+                    | CombineColor(_)
+                    | SeparateXyz
+                    | CombineXyz
+                    | MapRange { .. }
+                    | Clamp { .. }
+                    | ColorRamp(_)
+                    | Curves(_)
+                    | VectorCurves(_)
+                    | Blackbody
+                    | Wavelength
+            )
+        };
+        let generated = |s: &Source| matches!(s, Source::Implicit(Implicit::Generated));
+        let reads_object_space = nodes
+            .iter()
+            .any(|n| !cheap(&n.op) || n.inputs.iter().any(generated))
+            || bindings.iter().any(|(_, s)| generated(s))
+            || closures
+                .iter()
+                .any(|c| generated(&c.weight) || c.bindings.iter().any(|(_, s)| generated(s)));
         let surface_program = program(0);
         let emission_program = program(1);
         let normal_program = program(2);
         let volume_program = program(3);
+        let alpha_program = {
+            let mut sources: Vec<Source> = bindings
+                .iter()
+                .filter(|(m, _)| *m == MaterialInput::Alpha)
+                .map(|(_, s)| *s)
+                .collect();
+            for c in closures.iter().filter(|c| c.transparent) {
+                sources.push(c.weight);
+                sources.extend(
+                    c.bindings
+                        .iter()
+                        .filter(|(m, _)| *m == MaterialInput::BaseColor)
+                        .map(|(_, s)| *s),
+                );
+            }
+            cone(sources)
+        };
         // The height cone of every Bump node: re-run at the offset points.
         let bump_cones = nodes
             .iter()
@@ -809,9 +893,74 @@ impl ShadingGraph {
             emission_program,
             normal_program,
             volume_program,
+            alpha_program,
             bump_cones,
             z_up: false,
+            reads_object_space,
         }
+    }
+
+    /// Some node reads the object-space or tangent-frame inputs (`ShadingInputs::object`,
+    /// `generated`, `object_normal`, `normal_to_world`, `tangent`, `bitangent`); without
+    /// them the integrator gathers only the cheap inputs (`Geometry::shading_inputs`).
+    pub fn reads_object_space(&self) -> bool {
+        self.reads_object_space
+    }
+
+    /// This graph with `nodes` appended (their slots and links counted from 0) and
+    /// `fallbacks` bound wherever the graph leaves the input unbound: the glTF textures under
+    /// a sidecar graph (`scene::gltf_graph`). Without mixed closures they join the top-level
+    /// bindings. With them, the scattering inputs go to every BSDF and subsurface leaf that
+    /// does not bind them itself (a leaf's unbound inputs are the material's own values),
+    /// Alpha to the top level when the graph has no coverage of its own, and emission stays
+    /// the emission leaves'.
+    pub fn with_fallbacks(
+        &self,
+        nodes: Vec<GraphNode>,
+        fallbacks: Vec<(MaterialInput, Source)>,
+    ) -> ShadingGraph {
+        let offset = self.n_slots as u32;
+        let shift = |s: Source| match s {
+            Source::Link { slot, from, to } => Source::Link {
+                slot: slot + offset,
+                from,
+                to,
+            },
+            other => other,
+        };
+        let mut all = self.nodes.clone();
+        all.extend(nodes.into_iter().map(|n| GraphNode {
+            first_slot: n.first_slot + offset,
+            inputs: n.inputs.into_iter().map(shift).collect(),
+            ..n
+        }));
+        let mut bindings = self.bindings.clone();
+        let mut closures = self.closures.clone();
+        let has_alpha = self.has_alpha();
+        for (m, source) in fallbacks {
+            let source = shift(source);
+            if closures.is_empty() {
+                if !self.drives(m) {
+                    bindings.push((m, source));
+                }
+            } else if m == MaterialInput::Alpha {
+                if !has_alpha {
+                    bindings.push((m, source));
+                }
+            } else if !m.is_emission() {
+                for c in closures
+                    .iter_mut()
+                    .filter(|c| !c.emission && !c.transparent)
+                {
+                    if !c.bindings.iter().any(|(b, _)| *b == m) {
+                        c.bindings.push((m, source));
+                    }
+                }
+            }
+        }
+        let mut graph = ShadingGraph::with_closures(all, bindings, closures);
+        graph.z_up = self.z_up;
+        graph
     }
 
     pub fn drives_normal(&self) -> bool {
@@ -845,8 +994,8 @@ impl ShadingGraph {
         let source = self.bindings.iter().find(|(m, _)| *m == input)?.1;
         let ctx = &self.local(ctx);
         let bump = BumpInputs {
-            dx: self.local(&bump.dx),
-            dy: self.local(&bump.dy),
+            dx: *self.local(&bump.dx),
+            dy: *self.local(&bump.dy),
             dpdx: self.vector_in(bump.dpdx),
             dpdy: self.vector_in(bump.dpdy),
         };
@@ -871,10 +1020,15 @@ impl ShadingGraph {
         }
     }
 
-    /// `ctx` with its world-space vectors in the graph's world frame.
-    fn local(&self, ctx: &ShadingInputs) -> ShadingInputs {
+    /// `ctx` with its world-space vectors in the graph's world frame (borrowed as it is for
+    /// Y-up graphs: copying the inputs per evaluation was a visible share of textured
+    /// glTF materials' time).
+    fn local<'a>(&self, ctx: &'a ShadingInputs) -> std::borrow::Cow<'a, ShadingInputs> {
+        if !self.z_up {
+            return std::borrow::Cow::Borrowed(ctx);
+        }
         let mut c = *ctx;
-        if self.z_up {
+        {
             c.normal_to_world = Mat3::from_cols(
                 self.vector_in(c.normal_to_world.x_axis),
                 self.vector_in(c.normal_to_world.y_axis),
@@ -891,7 +1045,7 @@ impl ShadingGraph {
                 *v = self.vector_in(*v);
             }
         }
-        c
+        std::borrow::Cow::Owned(c)
     }
 
     /// The height input of Bump node `node` evaluated at the offset point `alt`.
@@ -962,7 +1116,7 @@ impl ShadingGraph {
     /// mixture that is not a Transparent BSDF.
     pub fn alpha(&self, ctx: &ShadingInputs) -> f32 {
         let ctx = &self.local(ctx);
-        self.run(ctx, false, |slots| {
+        self.run_with(ctx, ALPHA_PROGRAM, None, |slots| {
             let a = self.alpha_input(slots, ctx);
             let transparent: f32 = self
                 .closures
@@ -980,7 +1134,7 @@ impl ShadingGraph {
     /// `1 - alpha` in every channel (Cycles' transparent BSDF passes `c_i` times the light).
     pub fn transparency(&self, ctx: &ShadingInputs) -> (f32, Vec3) {
         let ctx = &self.local(ctx);
-        self.run(ctx, false, |slots| {
+        self.run_with(ctx, ALPHA_PROGRAM, None, |slots| {
             let a = self.alpha_input(slots, ctx);
             let (mut share, mut tinted) = (0.0f32, Vec3::ZERO);
             for c in self.closures.iter().filter(|c| c.transparent) {
@@ -1027,7 +1181,8 @@ impl ShadingGraph {
         self.run_with(ctx, emission as usize, None, f)
     }
 
-    /// Runs program `which` (0 scattering, 1 emission, 2 normal) into the per-thread slots.
+    /// Runs program `which` (0 scattering, 1 emission, 2 normal, 3 volume density,
+    /// `ALPHA_PROGRAM` coverage) into the per-thread slots.
     fn run_with<T>(
         &self,
         ctx: &ShadingInputs,
@@ -1044,7 +1199,8 @@ impl ShadingGraph {
                 0 => &self.surface_program,
                 1 => &self.emission_program,
                 2 => &self.normal_program,
-                _ => &self.volume_program,
+                3 => &self.volume_program,
+                _ => &self.alpha_program,
             };
             for &i in program {
                 self.eval_into(i, &mut slots, ctx, bump);
@@ -1300,6 +1456,10 @@ fn eval_node(op: &NodeOp, i: &[Vec4; MAX_INPUTS], ctx: &ShadingInputs) -> [Vec4;
             let t = image.sample(i[0].xy(), *interpolation, *extension);
             o[0] = rgb(t.xyz());
             o[1] = s(t.w);
+        }
+        NodeOp::UvTransform(m) => {
+            let t = *m * Vec3::new(i[0].x, i[0].y, 1.0);
+            o[0] = v3(Vec3::new(t.x, t.y, i[0].z));
         }
         NodeOp::Math { op, clamp } => {
             let r = op.eval(i[0].x, i[1].x, i[2].x);

@@ -46,7 +46,7 @@ pub const INTERPOLATIONS: &[(&str, Interpolation)] = &[
     ("smart", Interpolation::Cubic),
 ];
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Extension {
     Repeat,
     Extend,
@@ -100,9 +100,9 @@ fn bspline_weights(t: f32) -> [f32; 4] {
 impl Image {
     /// Texel (x, y) with y counted from the BOTTOM row (Blender's convention).
     #[inline]
-    fn texel(&self, x: i64, y: i64, ext: Extension) -> Vec4 {
+    fn texel(&self, x: i64, y: i64, ext: [Extension; 2]) -> Vec4 {
         let (w, h) = (self.width as i64, self.height as i64);
-        match (texel_index(x, w, ext), texel_index(y, h, ext)) {
+        match (texel_index(x, w, ext[0]), texel_index(y, h, ext[1])) {
             (Some(xi), Some(yi)) => {
                 self.texels[(self.height as usize - 1 - yi) * self.width as usize + xi]
             }
@@ -111,8 +111,10 @@ impl Image {
     }
 
     /// The image at Blender texture coordinates `uv` ((0,0) = bottom-left corner, (1,1) =
-    /// top-right). Clip returns transparent black outside [0,1]^2.
-    pub fn sample(&self, uv: Vec2, interpolation: Interpolation, ext: Extension) -> Vec4 {
+    /// top-right), with extension `ext[0]` along u and `ext[1]` along v (glTF samplers wrap
+    /// each axis on its own; Blender's node uses one mode for both). Clip returns transparent
+    /// black outside [0,1] along a clipped axis.
+    pub fn sample(&self, uv: Vec2, interpolation: Interpolation, ext: [Extension; 2]) -> Vec4 {
         let v = self.sample_stored(uv, interpolation, ext);
         if self.srgb_encoded {
             use crate::spectrum::rgb::srgb_to_linear;
@@ -128,13 +130,13 @@ impl Image {
     }
 
     /// The filtered stored values (see `srgb_encoded`).
-    fn sample_stored(&self, uv: Vec2, interpolation: Interpolation, ext: Extension) -> Vec4 {
+    fn sample_stored(&self, uv: Vec2, interpolation: Interpolation, ext: [Extension; 2]) -> Vec4 {
         if self.texels.is_empty() {
             return Vec4::ZERO;
         }
         let uv = if uv.is_finite() { uv } else { Vec2::ZERO };
-        let inside = (0.0..=1.0).contains(&uv.x) && (0.0..=1.0).contains(&uv.y);
-        if ext == Extension::Clip && !inside {
+        let clipped = |t: f32, e: Extension| e == Extension::Clip && !(0.0..=1.0).contains(&t);
+        if clipped(uv.x, ext[0]) || clipped(uv.y, ext[1]) {
             return Vec4::ZERO;
         }
         // Keep the arithmetic where f32 -> i64 is exact enough and cannot overflow.
@@ -199,7 +201,13 @@ mod tests {
     #[test]
     fn origin_is_bottom_left() {
         let q = quad();
-        let c = |u, v| q.sample(Vec2::new(u, v), Interpolation::Closest, Extension::Repeat);
+        let c = |u, v| {
+            q.sample(
+                Vec2::new(u, v),
+                Interpolation::Closest,
+                [Extension::Repeat; 2],
+            )
+        };
         assert_eq!(c(0.25, 0.25), Vec4::new(0.0, 0.0, 1.0, 1.0));
         assert_eq!(c(0.75, 0.75), Vec4::new(0.0, 1.0, 0.0, 1.0));
         assert_eq!(c(1.25, 0.75), Vec4::new(1.0, 0.0, 0.0, 1.0));
@@ -208,7 +216,7 @@ mod tests {
     #[test]
     fn extension_modes() {
         let q = quad();
-        let s = |u, e| q.sample(Vec2::new(u, 0.25), Interpolation::Closest, e);
+        let s = |u, e| q.sample(Vec2::new(u, 0.25), Interpolation::Closest, [e, e]);
         assert_eq!(s(1.25, Extension::Repeat), s(0.25, Extension::Repeat));
         assert_eq!(s(1.25, Extension::Extend), s(0.75, Extension::Extend));
         assert_eq!(s(1.25, Extension::Mirror), s(0.75, Extension::Mirror));
@@ -217,13 +225,35 @@ mod tests {
         assert_eq!(s(-0.25, Extension::Clip), Vec4::ZERO);
     }
 
+    /// glTF samplers wrap u and v on their own: each axis follows its own mode.
+    #[test]
+    fn extension_per_axis() {
+        let q = quad();
+        let at = |u, v, e| q.sample(Vec2::new(u, v), Interpolation::Closest, e);
+        let (rep, clip, mirror) = (Extension::Repeat, Extension::Clip, Extension::Mirror);
+        // u repeats while v is clipped: outside in u still reads the image ...
+        assert_eq!(at(1.25, 0.25, [rep, clip]), at(0.25, 0.25, [rep, rep]));
+        // ... outside in v is transparent black.
+        assert_eq!(at(0.25, 1.25, [rep, clip]), Vec4::ZERO);
+        // Mirrored v with repeated u.
+        assert_eq!(at(1.25, 1.25, [rep, mirror]), at(0.25, 0.75, [rep, rep]));
+    }
+
     #[test]
     fn linear_and_cubic_preserve_constants_and_interpolate() {
         let q = quad();
-        let mid = q.sample(Vec2::splat(0.5), Interpolation::Linear, Extension::Repeat);
+        let mid = q.sample(
+            Vec2::splat(0.5),
+            Interpolation::Linear,
+            [Extension::Repeat; 2],
+        );
         assert!((mid - Vec4::new(0.5, 0.5, 0.5, 1.0)).abs().max_element() < 1e-6);
         // At a texel centre linear filtering returns the texel.
-        let c = q.sample(Vec2::splat(0.25), Interpolation::Linear, Extension::Extend);
+        let c = q.sample(
+            Vec2::splat(0.25),
+            Interpolation::Linear,
+            [Extension::Extend; 2],
+        );
         assert!((c - Vec4::new(0.0, 0.0, 1.0, 1.0)).abs().max_element() < 1e-6);
         let flat = Image {
             name: "f".into(),
@@ -237,7 +267,7 @@ mod tests {
             Vec2::new(0.5, 0.5),
             Vec2::new(-3.3, 7.1),
         ] {
-            let v = flat.sample(uv, Interpolation::Cubic, Extension::Repeat);
+            let v = flat.sample(uv, Interpolation::Cubic, [Extension::Repeat; 2]);
             assert!((v - Vec4::splat(0.4)).abs().max_element() < 1e-6);
         }
         let w = bspline_weights(0.3);

@@ -24,10 +24,12 @@
 //!   `volume_density`, `refraction`: 1 makes a closure Blender's Refraction BSDF, the
 //!   dielectric's refraction alone; `coat_weight`, `coat_roughness`, `coat_tint`, `coat_ior`,
 //!   `sheen_color`, `sheen_roughness`, `specular_tint` (Blender 4.x's colour),
-//!   `thin_film_thickness` (nm, 0: none), `thin_film_ior`, and `coat_normal`, the clear
+//!   `thin_film_thickness` (nm, 0: none), `thin_film_ior`, `thin_film_weight` (1 when
+//!   unbound), and `coat_normal`, the clear
 //!   coat's own normal like `normal`; without it a coat keeps the unperturbed normal under a
 //!   bumped base) to a node output or a constant; a bound input replaces the glTF
-//!   material's factor and texture, the others keep the glTF values. `volume_density` (a
+//!   material's factor and texture, the others keep the glTF values (glTF's texture slots
+//!   are nodes appended to this graph, `scene::gltf_graph`). `volume_density` (a
 //!   non-negative float) multiplies the material's `volume` coefficients at each point inside
 //!   it, where the graph reads Position, Object and Generated coordinates (a heterogeneous
 //!   volume).
@@ -371,13 +373,13 @@ fn node_op(
                     INTERPOLATIONS,
                     super::image::Interpolation::Linear,
                 )?,
-                extension: enum_value(
+                extension: [enum_value(
                     m,
                     "extension",
                     path,
                     EXTENSIONS,
                     super::image::Extension::Repeat,
-                )?,
+                )?; 2],
             }
         }
         "math" => NodeOp::Math {
