@@ -197,7 +197,8 @@ pub fn render(
     let camera = scene.camera_for(settings.width, settings.height);
     let has_motion = scene.has_motion();
     let tracer = PathTracer::new(scene, settings.max_depth, settings.light_selection)
-        .with_transparent_background(settings.film_transparent);
+        .with_transparent_background(settings.film_transparent)
+        .with_pixel_footprint(camera.pixel_footprint());
     // Alpha is coverage only with a transparent background or holdouts; else 1 everywhere.
     film.track_alpha = settings.film_transparent || scene.geometry.has_holdout();
     let track_alpha = film.track_alpha;

@@ -1016,14 +1016,15 @@ impl Geometry {
     }
 
     /// The shading inputs a Bump node needs at two points `step` (world units) from `sp` along
-    /// the triangle's edges (attributes extrapolate linearly past the triangle, as with ray
-    /// differentials).
-    /// `centre` are the inputs at `sp` itself.
+    /// `directions` (unit, in the triangle's plane; `ShadingGraph::bump_directions`), on the
+    /// triangle's plane (attributes extrapolate linearly past the triangle, as with ray
+    /// differentials). `centre` are the inputs at `sp` itself.
     pub fn bump_inputs(
         &self,
         sp: &SurfacePoint,
         centre: &crate::shading::ShadingInputs,
         step: f32,
+        directions: [Vec3; 2],
     ) -> crate::shading::BumpInputs {
         let (wo, camera_ray) = (centre.incoming, centre.camera_ray);
         let inst = &self.instances[sp.instance as usize];
@@ -1032,10 +1033,22 @@ impl Geometry {
         let [v0, v1, v2] = mesh
             .vertices_at(sp.prim as usize, sp.time)
             .map(|v| placement.object_to_world.transform_point3(v));
-        let e1 = (v1 - v0).length().max(1e-30);
-        let e2 = (v2 - v0).length().max(1e-30);
-        let sx = self.surface_point_at(sp.instance, sp.prim, sp.b1 + step / e1, sp.b2, sp.time);
-        let sy = self.surface_point_at(sp.instance, sp.prim, sp.b1, sp.b2 + step / e2, sp.time);
+        // Barycentric steps (db1, db2) with db1 E1 + db2 E2 = the offset (its projection on
+        // the plane): the normal equations of the two edges.
+        let (e1, e2) = (v1 - v0, v2 - v0);
+        let (g11, g12, g22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+        let det = g11 * g22 - g12 * g12;
+        let offset = |d: Vec3| -> SurfacePoint {
+            let d = d * step;
+            let (r1, r2) = (e1.dot(d), e2.dot(d));
+            let (db1, db2) = if det.abs() > 1e-30 {
+                ((g22 * r1 - g12 * r2) / det, (g11 * r2 - g12 * r1) / det)
+            } else {
+                (0.0, 0.0)
+            };
+            self.surface_point_at(sp.instance, sp.prim, sp.b1 + db1, sp.b2 + db2, sp.time)
+        };
+        let (sx, sy) = (offset(directions[0]), offset(directions[1]));
         let mut dx = self.shading_inputs(&sx, wo, camera_ray);
         let mut dy = self.shading_inputs(&sy, wo, camera_ray);
         // The offset points belong to the same surface side as `sp`.

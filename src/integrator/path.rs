@@ -14,6 +14,7 @@ use crate::media::{
     transmittance, MediumEntry, MediumStack, PhaseMixture, SegmentMedium, MAX_TRACKING_STEPS,
 };
 use crate::sampler::Sampler;
+use crate::scene::camera::PixelFootprint;
 use crate::scene::Scene;
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
 
@@ -35,6 +36,8 @@ pub struct PathTracer<'a> {
     /// Blender's Film > Transparent: camera rays that escape (directly or through transparent
     /// surfaces) see no world, and leave the pixel transparent.
     transparent_background: bool,
+    /// A pixel's footprint along the path (Bump nodes' offsets, `with_pixel_footprint`).
+    footprint: PixelFootprint,
 }
 
 /// What one camera path returns.
@@ -89,7 +92,20 @@ impl<'a> PathTracer<'a> {
             null_surfaces: scene.materials.iter().any(|m| m.is_null_surface()),
             camera_media: enclosing_media(scene, scene.camera.camera_to_world.w_axis.truncate()),
             transparent_background: false,
+            // About a 100-pixel-high image at a 60-degree field of view, until the render
+            // gives its camera's.
+            footprint: PixelFootprint {
+                per_distance: 1e-2,
+                constant: 0.0,
+            },
         }
+    }
+
+    /// The camera's pixel footprint (`Camera::pixel_footprint`), which Bump nodes' filter
+    /// widths are counted in.
+    pub fn with_pixel_footprint(mut self, footprint: PixelFootprint) -> Self {
+        self.footprint = footprint;
+        self
     }
 
     /// The summed coefficients of the volumes on `media` at the path's wavelengths.
@@ -805,10 +821,14 @@ impl<'a> PathTracer<'a> {
             let mut graph_inputs = material.graph_inputs(geometry, &sp, wo_world, depth == 0);
             let graph_normals = material.has_graph_normal() || material.has_graph_coat_normal();
             if let Some(inputs) = graph_inputs.filter(|_| graph_normals) {
-                // Bump offsets of about a pixel's footprint at the camera (the height's
-                // gradient is what matters; Cycles uses ray differentials).
-                let step = ((camera_offset + hit.t) * 1e-3).max(1e-6);
-                let bump = geometry.bump_inputs(&sp, &inputs, step);
+                // Bump offsets: the Bump node's filter width in pixels, times the pixel's
+                // footprint at the distance travelled (Cycles scales its ray differentials;
+                // the footprint's growth over bounces is not followed).
+                let step = (self.footprint.at(camera_offset + hit.t)
+                    * material.bump_filter_width())
+                .max(1e-6);
+                let directions = material.bump_directions(inputs.true_normal);
+                let bump = geometry.bump_inputs(&sp, &inputs, step, directions);
                 if material.has_graph_coat_normal() {
                     coat_normal = material.graph_coat_normal(&inputs, &bump).or(coat_normal);
                 }

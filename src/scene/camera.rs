@@ -31,6 +31,20 @@ enum Projection {
     Panorama(PanoramaDesc),
 }
 
+/// A pixel's footprint along a camera ray: `constant + per_distance * d` at distance `d`
+/// (`Camera::pixel_footprint`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelFootprint {
+    pub per_distance: f32,
+    pub constant: f32,
+}
+
+impl PixelFootprint {
+    pub fn at(&self, distance: f32) -> f32 {
+        self.constant + self.per_distance * distance
+    }
+}
+
 /// The camera-space direction (view axis -Z, up +Y, right +X) of the panorama's film point
 /// (u, v) in [0, 1]^2, v up; `None` outside a fisheye's image circle. The mappings are Cycles'
 /// (`kernel/camera/projection.h`), rotated from its +X-forward panorama frame to ours.
@@ -139,6 +153,28 @@ impl Camera {
             width,
             height,
             motion: None,
+        }
+    }
+
+    /// The width of one pixel's footprint at distance `d` along a camera ray, as Cycles' ray
+    /// differentials give it at the first hit (facing the camera): `d` x the pixel's angle for
+    /// perspective cameras, the pixel's size for orthographic ones; panoramas use their
+    /// height's angle over the pixels (pi / height). For Bump nodes' offsets.
+    pub fn pixel_footprint(&self) -> PixelFootprint {
+        let h = self.height.max(1) as f32;
+        match self.projection {
+            Projection::Perspective { tan_half_y, .. } => PixelFootprint {
+                per_distance: 2.0 * tan_half_y / h,
+                constant: 0.0,
+            },
+            Projection::Orthographic { half_y, .. } => PixelFootprint {
+                per_distance: 0.0,
+                constant: 2.0 * half_y / h,
+            },
+            Projection::Panorama(_) => PixelFootprint {
+                per_distance: std::f32::consts::PI / h,
+                constant: 0.0,
+            },
         }
     }
 
@@ -286,6 +322,19 @@ mod tests {
                 ((k / n) as f32 + 0.5) / n as f32,
             )
         })
+    }
+
+    /// A pixel's footprint: its angle times the distance (perspective), its size (ortho).
+    #[test]
+    fn pixel_footprint() {
+        let yfov = 1.0f32;
+        let c = Camera::new(Affine3A::IDENTITY, yfov, 64, 32);
+        let f = c.pixel_footprint();
+        let want = 2.0 * (0.5 * yfov).tan() / 32.0 * 5.0;
+        assert!((f.at(5.0) - want).abs() < 1e-6, "{} vs {want}", f.at(5.0));
+        let o = Camera::orthographic(Affine3A::IDENTITY, 2.0, 64, 32).pixel_footprint();
+        assert_eq!(o.at(1.0), o.at(100.0));
+        assert!((o.at(1.0) - 4.0 / 32.0).abs() < 1e-7);
     }
 
     #[test]

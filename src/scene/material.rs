@@ -248,6 +248,23 @@ impl Material {
         Some(if inputs.backfacing { -n } else { n })
     }
 
+    /// The directions of the Bump nodes' offsets at a point of geometric normal `ng`
+    /// (`ShadingGraph::bump_directions`; any tangent basis without a graph).
+    pub fn bump_directions(&self, ng: Vec3) -> [Vec3; 2] {
+        match &self.graph {
+            Some(g) => g.bump_directions(ng),
+            None => {
+                let f = crate::math::frame::Frame::from_normal(ng);
+                [f.s, f.t]
+            }
+        }
+    }
+
+    /// The Bump nodes' filter width in pixels (`ShadingGraph::bump_filter_width`).
+    pub fn bump_filter_width(&self) -> f32 {
+        self.graph.as_ref().map_or(0.1, |g| g.bump_filter_width())
+    }
+
     /// The graph sets the clear coat's own normal (Blender's Coat Normal).
     pub fn has_graph_coat_normal(&self) -> bool {
         self.graph.as_ref().is_some_and(|g| g.drives_coat_normal())

@@ -162,6 +162,9 @@ pub enum NodeOp {
     /// point and at two nearby points (see `BumpInputs`).
     Bump {
         invert: bool,
+        /// The offsets to the two nearby points, in pixels of the camera's footprint (Blender
+        /// 4.5+'s Filter Width, default 0.1; earlier Cycles used 1, the whole differential).
+        filter_width: f32,
     },
     Blackbody,
     /// Normal Map: a colour-encoded normal in tangent space (TEXCOORD_0's frame), object space
@@ -963,6 +966,19 @@ impl ShadingGraph {
         graph
     }
 
+    /// The filter width (pixels) the bump offsets use at a shading point: the largest of the
+    /// graph's Bump nodes' (one pair of offset points serves them all), 0.1 without any.
+    pub fn bump_filter_width(&self) -> f32 {
+        self.nodes
+            .iter()
+            .filter_map(|n| match n.op {
+                NodeOp::Bump { filter_width, .. } => Some(filter_width),
+                _ => None,
+            })
+            .reduce(f32::max)
+            .unwrap_or(0.1)
+    }
+
     pub fn drives_normal(&self) -> bool {
         self.bindings
             .iter()
@@ -1003,11 +1019,35 @@ impl ShadingGraph {
             .run_with(ctx, 2, Some(&bump), |slots| read(&source, slots, ctx))
             .xyz()
             .try_normalize()?;
-        Some(if self.z_up {
-            Vec3::new(n.x, n.z, -n.y)
+        Some(self.vector_out(n))
+    }
+
+    /// The two world-space directions (unit, in the tangent plane of the geometric normal
+    /// `ng`, on the viewer's side) along which Bump nodes offset their height: the basis
+    /// Cycles builds around Ng for its compact ray differentials, a = normalize((1, 1, 1) x
+    /// Ng) (or (-1, 1, 1) x Ng when Ng's components are all equal) and b = Ng x a, taken in
+    /// the graph's world frame. For smooth heights any basis gives the same normal; for
+    /// stepwise ones (a Filter Width bevel) the side of each edge the bevel lies on follows
+    /// these directions, so Cycles' choice is kept.
+    pub fn bump_directions(&self, ng: Vec3) -> [Vec3; 2] {
+        let n = self.vector_in(ng);
+        let a = if n.x != n.y || n.x != n.z {
+            Vec3::new(n.z - n.y, n.x - n.z, n.y - n.x)
         } else {
-            n
-        })
+            Vec3::new(n.z - n.y, n.x + n.z, -n.y - n.x)
+        }
+        .normalize_or_zero();
+        let b = n.cross(a);
+        [self.vector_out(a), self.vector_out(b)]
+    }
+
+    /// A vector of the graph's world frame in the scene's (the inverse of `vector_in`).
+    fn vector_out(&self, v: Vec3) -> Vec3 {
+        if self.z_up {
+            Vec3::new(v.x, v.z, -v.y)
+        } else {
+            v
+        }
     }
 
     /// A world-space vector of the scene in the graph's world frame.
@@ -1079,7 +1119,7 @@ impl ShadingGraph {
             inputs[k] = read(s, slots, ctx);
         }
         let mut outputs = eval_node(&node.op, &inputs, ctx);
-        if let (NodeOp::Bump { invert }, Some(b)) = (&node.op, bump) {
+        if let (NodeOp::Bump { invert, .. }, Some(b)) = (&node.op, bump) {
             let h = inputs[2].x;
             let hx = self.height_at(i, &b.dx);
             let hy = self.height_at(i, &b.dy);
@@ -1889,5 +1929,31 @@ mod tests {
         // blend 0.5 = eta 2: F0 = 1/9; facing = 1 - |cos| = 0.
         assert!((lw[0].x - 1.0 / 9.0).abs() < 1e-4);
         assert!(lw[1].x.abs() < 1e-6);
+    }
+
+    /// Bump offsets follow Cycles' basis around Ng in Blender's frame: for a surface facing
+    /// Blender's +Z, (1, -1, 0) / sqrt 2 and (1, 1, 0) / sqrt 2; orthonormal in the tangent
+    /// plane for any normal.
+    #[test]
+    fn bump_directions_are_cycles_basis() {
+        let mut g = ShadingGraph::new(vec![], vec![]);
+        g.z_up = true;
+        // Blender's +Z is glTF's +Y.
+        let [a, b] = g.bump_directions(Vec3::Y);
+        let r = std::f32::consts::FRAC_1_SQRT_2;
+        // Blender (1, -1, 0) -> glTF (x, z, -y) = (1, 0, 1); (1, 1, 0) -> (1, 0, -1).
+        assert!((a - Vec3::new(r, 0.0, r)).length() < 1e-6, "{a}");
+        assert!((b - Vec3::new(r, 0.0, -r)).length() < 1e-6, "{b}");
+        for n in [Vec3::X, Vec3::new(0.3, -0.5, 0.81), Vec3::ONE, -Vec3::ONE] {
+            let n = n.normalize();
+            for up in [false, true] {
+                g.z_up = up;
+                let [a, b] = g.bump_directions(n);
+                for (v, w) in [(a, n), (b, n), (a, b)] {
+                    assert!(v.dot(w).abs() < 1e-5, "{v} . {w}");
+                }
+                assert!((a.length() - 1.0).abs() < 1e-5 && (b.length() - 1.0).abs() < 1e-5);
+            }
+        }
     }
 }

@@ -59,7 +59,8 @@
 //!   (`wave_type`: bands | rings, `direction`: x | y | z | diagonal (bands) / spherical
 //!   (rings), `wave_profile`: sin | saw | tri); `magic_texture` (`depth` 0-10);
 //!   `brick_texture` (`offset`, `offset_frequency`, `squash`, `squash_frequency`); `bump`
-//!   (`invert`; inputs `strength`, `distance`, `height`, `normal`), whose output goes to the
+//!   (`invert`, `filter_width`: the offsets in pixels, default 0.1 as Blender 4.5+'s Filter
+//!   Width, 1 for earlier Blenders; inputs `strength`, `distance`, `height`, `normal`), whose output goes to the
 //!   material input `normal`; `curves` (`tables`: 1 for Float Curve, 3 for RGB Curves, each
 //!   `{"lo", "hi", "values": [...], "extrapolate"}` sampled evenly over [lo, hi]; inputs `fac`
 //!   and `value` / `color`); `vector_curves` (`tables`: 3, for X, Y and Z, sampled over the
@@ -315,7 +316,7 @@ fn node_op(
         "voronoi_texture" => &["dimensions", "feature", "distance", "normalize"],
         "wave_texture" => &["wave_type", "direction", "wave_profile"],
         "magic_texture" => &["depth"],
-        "bump" => &["invert"],
+        "bump" => &["invert", "filter_width"],
         "curves" => &["tables"],
         "vector_curves" => &["tables"],
         "normal_map" => &["space"],
@@ -530,6 +531,19 @@ fn node_op(
         },
         "bump" => NodeOp::Bump {
             invert: flag(m, "invert", path, false)?,
+            filter_width: match m.get("filter_width") {
+                None => 0.1,
+                Some(v) => {
+                    let w = number(v, &key_path(path, "filter_width"))?;
+                    if !(w > 0.0 && w.is_finite()) {
+                        return err(
+                            &key_path(path, "filter_width"),
+                            format!("must be a positive number of pixels, got {w}"),
+                        );
+                    }
+                    w
+                }
+            },
         },
         "magic_texture" => NodeOp::Magic {
             depth: match m.get("depth") {
@@ -1086,6 +1100,22 @@ mod tests {
         assert_eq!(v[MaterialInput::Metallic.index()].unwrap().x, 0.0);
     }
 
+    /// Bump offsets in pixels: Blender 4.5+'s default 0.1, the largest of several nodes.
+    #[test]
+    fn bump_filter_width() {
+        let g = parse(json!({"version": 1, "nodes": {"B": {"type": "bump"}},
+                             "inputs": {"normal": {"node": "B"}}}))
+        .unwrap();
+        assert_eq!(g.bump_filter_width(), 0.1);
+        let g = parse(json!({"version": 1, "nodes": {
+                "B": {"type": "bump", "filter_width": 1.0,
+                      "inputs": {"normal": {"node": "C", "output": "normal"}}},
+                "C": {"type": "bump", "filter_width": 0.5}},
+            "inputs": {"normal": {"node": "B"}}}))
+        .unwrap();
+        assert_eq!(g.bump_filter_width(), 1.0);
+    }
+
     #[test]
     fn errors_name_the_path() {
         let cases = [
@@ -1108,6 +1138,10 @@ mod tests {
             (
                 json!({"version": 1, "nodes": {}, "inputs": {"roughness": {"node": "B"}}}),
                 "materials.M.graph.inputs.roughness: no node named 'B'",
+            ),
+            (
+                json!({"version": 1, "nodes": {"A": {"type": "bump", "filter_width": -1.0}}, "inputs": {}}),
+                "materials.M.graph.nodes.A.filter_width: must be a positive number of pixels",
             ),
             (
                 json!({"version": 1, "nodes": {

@@ -306,6 +306,21 @@ def setups():
     nt.links.new(bump.outputs["Normal"], sh.inputs["Normal"])
     out.append(("BumpNoise", mat))
 
+    # Blender 4.5+'s Filter Width: 3 pixels turn a checker's steps into bevelled bands of
+    # about that width (0.1 would leave pixel-thin edges).
+    mat, nt, sh = new_material("BumpWide", "ShaderNodeBsdfPrincipled")
+    bump = nt.nodes.new("ShaderNodeBump")
+    if "Filter Width" in bump.inputs:
+        sh.inputs["Base Color"].default_value = (0.7, 0.7, 0.7, 1.0)
+        sh.inputs["Roughness"].default_value = 0.4
+        chk = nt.nodes.new("ShaderNodeTexChecker")
+        chk.inputs["Scale"].default_value = 4.0
+        bump.inputs["Filter Width"].default_value = 3.0
+        bump.inputs["Distance"].default_value = 0.02
+        nt.links.new(chk.outputs["Fac"], bump.inputs["Height"])
+        nt.links.new(bump.outputs["Normal"], sh.inputs["Normal"])
+        out.append(("BumpWide", mat))
+
     # One Bump feeding both shaders of a Mix: the material's normal (graph `inputs.normal`
     # beside the closures).
     mat, nt, df, gl, mx = mix_material("MixBump", "ShaderNodeBsdfDiffuse", "ShaderNodeBsdfGlossy", 0.4)
