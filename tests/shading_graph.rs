@@ -207,10 +207,16 @@ fn assert_quadrants(img: &[[f32; 4]], size: u32, peak: f32) {
     assert!(close(white, Vec3::splat(peak)), "bottom-right {white}");
 }
 
-#[test]
-fn gltf_texture_on_texcoord_1() {
-    // A plain glTF emissive texture with texCoord 1: read from TEXCOORD_1 (TEXCOORD_0 is all 0).
-    let dir = test_dir("gltf_texcoord_1");
+/// The panel lit by a 2x2 red / green / blue / white PNG as its emissive texture (strength 2),
+/// read through `sampler` and the textureInfo `info` (its `index` is filled in).
+fn rgbw_emissive_panel(
+    name: &str,
+    sampler: serde_json::Value,
+    mut info: serde_json::Value,
+    size: u32,
+    spp: u32,
+) -> (Vec<[f32; 4]>, Vec<String>) {
+    let dir = test_dir(name);
     let png = png_bytes(
         2,
         2,
@@ -223,15 +229,28 @@ fn gltf_texture_on_texcoord_1() {
     );
     let gltf = panel_scene_with(&dir, None, [1.0; 4], |b| {
         let img = b.image_embedded(&png, "image/png");
-        let tex = b.texture(img, Some(json!({"magFilter": 9728, "minFilter": 9728})));
+        info["index"] = json!(b.texture(img, Some(sampler)));
         b.use_ext("KHR_materials_emissive_strength");
+        b.use_ext("KHR_texture_transform");
         b.material(json!({"name": "Panel", "emissiveFactor": [1.0, 1.0, 1.0],
-            "emissiveTexture": {"index": tex, "texCoord": 1},
+            "emissiveTexture": info,
             "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0]},
             "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2.0}}}))
     });
+    render_file(&gltf, size, spp)
+}
+
+#[test]
+fn gltf_texture_on_texcoord_1() {
+    // A plain glTF emissive texture with texCoord 1: read from TEXCOORD_1 (TEXCOORD_0 is all 0).
     let size = 16;
-    let (img, warnings) = render_file(&gltf, size, 32);
+    let (img, warnings) = rgbw_emissive_panel(
+        "gltf_texcoord_1",
+        json!({"magFilter": 9728, "minFilter": 9728}),
+        json!({"texCoord": 1}),
+        size,
+        32,
+    );
     assert!(
         !warnings.iter().any(|w| w.contains("TEXCOORD")),
         "{warnings:?}"
@@ -247,33 +266,15 @@ fn gltf_sampler_wraps_each_axis_mirrored_included() {
     // [0.17, 0.83] of the panel) at [0.67, 1.33]: texel column 1 and row 1 (white) on the
     // near side of 1; past it, mirroring reads column 1 again (repeating would read blue /
     // red) and clamping row 1 again (repeating would read green / red).
-    let dir = test_dir("gltf_mirrored_repeat");
-    let png = png_bytes(
-        2,
-        2,
-        &[
-            [255, 0, 0, 255],
-            [0, 255, 0, 255],
-            [0, 0, 255, 255],
-            [255, 255, 255, 255],
-        ],
-    );
-    let gltf = panel_scene_with(&dir, None, [1.0; 4], |b| {
-        let img = b.image_embedded(&png, "image/png");
-        let tex = b.texture(
-            img,
-            Some(json!({"magFilter": 9728, "minFilter": 9728, "wrapS": 33648, "wrapT": 33071})),
-        );
-        b.use_ext("KHR_materials_emissive_strength");
-        b.use_ext("KHR_texture_transform");
-        b.material(json!({"name": "Panel", "emissiveFactor": [1.0, 1.0, 1.0],
-            "emissiveTexture": {"index": tex, "texCoord": 1,
-                "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.5]}}},
-            "pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 0.0, 1.0]},
-            "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2.0}}}))
-    });
     let size = 32;
-    let (img, warnings) = render_file(&gltf, size, 16);
+    let (img, warnings) = rgbw_emissive_panel(
+        "gltf_mirrored_repeat",
+        json!({"magFilter": 9728, "minFilter": 9728, "wrapS": 33648, "wrapT": 33071}),
+        json!({"texCoord": 1,
+               "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.5]}}}),
+        size,
+        16,
+    );
     assert!(
         !warnings.iter().any(|w| w.contains("MIRRORED")),
         "{warnings:?}"

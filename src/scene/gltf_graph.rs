@@ -242,59 +242,91 @@ pub fn texture_graph(
             }
         }
     }
-    if let Some(t) = &g.metallic_roughness_texture {
-        // Green: roughness, blue: metalness (glTF 3.9.2).
-        if let Some(r) = b.scaled_channel("metallicRoughnessTexture", t, 1, g.roughness) {
-            bind.push((MaterialInput::Roughness, r));
-        }
-        if let Some(m) = b.scaled_channel("metallicRoughnessTexture", t, 2, g.metallic) {
-            bind.push((MaterialInput::Metallic, m));
+    // One texture channel times a factor per slot (glTF 3.9.2: metallicRoughness holds the
+    // roughness in green and the metalness in blue; KHR_materials_transmission: red;
+    // KHR_materials_specular: the strength in alpha; KHR_materials_clearcoat: the weight in
+    // red, the roughness in green; KHR_materials_sheen: the roughness in alpha).
+    let coat = |t: &Option<TextureRef>| t.filter(|_| g.coat > 0.0);
+    let channels = [
+        (
+            "metallicRoughnessTexture",
+            g.metallic_roughness_texture,
+            1,
+            g.roughness,
+            MaterialInput::Roughness,
+        ),
+        (
+            "metallicRoughnessTexture",
+            g.metallic_roughness_texture,
+            2,
+            g.metallic,
+            MaterialInput::Metallic,
+        ),
+        (
+            "transmissionTexture",
+            g.transmission_texture,
+            0,
+            g.transmission,
+            MaterialInput::Transmission,
+        ),
+        (
+            "specularTexture",
+            g.specular_texture,
+            3,
+            g.specular,
+            MaterialInput::Specular,
+        ),
+        (
+            "clearcoatTexture",
+            coat(&g.coat_texture),
+            0,
+            g.coat,
+            MaterialInput::CoatWeight,
+        ),
+        (
+            "clearcoatRoughnessTexture",
+            coat(&g.coat_roughness_texture),
+            1,
+            g.coat_roughness,
+            MaterialInput::CoatRoughness,
+        ),
+        (
+            "sheenRoughnessTexture",
+            g.sheen_roughness_texture,
+            3,
+            g.sheen_roughness,
+            MaterialInput::SheenRoughness,
+        ),
+    ];
+    for (slot, texture, channel, factor, input) in channels {
+        if let Some(v) = texture.and_then(|t| b.scaled_channel(slot, &t, channel, factor)) {
+            bind.push((input, v));
         }
     }
-    if let Some(t) = &g.emissive_texture {
-        if let Some(c) = b.scaled_color("emissiveTexture", t, g.emissive) {
-            bind.push((MaterialInput::Emission, c));
-        }
-    }
-    if let Some(t) = &g.transmission_texture {
-        // KHR_materials_transmission: red.
-        if let Some(v) = b.scaled_channel("transmissionTexture", t, 0, g.transmission) {
-            bind.push((MaterialInput::Transmission, v));
-        }
-    }
-    if let Some(t) = &g.specular_texture {
-        // KHR_materials_specular: the strength in alpha, the colour in RGB.
-        if let Some(v) = b.scaled_channel("specularTexture", t, 3, g.specular) {
-            bind.push((MaterialInput::Specular, v));
-        }
-    }
-    if let Some(t) = &g.specular_color_texture {
-        if let Some(c) = b.scaled_color("specularColorTexture", t, g.specular_color) {
-            bind.push((MaterialInput::SpecularTint, c));
-        }
-    }
-    if g.coat > 0.0 {
-        // KHR_materials_clearcoat: the weight in red, the roughness in green.
-        if let Some(t) = &g.coat_texture {
-            if let Some(v) = b.scaled_channel("clearcoatTexture", t, 0, g.coat) {
-                bind.push((MaterialInput::CoatWeight, v));
-            }
-        }
-        if let Some(t) = &g.coat_roughness_texture {
-            if let Some(v) = b.scaled_channel("clearcoatRoughnessTexture", t, 1, g.coat_roughness) {
-                bind.push((MaterialInput::CoatRoughness, v));
-            }
-        }
-    }
-    // KHR_materials_sheen: colour in RGB, roughness in alpha.
-    if let Some(t) = &g.sheen_color_texture {
-        if let Some(c) = b.scaled_color("sheenColorTexture", t, g.sheen_color) {
-            bind.push((MaterialInput::SheenColor, c));
-        }
-    }
-    if let Some(t) = &g.sheen_roughness_texture {
-        if let Some(v) = b.scaled_channel("sheenRoughnessTexture", t, 3, g.sheen_roughness) {
-            bind.push((MaterialInput::SheenRoughness, v));
+    // RGB times a colour factor (emissive; KHR_materials_specular's and _sheen's colours).
+    let colours = [
+        (
+            "emissiveTexture",
+            g.emissive_texture,
+            g.emissive,
+            MaterialInput::Emission,
+        ),
+        (
+            "specularColorTexture",
+            g.specular_color_texture,
+            g.specular_color,
+            MaterialInput::SpecularTint,
+        ),
+        (
+            "sheenColorTexture",
+            g.sheen_color_texture,
+            g.sheen_color,
+            MaterialInput::SheenColor,
+        ),
+    ];
+    for (slot, texture, factor, input) in colours {
+        if let Some(c) = texture.and_then(|t| b.scaled_color(slot, &t, factor)) {
+            bind.push((input, c));
         }
     }
     if g.iridescence > 0.0
