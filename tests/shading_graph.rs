@@ -289,6 +289,41 @@ fn gltf_sampler_wraps_each_axis_mirrored_included() {
 }
 
 #[test]
+fn textured_emitters_dark_at_their_triangles_centres_are_still_chosen() {
+    // Emission only where u > 0.8 (TEXCOORD_1): neither triangle's centre (u = 2/3, 1/3)
+    // emits, so a centre-only power estimate would never pick the panel for next-event
+    // estimation. The estimate averages points over each triangle.
+    let dir = test_dir("graph_emitter_power");
+    let gltf = panel_scene(
+        &dir,
+        json!({"version": 1,
+               "nodes": {"UV": {"type": "uv_map", "set": 1},
+                         "Sep": {"type": "separate_xyz",
+                                 "inputs": {"vector": {"node": "UV", "output": "uv"}}},
+                         "Edge": {"type": "math", "operation": "greater_than",
+                                  "inputs": {"a": {"node": "Sep", "output": "x"}, "b": 0.8}}},
+               "inputs": {"emission": [1.0, 1.0, 1.0],
+                          "emission_strength": {"node": "Edge", "output": "value"}}}),
+        [1.0; 4],
+    );
+    let scene = Scene::build(load_scene(&gltf, None, None).expect("scene loads")).unwrap();
+    let ctx = prism::lights::ShadingContext {
+        p: glam::Vec3::new(0.0, 0.0, 3.0),
+        n: None,
+        time: 0.5,
+    };
+    for selection in [
+        prism::lights::LightSelection::Tree,
+        prism::lights::LightSelection::Power,
+    ] {
+        for prim in 0..2 {
+            let pmf = scene.lights.pmf(&ctx, prim, selection);
+            assert!(pmf > 0.05, "triangle {prim}: pmf {pmf} ({selection:?})");
+        }
+    }
+}
+
+#[test]
 fn vertex_colour_through_a_mix_node() {
     let dir = test_dir("graph_color_attribute");
     let gltf = panel_scene(

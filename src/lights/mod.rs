@@ -207,6 +207,10 @@ pub struct Lights {
 
 use crate::spectrum::rgb::luminance;
 
+/// Points at which a graph-driven emitter's radiance is evaluated for its power estimate, per
+/// object (`Lights::build`).
+const GRAPH_EMISSION_POINTS: usize = 256;
+
 /// A spot light's cone.
 #[derive(Clone, Copy, Debug)]
 pub struct SpotCone {
@@ -271,13 +275,30 @@ impl Lights {
             let sides = if two_sided { 2.0 } else { 1.0 };
             instance_base[ii] = lights.len() as u32;
             let xf = &inst.placement.object_to_world;
+            // A graph's emission (a glTF emissive texture too) is averaged over points of
+            // each triangle: about GRAPH_EMISSION_POINTS per emitting object, at least one per
+            // triangle, so a large textured quad is not judged by its centre alone (the
+            // estimate only steers light selection; the pdf stays exact).
+            let points = (GRAPH_EMISSION_POINTS / mesh.triangle_count().max(1)).clamp(1, 64);
             for prim in 0..mesh.triangle_count() as u32 {
                 let sp = geometry.surface_point_at(ii as u32, prim, 1.0 / 3.0, 1.0 / 3.0, 0.5);
-                // A graph's emission: its value at the triangle's centre stands for the
-                // triangle (the estimate only steers light selection; the pdf stays exact).
                 let rgb = if graph_emission {
-                    let inputs = geometry.shading_inputs(&sp, sp.ng, false);
-                    mat.emitted_rgb_at(&inputs)
+                    let mean = (0..points)
+                        .map(|k| {
+                            // Hammersley points on the triangle (the centre when only one).
+                            let (b1, b2) = if points == 1 {
+                                (1.0 / 3.0, 1.0 / 3.0)
+                            } else {
+                                sampling::sample_uniform_triangle(Vec2::new(
+                                    (k as f32 + 0.5) / points as f32,
+                                    crate::sampler::radical_inverse_base2(k as u32),
+                                ))
+                            };
+                            let p = geometry.surface_point_at(ii as u32, prim, b1, b2, 0.5);
+                            mat.emitted_rgb_at(&geometry.shading_inputs(&p, p.ng, false))
+                        })
+                        .sum::<Vec3>();
+                    mean / points as f32
                 } else {
                     rgb
                 };

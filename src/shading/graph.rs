@@ -715,6 +715,8 @@ pub struct ShadingGraph {
     bump_cones: Vec<(u32, Vec<u32>)>,
     /// See [`ShadingGraph::reads_object_space`].
     reads_object_space: bool,
+    /// See [`ShadingGraph::bump_filter_width`] (read per bumped shading point: kept here).
+    bump_filter_width: f32,
 }
 
 /// `ShadingGraph::run_with`'s index of the coverage program.
@@ -859,6 +861,14 @@ impl ShadingGraph {
             || closures
                 .iter()
                 .any(|c| generated(&c.weight) || c.bindings.iter().any(|(_, s)| generated(s)));
+        let bump_filter_width = nodes
+            .iter()
+            .filter_map(|n| match n.op {
+                NodeOp::Bump { filter_width, .. } => Some(filter_width),
+                _ => None,
+            })
+            .reduce(f32::max)
+            .unwrap_or(0.1);
         let surface_program = program(0);
         let emission_program = program(1);
         let normal_program = program(2);
@@ -900,6 +910,7 @@ impl ShadingGraph {
             bump_cones,
             z_up: false,
             reads_object_space,
+            bump_filter_width,
         }
     }
 
@@ -969,14 +980,7 @@ impl ShadingGraph {
     /// The filter width (pixels) the bump offsets use at a shading point: the largest of the
     /// graph's Bump nodes' (one pair of offset points serves them all), 0.1 without any.
     pub fn bump_filter_width(&self) -> f32 {
-        self.nodes
-            .iter()
-            .filter_map(|n| match n.op {
-                NodeOp::Bump { filter_width, .. } => Some(filter_width),
-                _ => None,
-            })
-            .reduce(f32::max)
-            .unwrap_or(0.1)
+        self.bump_filter_width
     }
 
     pub fn drives_normal(&self) -> bool {
