@@ -273,6 +273,7 @@ fn a_hit_light_has_the_density_that_sampled_it() {
                         let cos = sp.ng.dot(-ls.wi);
                         checked[0] += 1;
                         lights.triangle_pdf(
+                            &scene.geometry,
                             &ctx,
                             hit.instance,
                             hit.prim,
@@ -349,4 +350,129 @@ fn the_tree_beats_power_selection_on_1000_emitters() {
         power / tree
     );
     assert!(power >= 5.0 * tree, "tree {tree:.3e} vs power {power:.3e}");
+}
+
+/// A square emitter of side 1 just above shading points (0.05 away; the top of a Cornell box's
+/// walls under its ceiling light): triangles large for their distance are sampled by solid
+/// angle. Next-event estimation's irradiance estimate (cos / pdf, unit radiance) averages to
+/// Lambert's closed form for a polygon, its relative variance is far below that of sampling
+/// the square by area, and the density of hitting each sampled point equals the sampled one
+/// (so MIS stays exact).
+#[test]
+fn large_near_emitters_are_sampled_by_solid_angle() {
+    let h = 0.05;
+    let desc = SceneDesc {
+        meshes: vec![quad_mesh(
+            "panel",
+            Vec3::new(0.0, h, 0.0),
+            Vec3::X * 0.5,
+            Vec3::Z * 0.5,
+            0,
+        )],
+        instances: vec![InstanceDesc {
+            mesh: 0,
+            object_to_world: Mat4::IDENTITY,
+            name: "panel".into(),
+        }],
+        materials: vec![emissive_material("panel", Vec3::ONE, false)],
+        camera: Some(common::scenes::camera(0.0, 3.0)),
+        ..Default::default()
+    };
+    let corners = [
+        Vec3::new(-0.5, h, -0.5),
+        Vec3::new(0.5, h, -0.5),
+        Vec3::new(0.5, h, 0.5),
+        Vec3::new(-0.5, h, 0.5),
+    ];
+    // Lambert 1760: E / L = 1/2 sum over edges of (edge angle) (n . unit normal of the edge's
+    // plane), vertices seen from p.
+    let lambert = |p: Vec3, n: Vec3| {
+        let r = corners.map(|c| (c - p).normalize());
+        (0..4)
+            .map(|i| {
+                let (a, b) = (r[i], r[(i + 1) % 4]);
+                0.5 * a.dot(b).clamp(-1.0, 1.0).acos() * n.dot(a.cross(b).normalize())
+            })
+            .sum::<f32>()
+            .abs()
+    };
+    let scene = Scene::build(desc).expect("scene builds");
+    let lights = &scene.lights;
+    let w = SampledWavelengths::sample_hero(0.3, Default::default());
+    let mut rng = Pcg32::new(5, 6, 7);
+    let receivers = [
+        (Vec3::ZERO, Vec3::Y),
+        (Vec3::new(0.4, 0.0, -0.3), Vec3::Y),
+        (
+            Vec3::new(0.55, -0.02, 0.1),
+            Vec3::new(-1.0, 1.0, 0.0).normalize(),
+        ),
+    ];
+    for (p, n) in receivers {
+        let ctx = ShadingContext {
+            p,
+            n: Some(n),
+            time: 0.5,
+        };
+        let count = 20_000;
+        let (mut sum, mut sum2, mut area_sum, mut area_sum2) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for _ in 0..count {
+            let u = Vec2::new(rng.next_1d(), rng.next_1d());
+            let Some(ls) = lights.sample(
+                &scene.geometry,
+                &scene.materials,
+                &ctx,
+                rng.next_1d(),
+                u,
+                &w,
+                LightSelection::Tree,
+            ) else {
+                continue;
+            };
+            let cos = n.dot(ls.wi).max(0.0);
+            let e = (cos / ls.pdf) as f64;
+            sum += e;
+            sum2 += e * e;
+            let hit = scene
+                .geometry
+                .intersect(&Ray::new(p, ls.wi), f32::INFINITY)
+                .expect("the sample's direction meets the panel");
+            let sp = scene.geometry.surface_point(&hit);
+            let density = lights.triangle_pdf(
+                &scene.geometry,
+                &ctx,
+                hit.instance,
+                hit.prim,
+                sp.area,
+                hit.t,
+                sp.ng.dot(-ls.wi),
+                LightSelection::Tree,
+            );
+            assert!(
+                (density - ls.pdf).abs() <= 2e-3 * ls.pdf,
+                "at {p}: hit density {density} vs sampled {}",
+                ls.pdf
+            );
+            // The same estimate with the square sampled uniformly by area.
+            let q = Vec3::new(u.x - 0.5, h, u.y - 0.5);
+            let d = q - p;
+            let e_area = (n.dot(d).max(0.0) * d.y / d.length_squared().powi(2)) as f64;
+            area_sum += e_area;
+            area_sum2 += e_area * e_area;
+        }
+        let n_f = count as f64;
+        let mean = sum / n_f;
+        let want = lambert(p, n) as f64;
+        let rel_var = (sum2 / n_f - mean * mean) / (mean * mean);
+        let area_mean = area_sum / n_f;
+        let area_rel_var = (area_sum2 / n_f - area_mean * area_mean) / (area_mean * area_mean);
+        assert!(
+            (mean / want - 1.0).abs() < 0.01,
+            "at {p}: irradiance {mean} vs Lambert {want}"
+        );
+        assert!(
+            rel_var * 5.0 < area_rel_var,
+            "at {p}: relative variance {rel_var} by solid angle vs {area_rel_var} by area"
+        );
+    }
 }

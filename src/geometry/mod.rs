@@ -1065,6 +1065,16 @@ impl Geometry {
         }
     }
 
+    /// World-space vertices of triangle `prim` of `instance` at shutter time `time`.
+    #[inline]
+    pub fn world_triangle(&self, instance: u32, prim: u32, time: f32) -> [Vec3; 3] {
+        let inst = &self.instances[instance as usize];
+        let placement = inst.placement_at(time);
+        let mesh = &self.meshes[inst.mesh as usize];
+        mesh.vertices_at(prim as usize, time)
+            .map(|v| placement.object_to_world.transform_point3(v))
+    }
+
     /// World-space surface data at barycentrics (b1, b2) of a triangle of an instance placed
     /// at shutter time `time`.
     pub fn surface_point_at(

@@ -851,6 +851,7 @@ impl<'a> PathTracer<'a> {
                         1.0
                     } else {
                         let light_pdf = lights.triangle_pdf(
+                            geometry,
                             &prev_ctx,
                             hit.instance,
                             hit.prim,
