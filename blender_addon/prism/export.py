@@ -194,19 +194,37 @@ def _surface_node(mat):
 VOLUME_NODES = {"PRINCIPLED_VOLUME", "VOLUME_ABSORPTION", "VOLUME_SCATTER", "EMISSION", "ADD_SHADER", "MIX_SHADER"}
 
 
-def volume_lobes(node, warn, weight=1.0, depth=0, densities=None):
-    """The volume shader tree at `node` -> [(sigma_a, sigma_s, g, emission, density socket)]
-    (RGB lists), each already scaled by its Mix/Add weight; `warn(node, what)` names what is not
-    translated. Coefficients are linear in the closures' weights, so mixtures add exactly; only
-    the phase functions of several scattering lobes are merged into one (see `volume_json`).
-    A linked Density (a texture: a heterogeneous volume) gives its lobe's coefficients at
-    density 1 and the socket, which the caller binds to the graph's `volume_density`, when
-    `densities` is True; otherwise it is warned about and its value used."""
+class VolumeLobe:
+    """One volume closure's coefficients (RGB lists, scaled by its Mix/Add weights): sigma_a,
+    sigma_s, anisotropy g, emission; `density`: the linked Density socket (the coefficients are
+    then at density 1) or None; `color`: the linked Color socket or None, and `sigma_a0`,
+    `sigma_s0` the coefficients where that colour is black (sigma_a, sigma_s hold where it is
+    white; without a linked colour both pairs are equal)."""
+
+    def __init__(self, sigma_a, sigma_s, g, emission, density=None, color=None, sigma_a0=None, sigma_s0=None):
+        self.sigma_a, self.sigma_s, self.g, self.emission = sigma_a, sigma_s, g, emission
+        self.density, self.color = density, color
+        self.sigma_a0 = sigma_a if sigma_a0 is None else sigma_a0
+        self.sigma_s0 = sigma_s if sigma_s0 is None else sigma_s0
+
+
+def volume_lobes(node, warn, weight=1.0, depth=0, densities=None, colors=None):
+    """The volume shader tree at `node` -> [VolumeLobe], each already scaled by its Mix/Add
+    weight; `warn(node, what)` names what is not translated. Coefficients are linear in the
+    closures' weights, so mixtures add exactly; only the phase functions of several scattering
+    lobes are merged into one (see `volume_json`). A linked Density (a texture: a heterogeneous
+    volume) gives its lobe's coefficients at density 1 and the socket, which the caller binds
+    to the graph's `volume_density`, when `densities` is True; a linked Color (of Principled
+    Volume, Volume Scatter or Volume Absorption: their coefficients are linear in it per
+    channel) gives the coefficients at white and at black and the socket, bound to
+    `volume_color`, when `colors` is True. Otherwise a linked input is warned about and its
+    value used."""
     zero = [0.0, 0.0, 0.0]
     if node is None or depth > 32 or weight <= 0.0:
         return []
     t = node.type
     linked_density = [None]
+    linked_color = [None]
 
     def const(name, default):
         sock = _socket(node, name)
@@ -216,19 +234,36 @@ def volume_lobes(node, warn, weight=1.0, depth=0, densities=None):
             if name == "Density" and densities:
                 linked_density[0] = sock
                 return 1.0
-            warn(node, "input '%s' is linked; %s, using its value" % (
-                name, "only Density may vary in a volume" if densities else "volumes are homogeneous here (no textures or attributes)"))
+            if name == "Color" and colors:
+                linked_color[0] = sock
+                return (1.0, 1.0, 1.0, 1.0)
+            why = ("only Density and Color may vary in a volume" if densities and name != "Color"
+                   else "only one Color may vary per volume" if densities
+                   else "volumes are homogeneous here (no textures or attributes)")
+            warn(node, "input '%s' is linked; %s, using its value" % (name, why))
         return sock.default_value
 
     def rgb(name, default=(1.0, 1.0, 1.0, 1.0)):
         return [max(float(c), 0.0) for c in list(const(name, default))[:3]]
 
+    def lobe(sigma_a_of, sigma_s_of, color, g, emission):
+        """A lobe whose coefficients are sigma_*_of(colour): at `color`, and (with a linked
+        Color) at black."""
+        black = linked_color[0] is not None
+        return VolumeLobe(sigma_a_of(color), sigma_s_of(color), g, emission, linked_density[0],
+                          linked_color[0], sigma_a_of(zero) if black else None,
+                          sigma_s_of(zero) if black else None)
+
     if t == "PRINCIPLED_VOLUME":
         color = rgb("Color")
         density = weight * max(float(const("Density", 1.0)), 0.0)
         absorption_color = [math.sqrt(c) for c in rgb("Absorption Color", (0, 0, 0, 1))]
-        sigma_s = [density * c for c in color]
-        sigma_a = [density * max(1.0 - c, 0.0) * max(1.0 - a, 0.0) for c, a in zip(color, absorption_color)]
+
+        def principled_s(col):
+            return [density * c for c in col]
+
+        def principled_a(col):
+            return [density * max(1.0 - c, 0.0) * max(1.0 - a, 0.0) for c, a in zip(col, absorption_color)]
         strength = max(float(const("Emission Strength", 0.0)), 0.0)
         emission = [weight * strength * c for c in rgb("Emission Color")]
         blackbody = max(float(const("Blackbody Intensity", 0.0)), 0.0)
@@ -240,19 +275,22 @@ def volume_lobes(node, warn, weight=1.0, depth=0, densities=None):
             bb = blackbody_rgb(kelvin) if kelvin > 0.0 else (0.0, 0.0, 0.0)
             tint = rgb("Blackbody Tint")
             emission = [e + weight * intensity * t * c for e, t, c in zip(emission, tint, bb)]
-        return [(sigma_a, sigma_s, float(const("Anisotropy", 0.0)), emission, linked_density[0])]
+        return [lobe(principled_a, principled_s, color, float(const("Anisotropy", 0.0)), emission)]
     if t == "VOLUME_ABSORPTION":
         density = weight * max(float(const("Density", 1.0)), 0.0)
-        return [([density * max(1.0 - c, 0.0) for c in rgb("Color")], zero, 0.0, zero, linked_density[0])]
+        color = rgb("Color")
+        return [lobe(lambda col: [density * max(1.0 - c, 0.0) for c in col], lambda col: zero, color, 0.0, zero)]
     if t == "VOLUME_SCATTER":
         phase = getattr(node, "phase", "HENYEY_GREENSTEIN")
         if phase != "HENYEY_GREENSTEIN":
             warn(node, "phase function %s is not supported; using Henyey-Greenstein with its Anisotropy" % phase)
         density = weight * max(float(const("Density", 1.0)), 0.0)
-        return [(zero, [density * c for c in rgb("Color")], float(const("Anisotropy", 0.0)), zero, linked_density[0])]
+        color = rgb("Color")
+        return [lobe(lambda col: zero, lambda col: [density * c for c in col], color,
+                     float(const("Anisotropy", 0.0)), zero)]
     if t == "EMISSION":
         strength = max(float(const("Strength", 1.0)), 0.0)
-        return [(zero, zero, 0.0, [weight * strength * c for c in rgb("Color")], None)]
+        return [VolumeLobe(zero, zero, 0.0, [weight * strength * c for c in rgb("Color")])]
     if t in {"ADD_SHADER", "MIX_SHADER"}:
         shaders = [s for s in node.inputs if s.type == "SHADER"]
         weights = [weight, weight]
@@ -265,7 +303,10 @@ def volume_lobes(node, warn, weight=1.0, depth=0, densities=None):
                 src = sock.links[0].from_node
                 while src.type == "REROUTE" and src.inputs[0].is_linked:
                     src = src.inputs[0].links[0].from_node
-                lobes += volume_lobes(src, warn, w, depth + 1, densities)
+                sub = volume_lobes(src, warn, w, depth + 1, densities, colors)
+                if sub is None:
+                    return None
+                lobes += sub
         return lobes
     warn(node, "is not a supported volume shader (Principled Volume, Volume Absorption, Volume Scatter, Emission, Add/Mix Shader); the volume is ignored")
     return None
@@ -276,10 +317,10 @@ def volume_json(lobes, warn_merge):
     surface-less material is still invisible). The renderer has one Henyey-Greenstein lobe per
     volume: several scattering lobes keep their summed sigma_s and get the sigma_s-weighted
     mean anisotropy (`warn_merge` is called when their anisotropies differ)."""
-    sigma_a = [sum(l[0][i] for l in lobes) for i in range(3)]
-    sigma_s = [sum(l[1][i] for l in lobes) for i in range(3)]
-    emission = [sum(l[3][i] for l in lobes) for i in range(3)]
-    scatter_weights = [(sum(l[1]), l[2]) for l in lobes if sum(l[1]) > 0.0]
+    sigma_a = [sum(l.sigma_a[i] for l in lobes) for i in range(3)]
+    sigma_s = [sum(l.sigma_s[i] for l in lobes) for i in range(3)]
+    emission = [sum(l.emission[i] for l in lobes) for i in range(3)]
+    scatter_weights = [(sum(l.sigma_s) + sum(l.sigma_s0), l.g) for l in lobes if sum(l.sigma_s) + sum(l.sigma_s0) > 0.0]
     total = sum(w for w, _ in scatter_weights)
     g = sum(w * g for w, g in scatter_weights) / total if total > 0.0 else 0.0
     if len({round(g_, 4) for _, g_ in scatter_weights}) > 1:
@@ -287,6 +328,9 @@ def volume_json(lobes, warn_merge):
     out = {"sigma_a": sigma_a, "sigma_s": sigma_s, "g": min(max(g, -0.99), 0.99)}
     if max(emission) > 0.0:
         out["emission"] = emission
+    if any(l.color is not None for l in lobes):
+        out["color_zero"] = {"sigma_a": [sum(l.sigma_a0[i] for l in lobes) for i in range(3)],
+                             "sigma_s": [sum(l.sigma_s0[i] for l in lobes) for i in range(3)]}
     return out
 
 
@@ -1766,23 +1810,36 @@ class Exporter:
                 warned.add((n.name, what))
                 self.warnings.append("material '%s': node '%s' (%s): %s" % (name, n.name, n.bl_idname, what))
 
-        lobes = volume_lobes(node, warn, densities=True)
+        lobes = volume_lobes(node, warn, densities=True, colors=True)
         if lobes is None:
             # Not translatable (warned): an empty volume, so a surface-less material stays
             # invisible as in Cycles instead of turning into a grey surface.
             return {"sigma_a": [0.0] * 3, "sigma_s": [0.0] * 3, "g": 0.0}
-        sockets = {l[4].as_pointer(): l[4] for l in lobes if l[4] is not None}
-        extinct = [l for l in lobes if max(l[0] + l[1]) > 0.0]
-        if sockets and (len(sockets) > 1 or any(l[4] is None for l in extinct)):
+        colors = {l.color.as_pointer(): l.color for l in lobes if l.color is not None}
+        if len(colors) > 1:
+            # One colour field per volume (the renderer mixes two ends by it): several cannot
+            # be represented; their values are used (warned as linked inputs).
+            lobes = volume_lobes(node, warn, densities=True, colors=False)
+            colors = {}
+        sockets = {l.density.as_pointer(): l.density for l in lobes if l.density is not None}
+        extinct = [l for l in lobes if max(l.sigma_a + l.sigma_s + l.sigma_a0 + l.sigma_s0) > 0.0]
+        if sockets and (len(sockets) > 1 or any(l.density is None for l in extinct)):
             # One density field per volume: several, or one beside constant densities, cannot
             # be represented; fall back to the sliders' values.
-            lobes = volume_lobes(node, warn, densities=False)
+            lobes = volume_lobes(node, warn, densities=False, colors=bool(colors))
             sockets = {}
-        volume = volume_json(lobes, lambda: self.warnings.append(
-            "material '%s': volume scattering lobes with different Anisotropy are merged into one (their sigma_s-weighted mean)" % name))
-        if volume is not None and sockets:
+        merged = lambda: self.warnings.append(
+            "material '%s': volume scattering lobes with different Anisotropy are merged into one (their sigma_s-weighted mean)" % name)
+        volume = volume_json(lobes, merged)
+        if volume is not None and (sockets or colors):
             gb = GraphBuilder(name, self._graph_image, self._uv_set, self._color_set, self.warnings.append)
-            if gb.bind("volume_density", next(iter(sockets.values()))):
+            density_bound = bool(sockets) and bool(gb.bind("volume_density", next(iter(sockets.values()))))
+            if colors and not gb.bind("volume_color", next(iter(colors.values()))):
+                # The colour's nodes are not translatable (the builder warned): its value.
+                lobes = volume_lobes(node, lambda n, what: None, densities=density_bound, colors=False)
+                volume = volume_json(lobes, lambda: None)
+                colors = {}
+            if density_bound or colors:
                 self.volume_graphs[name] = gb.result()
         return volume
 

@@ -11,12 +11,13 @@ use crate::geometry::{bump_terminator_shadowing, offset_ray_origin, Ray};
 use crate::lights::{LightSelection, ShadingContext};
 use crate::math::{power_heuristic, Frame};
 use crate::media::{
-    transmittance, MediumEntry, MediumStack, PhaseMixture, SegmentMedium, MAX_TRACKING_STEPS,
+    transmittance, FieldPoint, MediumEntry, MediumStack, PhaseMixture, SegmentMedium,
+    MAX_TRACKING_STEPS,
 };
 use crate::sampler::Sampler;
 use crate::scene::camera::PixelFootprint;
 use crate::scene::Scene;
-use crate::spectrum::{SampledSpectrum, SampledWavelengths};
+use crate::spectrum::{RgbAlbedoSpectrum, SampledSpectrum, SampledWavelengths};
 
 /// Bounces after which Russian roulette may end a path.
 const RR_MIN_DEPTH: u32 = 3;
@@ -200,7 +201,7 @@ impl<'a> PathTracer<'a> {
                 return SampledSpectrum::ZERO;
             }
             return match self.segment_medium(media, w) {
-                Some(seg) => self.segment_transmittance(&seg, &ray, distance, sampler),
+                Some(seg) => self.segment_transmittance(&seg, &ray, distance, w, sampler),
                 None => SampledSpectrum::ONE,
             };
         }
@@ -214,6 +215,7 @@ impl<'a> PathTracer<'a> {
         seg: &SegmentMedium,
         ray: &Ray,
         d: f32,
+        w: &SampledWavelengths,
         sampler: &mut Sampler,
     ) -> SampledSpectrum {
         if !seg.is_heterogeneous() {
@@ -224,7 +226,7 @@ impl<'a> PathTracer<'a> {
             ray.dir,
             d,
             || sampler.next_1d(),
-            |e, t| self.density_at(e, ray.at(t)),
+            |e, t| self.field_at(e, ray.at(t), w),
         )
     }
 
@@ -237,6 +239,7 @@ impl<'a> PathTracer<'a> {
     /// Returns where the flight ended (`segment_end` when it passed), the emission seen (MIS
     /// weighted, to add to the path's radiance) and, at a scattering collision, its phase
     /// function and albedo. An absorbed flight leaves `beta` at 0.
+    #[allow(clippy::too_many_arguments)]
     fn delta_track(
         &self,
         seg: &SegmentMedium,
@@ -244,6 +247,7 @@ impl<'a> PathTracer<'a> {
         segment_end: f32,
         beta: &mut SampledSpectrum,
         mis: &mut SpectralMis,
+        w: &SampledWavelengths,
         sampler: &mut Sampler,
     ) -> (
         f32,
@@ -278,7 +282,7 @@ impl<'a> PathTracer<'a> {
                     return (t, emitted, None);
                 }
                 let tm = transmittance(sigma_maj, step);
-                let p = seg.at(|e| self.density_at(e, ray.at(t)).min(cap));
+                let p = seg.at(|e| self.field_at(e, ray.at(t), w).capped(cap));
                 if !seg.emission.is_black() {
                     let pdf = tm[0] * m0;
                     let mut m = *mis;
@@ -364,16 +368,21 @@ impl<'a> PathTracer<'a> {
         ls.li * shadow * (f * weight / (ls.pdf * mis.denominator()))
     }
 
-    /// The density of the heterogeneous volume `e` at the world point `p`.
-    fn density_at(&self, e: &MediumEntry, p: glam::Vec3) -> f32 {
+    /// The field of the heterogeneous volume `e` at the world point `p`: its density and
+    /// colour (at the path's wavelengths `w`).
+    fn field_at(&self, e: &MediumEntry, p: glam::Vec3, w: &SampledWavelengths) -> FieldPoint {
         let Some(field) = self.scene.materials[e.material as usize]
             .interior()
             .and_then(|m| m.density())
         else {
-            return 1.0;
+            return FieldPoint::UNIT;
         };
         let inputs = self.scene.geometry.volume_inputs(e.instance, p);
-        field.graph.volume_density(&inputs).unwrap_or(1.0)
+        let (density, color) = field.graph.volume_field(&inputs);
+        FieldPoint {
+            density: density.unwrap_or(1.0),
+            color: color.map(|c| RgbAlbedoSpectrum::new(c).sample(w)),
+        }
     }
 
     /// Stochastic transparency at `sp`: the ray passes with probability 1 - alpha (opaque
@@ -425,8 +434,13 @@ impl<'a> PathTracer<'a> {
         for _ in 0..64 {
             let hit = geometry.intersect(&ray, remaining);
             if let Some(seg) = self.segment_medium(&media, w) {
-                t *=
-                    self.segment_transmittance(&seg, &ray, hit.map_or(remaining, |h| h.t), sampler);
+                t *= self.segment_transmittance(
+                    &seg,
+                    &ray,
+                    hit.map_or(remaining, |h| h.t),
+                    w,
+                    sampler,
+                );
             }
             let Some(h) = hit else {
                 return t;
@@ -568,8 +582,15 @@ impl<'a> PathTracer<'a> {
                 let heterogeneous = segment.as_ref().is_some_and(|s| s.is_heterogeneous());
                 if let Some(seg) = &segment {
                     let emitted = if heterogeneous {
-                        let (end, emitted, event) =
-                            self.delta_track(seg, &ray, segment_end, &mut beta, &mut mis, sampler);
+                        let (end, emitted, event) = self.delta_track(
+                            seg,
+                            &ray,
+                            segment_end,
+                            &mut beta,
+                            &mut mis,
+                            &alive,
+                            sampler,
+                        );
                         flight_end = end;
                         scattered = event;
                         emitted
@@ -627,7 +648,7 @@ impl<'a> PathTracer<'a> {
                             let (mut b, mut m) = (beta_start, mis_start);
                             if let Some(seg) = &segment {
                                 if heterogeneous {
-                                    b *= self.segment_transmittance(seg, &ray, s, sampler);
+                                    b *= self.segment_transmittance(seg, &ray, s, &alive, sampler);
                                 } else {
                                     let tr = seg.transmittance(s);
                                     if seg.phase.is_some() {

@@ -81,7 +81,8 @@ impl CoefficientSpectrum {
 /// A density that varies inside the volume: a shading graph's `volume_density` output
 /// multiplying the coefficients (emission excepted, as in Cycles' Principled Volume), bounded by
 /// `majorant` (estimated when the scene is built: `scene::build`; larger values are clamped to
-/// it, which no sampled point of the volume's box reached).
+/// it, which no sampled point of the volume's box reached). A graph that drives `volume_color`
+/// (with or without a density) makes the coefficients vary with that colour too.
 #[derive(Clone, Debug)]
 pub struct DensityField {
     pub graph: std::sync::Arc<crate::shading::ShadingGraph>,
@@ -103,6 +104,34 @@ pub struct Medium {
     emission_rgb: glam::Vec3,
     scatters: bool,
     density: Option<DensityField>,
+    /// (sigma_a, sigma_s) where the field's colour is black (`VolumeDesc::color_zero`; black
+    /// coefficients when the description has none); `sigma_a`, `sigma_s` hold where it is white.
+    color_zero: Option<(CoefficientSpectrum, CoefficientSpectrum)>,
+}
+
+/// A heterogeneous volume's field at one point: the density and, where the graph drives the
+/// volume's colour, that colour at the path's wavelengths (in [0, 1]).
+#[derive(Clone, Copy, Debug)]
+pub struct FieldPoint {
+    pub density: f32,
+    pub color: Option<SampledSpectrum>,
+}
+
+impl FieldPoint {
+    /// Density 1, no colour: a volume without a field.
+    pub const UNIT: FieldPoint = FieldPoint {
+        density: 1.0,
+        color: None,
+    };
+
+    /// The same point with its density at most `cap` (a majorant run's bound).
+    #[inline]
+    pub fn capped(self, cap: f32) -> FieldPoint {
+        FieldPoint {
+            density: self.density.min(cap),
+            ..self
+        }
+    }
 }
 
 impl Medium {
@@ -116,7 +145,17 @@ impl Medium {
             emission_rgb: desc.emission.max(glam::Vec3::ZERO),
             scatters: desc.sigma_s.max_element() > 0.0,
             density: None,
+            color_zero: None,
         }
+        .with_color_zero(desc.color_zero)
+    }
+
+    /// Coefficients (sigma_a, sigma_s) where a field's colour is black (see `color_zero`).
+    fn with_color_zero(mut self, zero: Option<(glam::Vec3, glam::Vec3)>) -> Self {
+        let (a, s) = zero.unwrap_or((glam::Vec3::ZERO, glam::Vec3::ZERO));
+        self.scatters |= s.max_element() > 0.0;
+        self.color_zero = Some((CoefficientSpectrum::new(a), CoefficientSpectrum::new(s)));
+        self
     }
 
     /// Absorption only, the medium of coloured glass: glTF's KHR_materials_volume, light keeps
@@ -237,8 +276,14 @@ pub struct SegmentMedium<'m> {
 #[derive(Clone, Copy, Debug)]
 pub struct VaryingPart {
     pub entry: MediumEntry,
+    /// The coefficients at density 1 (and where a varying colour is white).
     sigma_s: SampledSpectrum,
     sigma_t: SampledSpectrum,
+    /// Where the field drives the colour: the coefficients at density 1 where it is black.
+    color_zero: Option<(SampledSpectrum, SampledSpectrum)>,
+    /// Bound of sigma_t at density 1 over every colour: a colour c in [0, 1] mixes the two
+    /// ends per wavelength, c sigma_t + (1 - c) sigma_t0 <= max(sigma_t, sigma_t0).
+    sigma_t_bound: SampledSpectrum,
     g: f32,
     max_density: f32,
 }
@@ -302,14 +347,29 @@ impl<'m> SegmentMedium<'m> {
                 SampledSpectrum::ZERO
             };
             if let Some(field) = &m.density {
+                let color_zero = field
+                    .graph
+                    .drives(crate::shading::MaterialInput::VolumeColor)
+                    .then_some(m.color_zero.as_ref())
+                    .flatten()
+                    .map(|(a0, s0)| {
+                        let s0 = s0.sample(w);
+                        (s0, a0.sample(w) + s0)
+                    });
+                let sigma_t_bound = match color_zero {
+                    Some((_, t0)) => SampledSpectrum::from_fn(|k| (a + s)[k].max(t0[k])),
+                    None => a + s,
+                };
                 varying[i] = Some(VaryingPart {
                     entry: *e,
                     sigma_s: s,
                     sigma_t: a + s,
+                    color_zero,
+                    sigma_t_bound,
                     g: m.g,
                     max_density: field.majorant,
                 });
-                majorant += (a + s) * field.majorant;
+                majorant += sigma_t_bound * field.majorant;
                 grids += 1;
                 grid = field
                     .grids
@@ -356,7 +416,7 @@ impl<'m> SegmentMedium<'m> {
     ) -> impl Iterator<Item = (f32, f32, SampledSpectrum, f32)> + '_ {
         let (grid_runs, single) = match self.grid {
             Some((g, m, part)) => {
-                let unit = self.varying[part].map_or(SampledSpectrum::ZERO, |v| v.sigma_t);
+                let unit = self.varying[part].map_or(SampledSpectrum::ZERO, |v| v.sigma_t_bound);
                 let runs = g
                     .runs(&m, origin, dir, t_end)
                     .map(move |(t0, t1, bound)| (t0, t1, self.sigma_t + unit * bound, bound));
@@ -376,26 +436,38 @@ impl<'m> SegmentMedium<'m> {
     /// Something on the segment can scatter.
     pub fn may_scatter(&self) -> bool {
         self.phase.is_some()
-            || self
-                .varying
-                .iter()
-                .flatten()
-                .any(|v| !v.sigma_s.is_black() && v.max_density > 0.0)
+            || self.varying.iter().flatten().any(|v| {
+                let s0 = v.color_zero.map_or(SampledSpectrum::ZERO, |(s0, _)| s0);
+                !(v.sigma_s.is_black() && s0.is_black()) && v.max_density > 0.0
+            })
     }
 
-    /// The coefficients at a point, `density(entry)` giving each heterogeneous volume's
-    /// density there (clamped to its bound).
-    pub fn at(&self, mut density: impl FnMut(&MediumEntry) -> f32) -> PointCoefficients {
+    /// The coefficients at a point, `field(entry)` giving each heterogeneous volume's density
+    /// there (clamped to its bound) and its colour where the graph drives it.
+    pub fn at(&self, mut field: impl FnMut(&MediumEntry) -> FieldPoint) -> PointCoefficients {
         let (mut sigma_s, mut sigma_t) = (self.sigma_s, self.sigma_t);
         let mut lobes = self.lobes;
         let mut n = self.n_lobes;
         for v in self.varying.iter().flatten() {
-            let d = density(&v.entry).clamp(0.0, v.max_density);
+            let point = field(&v.entry);
+            let d = point.density.clamp(0.0, v.max_density);
             if d > 0.0 {
-                sigma_s += v.sigma_s * d;
-                sigma_t += v.sigma_t * d;
-                if !v.sigma_s.is_black() && n < MAX_MEDIA {
-                    lobes[n] = (v.g, v.sigma_s.average() * d);
+                // Cycles' volume closures are linear in their colour per channel; here per
+                // wavelength, with the colour upsampled as a reflectance.
+                let (s, t) = match (v.color_zero, point.color) {
+                    (Some((s0, t0)), Some(c)) => {
+                        let one_minus = SampledSpectrum::ONE - c;
+                        (
+                            v.sigma_s * c + s0 * one_minus,
+                            v.sigma_t * c + t0 * one_minus,
+                        )
+                    }
+                    _ => (v.sigma_s, v.sigma_t),
+                };
+                sigma_s += s * d;
+                sigma_t += t * d;
+                if !s.is_black() && n < MAX_MEDIA {
+                    lobes[n] = (v.g, s.average() * d);
                     n += 1;
                 }
             }
@@ -411,14 +483,14 @@ impl<'m> SegmentMedium<'m> {
     /// ratio tracking (Novak et al. 2014) with tentative points at the hero's majorant rate;
     /// each point multiplies wavelength k by T_maj,k sigma_n,k / (T_maj,0 sigma_maj,0) and the
     /// end by T_maj,k / T_maj,0, whose expectation is exp(-integral of sigma_t,k) for every k.
-    /// `u` gives uniform numbers, `density(entry, t)` the densities at distance t.
+    /// `u` gives uniform numbers, `field(entry, t)` the fields at distance t.
     pub fn ratio_tracking(
         &self,
         origin: glam::Vec3,
         dir: glam::Vec3,
         d: f32,
         mut u: impl FnMut() -> f32,
-        mut density: impl FnMut(&MediumEntry, f32) -> f32,
+        mut field: impl FnMut(&MediumEntry, f32) -> FieldPoint,
     ) -> SampledSpectrum {
         if !d.is_finite() {
             return self.transmittance(d);
@@ -444,7 +516,7 @@ impl<'m> SegmentMedium<'m> {
                 if steps > MAX_TRACKING_STEPS {
                     return SampledSpectrum::ZERO;
                 }
-                let p = self.at(|e| density(e, t).min(cap));
+                let p = self.at(|e| field(e, t).capped(cap));
                 let sigma_n = (sigma_maj - p.sigma_t).clamp_zero();
                 tr *= transmittance(sigma_maj, step) * sigma_n / ((-m0 * step).exp() * m0);
                 if tr.max_component() < 1e-4 {
@@ -548,6 +620,7 @@ mod tests {
             sigma_s,
             g: 0.3,
             emission,
+            ..Default::default()
         })
     }
 

@@ -362,7 +362,8 @@ fn estimate_density_bounds(geometry: &Geometry, materials: &mut [Material]) {
                             let object = MajorantGrid::cell_point(lo, hi, cell as usize, u);
                             let world = inst.placement.object_to_world.transform_point3(object);
                             let inputs = geometry.volume_inputs(ii as u32, world);
-                            field.graph.volume_density(&inputs).unwrap_or(0.0)
+                            // A graph driving only the colour: density 1 everywhere.
+                            field.graph.volume_density(&inputs).unwrap_or(1.0)
                         })
                         .fold(0.0f32, f32::max)
                 })

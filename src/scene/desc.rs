@@ -369,6 +369,9 @@ pub struct VolumeDesc {
     pub g: f32,
     /// Emitted radiance per unit length.
     pub emission: Vec3,
+    /// Where the material's graph drives `volume_color`: (sigma_a, sigma_s) where that colour
+    /// is black; `sigma_a` and `sigma_s` above hold where it is white.
+    pub color_zero: Option<(Vec3, Vec3)>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Default)]

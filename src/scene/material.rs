@@ -115,10 +115,10 @@ impl Material {
                 Medium::attenuation(c, g.attenuation_distance)
             })
             .filter(|_| g.attenuation_color.min_element() < 1.0);
-        let density_graph = desc
-            .graph
-            .clone()
-            .filter(|g| g.drives(crate::shading::MaterialInput::VolumeDensity));
+        let density_graph = desc.graph.clone().filter(|g| {
+            g.drives(crate::shading::MaterialInput::VolumeDensity)
+                || g.drives(crate::shading::MaterialInput::VolumeColor)
+        });
         let interior = desc
             .volume
             .as_ref()

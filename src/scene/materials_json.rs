@@ -749,12 +749,26 @@ impl Validator<'_> {
 
     fn volume(&self, v: &Value, path: &JPath) -> R<VolumeDesc> {
         let m = self.object(v, path)?;
-        self.check_keys(m, &["sigma_a", "sigma_s", "g", "emission"], path)?;
-        let rgb = |key: &str| -> R<Vec3> {
+        self.check_keys(
+            m,
+            &["sigma_a", "sigma_s", "g", "emission", "color_zero"],
+            path,
+        )?;
+        let rgb_in = |m: &serde_json::Map<String, Value>, path: &JPath, key: &str| -> R<Vec3> {
             match m.get(key) {
                 Some(c) => self.rgb(c, &path.key(key), Range::NonNeg),
                 None => Ok(Vec3::ZERO),
             }
+        };
+        let rgb = |key: &str| rgb_in(m, path, key);
+        let color_zero = match m.get("color_zero") {
+            Some(z) => {
+                let zp = path.key("color_zero");
+                let zm = self.object(z, &zp)?;
+                self.check_keys(zm, &["sigma_a", "sigma_s"], &zp)?;
+                Some((rgb_in(zm, &zp, "sigma_a")?, rgb_in(zm, &zp, "sigma_s")?))
+            }
+            None => None,
         };
         let g = match m.get("g") {
             Some(g) => self.number(g, &path.key("g"), Range::OpenSigned)?,
@@ -765,6 +779,7 @@ impl Validator<'_> {
             sigma_s: rgb("sigma_s")?,
             g,
             emission: rgb("emission")?,
+            color_zero,
         })
     }
 

@@ -607,6 +607,11 @@ pub enum MaterialInput {
     /// The thin film's weight where `ThinFilmThickness` is driven (1 when unbound):
     /// KHR_materials_iridescence's factor, textured.
     ThinFilmWeight,
+    /// The colour of a volume at a point inside the material (a textured Principled Volume,
+    /// Volume Scatter or Volume Absorption Color): its coefficients are those of the material
+    /// JSON's `volume` where it is white and of `volume.color_zero` where it is black, linear
+    /// in between per wavelength (`crate::media`).
+    VolumeColor,
 }
 
 pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
@@ -634,9 +639,10 @@ pub const MATERIAL_INPUTS: &[(&str, MaterialInput, SocketType)] = &[
     ("subsurface_color", MaterialInput::SubsurfaceColor, C),
     ("coat_ior", MaterialInput::CoatIor, F),
     ("thin_film_weight", MaterialInput::ThinFilmWeight, F),
+    ("volume_color", MaterialInput::VolumeColor, C),
 ];
 
-pub const N_MATERIAL_INPUTS: usize = 24;
+pub const N_MATERIAL_INPUTS: usize = 25;
 
 impl MaterialInput {
     pub fn index(self) -> usize {
@@ -655,7 +661,7 @@ impl MaterialInput {
         match self {
             MaterialInput::Emission | MaterialInput::EmissionStrength => 1,
             MaterialInput::Normal | MaterialInput::CoatNormal => 2,
-            MaterialInput::VolumeDensity => 3,
+            MaterialInput::VolumeDensity | MaterialInput::VolumeColor => 3,
             MaterialInput::Alpha => ALPHA_PROGRAM,
             _ => 0,
         }
@@ -1348,14 +1354,44 @@ impl ShadingGraph {
     /// The volume density multiplier at a point inside the material (`ctx` from
     /// `Geometry::volume_inputs`), if the graph drives it; never negative.
     pub fn volume_density(&self, ctx: &ShadingInputs) -> Option<f32> {
-        let source = self
-            .bindings
-            .iter()
-            .find(|(m, _)| *m == MaterialInput::VolumeDensity)?
-            .1;
+        self.volume_field(ctx).0
+    }
+
+    /// The volume's density multiplier (never negative) and colour (linear RGB clamped to
+    /// [0, 1]) at a point inside the material, each if the graph drives it: one run of the
+    /// volume program for both.
+    pub fn volume_field(&self, ctx: &ShadingInputs) -> (Option<f32>, Option<Vec3>) {
+        let source = |input: MaterialInput| {
+            self.bindings
+                .iter()
+                .find(|(m, _)| *m == input)
+                .map(|(_, s)| *s)
+        };
+        let (density, color) = (
+            source(MaterialInput::VolumeDensity),
+            source(MaterialInput::VolumeColor),
+        );
+        if density.is_none() && color.is_none() {
+            return (None, None);
+        }
         let ctx = &self.local(ctx);
-        let d = self.run_with(ctx, 3, None, |slots| read(&source, slots, ctx).x);
-        Some(if d > 0.0 { d } else { 0.0 })
+        self.run_with(ctx, 3, None, |slots| {
+            (
+                density.map(|s| {
+                    let d = read(&s, slots, ctx).x;
+                    if d > 0.0 {
+                        d
+                    } else {
+                        0.0
+                    }
+                }),
+                color.map(|s| {
+                    let c = read(&s, slots, ctx).truncate().to_array();
+                    // NaN reads as 0 (a comparison with NaN is false).
+                    Vec3::from_array(c.map(|x| if x > 0.0 { x.min(1.0) } else { 0.0 }))
+                }),
+            )
+        })
     }
 
     pub fn drives(&self, input: MaterialInput) -> bool {

@@ -21,7 +21,7 @@
 //!   Coordinate > Reflection, world-space normal maps) and of the normal it returns.
 //! * `inputs` binds material inputs (`base_color`, `metallic`, `roughness`, `specular`,
 //!   `transmission`, `emission`, `emission_strength`, `alpha`, `normal`, `translucent`,
-//!   `volume_density`, `refraction`: 1 makes a closure Blender's Refraction BSDF, the
+//!   `volume_density`, `volume_color`, `refraction`: 1 makes a closure Blender's Refraction BSDF, the
 //!   dielectric's refraction alone; `coat_weight`, `coat_roughness`, `coat_tint`, `coat_ior`,
 //!   `sheen_color`, `sheen_roughness`, `specular_tint` (Blender 4.x's colour),
 //!   `thin_film_thickness` (nm, 0: none), `thin_film_ior`, `thin_film_weight` (1 when
@@ -32,7 +32,8 @@
 //!   are nodes appended to this graph, `scene::gltf_graph`). `volume_density` (a
 //!   non-negative float) multiplies the material's `volume` coefficients at each point inside
 //!   it, where the graph reads Position, Object and Generated coordinates (a heterogeneous
-//!   volume).
+//!   volume); `volume_color` (a colour in [0, 1]) mixes per wavelength the `volume`'s
+//!   coefficients (where it is white) and its `color_zero` ones (where it is black).
 //! * A node's `inputs` give each socket a number, an array of 3 (vector, colour) or 4 (RGBA)
 //!   numbers, or a link `{ "node": <name>, "output": <socket> }`. Unlinked sockets take the
 //!   defaults listed in `graph::NodeOp::signature` (Blender's); Image Texture's `vector`
