@@ -112,27 +112,30 @@ pub fn spherical_triangle_solid_angle(a: Vec3, b: Vec3, c: Vec3) -> f32 {
 /// directions `a`, `b`, `c`: Arvo 1995, "Stratified sampling of spherical triangles". `u.x`
 /// chooses the sub-triangle a-b-c' of area u.x times the whole (c' on the arc a-c), `u.y` the
 /// point on the arc from b to c'; the map is continuous, so stratified `u` stay stratified.
-/// None for a degenerate triangle. The density is 1 / [`spherical_triangle_solid_angle`].
-/// In f64: the angle excess loses f32's digits for the small triangles this is used on.
-pub fn sample_spherical_triangle(a: Vec3, b: Vec3, c: Vec3, u: Vec2) -> Option<Vec3> {
+/// None for a degenerate triangle. The density is 1 / `solid_angle`, the triangle's
+/// ([`spherical_triangle_solid_angle`], which callers have already computed: Arvo's own angle
+/// excess alpha + beta + gamma - pi would cost two more arc cosines). In f64: the construction
+/// subtracts nearly equal angles for small triangles.
+pub fn sample_spherical_triangle(
+    a: Vec3,
+    b: Vec3,
+    c: Vec3,
+    solid_angle: f32,
+    u: Vec2,
+) -> Option<Vec3> {
     let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
-    // Normals of the great circles through each side; the angle at a vertex is the angle
-    // between the two sides' planes that meet there.
-    let n_ab = a.cross(b).try_normalize()?;
-    let n_bc = b.cross(c).try_normalize()?;
-    let n_ca = c.cross(a).try_normalize()?;
-    let angle = |x: DVec3, y: DVec3| x.dot(y).clamp(-1.0, 1.0).acos();
-    let alpha = angle(n_ab, -n_ca);
-    let beta = angle(n_bc, -n_ab);
-    let gamma = angle(n_ca, -n_bc);
-    let area = alpha + beta + gamma - std::f64::consts::PI;
-    if !(area > 0.0) {
+    if !(solid_angle > 0.0) {
         return None;
     }
+    // The angle at vertex a: between the great circles a-b and a-c, i.e. between their
+    // planes' normals (sin from their cross product, cos from their dot product).
+    let n_ab = a.cross(b).try_normalize()?;
+    let n_ac = a.cross(c).try_normalize()?;
+    let (sin_alpha, cos_alpha) = (n_ab.cross(n_ac).length(), n_ab.dot(n_ac));
+    let alpha = sin_alpha.atan2(cos_alpha);
     // Arvo's eqs. for the sub-triangle of area u.x * area: cos of the arc a-c' (q).
-    let sub_area = u.x as f64 * area;
+    let sub_area = u.x as f64 * solid_angle as f64;
     let (s, t) = (sub_area - alpha).sin_cos();
-    let (sin_alpha, cos_alpha) = alpha.sin_cos();
     let k1 = t - cos_alpha;
     let k2 = s + sin_alpha * a.dot(b);
     let den = (k2 * s + k1 * t) * sin_alpha;
@@ -243,7 +246,8 @@ mod tests {
             let mut rng = crate::sampler::Pcg32::new(7, 3, 11);
             for _ in 0..n {
                 let u = rng.next_2d();
-                let d = sample_spherical_triangle(dirs[0], dirs[1], dirs[2], u).expect("direction");
+                let d = sample_spherical_triangle(dirs[0], dirs[1], dirs[2], omega as f32, u)
+                    .expect("direction");
                 assert!(hits(&tri, d), "{d} misses {tri:?}");
                 if let Some(k) = parts.iter().position(|t| hits(t, d)) {
                     counts[k] += 1;
