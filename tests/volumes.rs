@@ -483,19 +483,46 @@ fn rgb_absorption_is_close_to_per_channel_beer_lambert() {
     }
 }
 
-/// A graph whose `volume_density` is `density` (a JSON value or link) over `nodes`.
-fn density_graph(
+/// A graph binding `input` (a material input's name) to `value` (a JSON value or link) over
+/// `nodes`.
+fn graph_with(
     nodes: serde_json::Value,
-    density: serde_json::Value,
+    input: &str,
+    value: serde_json::Value,
 ) -> std::sync::Arc<prism::shading::ShadingGraph> {
     use prism::shading::parse::{parse_graph, NoImages};
-    let v =
-        serde_json::json!({"version": 1, "nodes": nodes, "inputs": {"volume_density": density}});
+    let v = serde_json::json!({"version": 1, "nodes": nodes, "inputs": {input: value}});
     std::sync::Arc::new(
         parse_graph(&v, "graph", &mut NoImages)
             .ok()
             .expect("graph parses"),
     )
+}
+
+/// A graph whose `volume_density` is `density` (a JSON value or link) over `nodes`.
+fn density_graph(
+    nodes: serde_json::Value,
+    density: serde_json::Value,
+) -> std::sync::Arc<prism::shading::ShadingGraph> {
+    graph_with(nodes, "volume_density", density)
+}
+
+/// The slab of `slab_scene` (depth 1) crossed along x through its middle and straight down at
+/// x = 1 transmits exp(-sigma tau) for optical depths (in units of `spectrum`) `along_x` and
+/// `down`.
+fn slab_transmits(scene: &Scene, spectrum: &CoefficientSpectrum, along_x: f32, down: f32) {
+    mean_transmittance(
+        scene,
+        Ray::new(Vec3::new(-3.0, 0.1, -0.5), Vec3::X),
+        80_000,
+        |w| spectrum.sample(w).map(|s| (-s * along_x).exp()).0,
+    );
+    mean_transmittance(
+        scene,
+        Ray::new(Vec3::new(1.0, 0.2, 5.0), Vec3::NEG_Z),
+        80_000,
+        |w| spectrum.sample(w).map(|s| (-s * down).exp()).0,
+    );
 }
 
 /// An absorbing volume (no surface) whose density is its Generated X coordinate: 0 to 1
@@ -557,21 +584,9 @@ fn heterogeneous_density_tracks_its_optical_depth() {
     let sigma_a = Vec3::new(0.9, 0.5, 0.3);
     let ink = absorbing_along_x("ink", sigma_a);
     let scene = Scene::build(slab_scene(ink, 1.0, 1.0)).unwrap();
-    let spectrum = CoefficientSpectrum::new(sigma_a);
-    // Along x through the middle of the slab (z = -0.5): integral of (x + 2) / 4 over 4 units = 2.
-    mean_transmittance(
-        &scene,
-        Ray::new(Vec3::new(-3.0, 0.1, -0.5), Vec3::X),
-        80_000,
-        |w| spectrum.sample(w).map(|s| (-s * 2.0).exp()).0,
-    );
-    // Straight down at x = 1: density 0.75 through depth 1.
-    mean_transmittance(
-        &scene,
-        Ray::new(Vec3::new(1.0, 0.2, 5.0), Vec3::NEG_Z),
-        80_000,
-        |w| spectrum.sample(w).map(|s| (-s * 0.75).exp()).0,
-    );
+    // Along x through the middle of the slab (z = -0.5): integral of (x + 2) / 4 over 4 units
+    // = 2; straight down at x = 1: density 0.75 through depth 1.
+    slab_transmits(&scene, &CoefficientSpectrum::new(sigma_a), 2.0, 0.75);
 }
 
 /// A sun-lit heterogeneous slab: shadow rays through it use ratio tracking. The floor under
@@ -651,38 +666,20 @@ fn textured_volume_colour_mixes_the_two_ends() {
             ..Default::default()
         },
     );
-    use prism::shading::parse::{parse_graph, NoImages};
-    let graph = serde_json::json!({
-        "version": 1,
-        "nodes": {
+    ink.graph = Some(graph_with(
+        serde_json::json!({
             "TC": {"type": "tex_coord"},
             "Sep": {"type": "separate_xyz", "inputs": {"vector": {"node": "TC", "output": "generated"}}},
             "Grey": {"type": "combine_color", "inputs": {
                 "red": {"node": "Sep", "output": "x"},
                 "green": {"node": "Sep", "output": "x"},
                 "blue": {"node": "Sep", "output": "x"}}}
-        },
-        "inputs": {"volume_color": {"node": "Grey", "output": "color"}}
-    });
-    ink.graph = Some(std::sync::Arc::new(
-        parse_graph(&graph, "graph", &mut NoImages)
-            .ok()
-            .expect("graph parses"),
+        }),
+        "volume_color",
+        serde_json::json!({"node": "Grey", "output": "color"}),
     ));
     let scene = Scene::build(slab_scene(ink, 1.0, 1.0)).unwrap();
-    let spectrum = CoefficientSpectrum::new(absorption);
-    mean_transmittance(
-        &scene,
-        Ray::new(Vec3::new(-3.0, 0.1, -0.5), Vec3::X),
-        80_000,
-        |w| spectrum.sample(w).map(|s| (-s * 2.0).exp()).0,
-    );
-    mean_transmittance(
-        &scene,
-        Ray::new(Vec3::new(1.0, 0.2, 5.0), Vec3::NEG_Z),
-        80_000,
-        |w| spectrum.sample(w).map(|s| (-s * 0.25).exp()).0,
-    );
+    slab_transmits(&scene, &CoefficientSpectrum::new(absorption), 2.0, 0.25);
 }
 
 /// White furnace with a textured colour: a non-absorbing cloud whose sigma_s is three times
@@ -691,7 +688,6 @@ fn textured_volume_colour_mixes_the_two_ends() {
 /// majorant), and the furnace stays 1.
 #[test]
 fn textured_volume_colour_in_a_white_furnace() {
-    use prism::shading::parse::{parse_graph, NoImages};
     let mut cloud = volume_only(
         "cloud",
         VolumeDesc {
@@ -701,15 +697,10 @@ fn textured_volume_colour_in_a_white_furnace() {
             ..Default::default()
         },
     );
-    let graph = serde_json::json!({
-        "version": 1,
-        "nodes": {"Noise": {"type": "noise_texture", "inputs": {"scale": 3.0, "detail": 2.0}}},
-        "inputs": {"volume_color": {"node": "Noise", "output": "color"}}
-    });
-    cloud.graph = Some(std::sync::Arc::new(
-        parse_graph(&graph, "graph", &mut NoImages)
-            .ok()
-            .expect("graph parses"),
+    cloud.graph = Some(graph_with(
+        serde_json::json!({"Noise": {"type": "noise_texture", "inputs": {"scale": 3.0, "detail": 2.0}}}),
+        "volume_color",
+        serde_json::json!({"node": "Noise", "output": "color"}),
     ));
     let (mean, _) = render_mean(furnace_scene(cloud, Vec3::ONE), 24, 64, 10_000, 3);
     eprintln!("textured-colour furnace: {mean}");
