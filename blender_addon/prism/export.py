@@ -208,6 +208,11 @@ class VolumeLobe:
         self.sigma_s0 = sigma_s if sigma_s0 is None else sigma_s0
 
 
+# The volume closures whose coefficients are linear in their Color (Emission's Color is
+# radiance, not a coefficient colour: it stays a constant).
+COLOURED_VOLUME_NODES = {"PRINCIPLED_VOLUME", "VOLUME_SCATTER", "VOLUME_ABSORPTION"}
+
+
 def volume_lobes(node, warn, weight=1.0, depth=0, densities=None, colors=None):
     """The volume shader tree at `node` -> [VolumeLobe], each already scaled by its Mix/Add
     weight; `warn(node, what)` names what is not translated. Coefficients are linear in the
@@ -234,10 +239,11 @@ def volume_lobes(node, warn, weight=1.0, depth=0, densities=None, colors=None):
             if name == "Density" and densities:
                 linked_density[0] = sock
                 return 1.0
-            if name == "Color" and colors:
+            if name == "Color" and colors and t in COLOURED_VOLUME_NODES:
                 linked_color[0] = sock
                 return (1.0, 1.0, 1.0, 1.0)
-            why = ("only Density and Color may vary in a volume" if densities and name != "Color"
+            why = ("only Density and the Color of Principled Volume, Volume Scatter and Volume Absorption may vary in a volume"
+                   if densities and (name != "Color" or t not in COLOURED_VOLUME_NODES)
                    else "only one Color may vary per volume" if densities
                    else "volumes are homogeneous here (no textures or attributes)")
             warn(node, "input '%s' is linked; %s, using its value" % (name, why))

@@ -290,6 +290,19 @@ def test_untranslatable_volume_inputs_are_named():
     pv = next(n for n in nt.nodes if n.type == "PRINCIPLED_VOLUME")
     noise = nt.nodes.new("ShaderNodeTexNoise")
     nt.links.new(noise.outputs["Fac"], pv.inputs["Anisotropy"])
+    # Emission colours are radiance, not coefficient colours: still constants (warned), on
+    # Principled Volume and on an Emission shader added to it.
+    glow = bpy.data.materials["Glow"].node_tree
+    glow_pv = next(n for n in glow.nodes if n.type == "PRINCIPLED_VOLUME")
+    glow_noise = glow.nodes.new("ShaderNodeTexNoise")
+    glow.links.new(glow_noise.outputs["Color"], glow_pv.inputs["Emission Color"])
+    glow_out = next(n for n in glow.nodes if n.type == "OUTPUT_MATERIAL")
+    glow_add = glow.nodes.new("ShaderNodeAddShader")
+    glow_emit = glow.nodes.new("ShaderNodeEmission")
+    glow.links.new(glow_noise.outputs["Color"], glow_emit.inputs["Color"])
+    glow.links.new(glow_pv.outputs[0], glow_add.inputs[0])
+    glow.links.new(glow_emit.outputs[0], glow_add.inputs[1])
+    glow.links.new(glow_add.outputs[0], glow_out.inputs["Volume"])
     scatter = nt.nodes.new("ShaderNodeVolumeScatter")
     has_phase = hasattr(scatter, "phase")
     if has_phase:  # Blender 4.3+: phase functions other than Henyey-Greenstein
@@ -315,6 +328,10 @@ def test_untranslatable_volume_inputs_are_named():
     print("  warnings: %s" % warnings)
     C.check(any("'Fog'" in x and pv.name in x and "'Anisotropy'" in x for x in warnings),
             "a linked Anisotropy is named (material, node, input)")
+    C.check(any("'Glow'" in x and glow_pv.name in x and "'Emission Color'" in x for x in warnings),
+            "a linked Emission Color is named")
+    C.check(any("'Glow'" in x and glow_emit.name in x and "'Color'" in x for x in warnings),
+            "a linked Color of an Emission volume shader is named")
     if has_phase:
         C.check(any("'Smoke'" in x and smoke_scatter.name in x and "RAYLEIGH" in x for x in warnings),
                 "an unsupported phase function is named")
