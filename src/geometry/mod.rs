@@ -9,7 +9,7 @@ mod triangle;
 pub mod wide_bvh;
 
 pub use motion::MotionTransform;
-pub use triangle::intersect_triangle;
+pub use triangle::{intersect_triangle, ray_plane_barycentrics};
 
 use glam::{Affine3A, Mat3, Vec2, Vec3, Vec3A, Vec4};
 use obvhs::{aabb::Aabb, cwbvh::CwBvh, ray::Ray as BvhRay, BvhBuildParams};

@@ -11,6 +11,23 @@ pub fn intersect_triangle(
     e2: Vec3,
     t_max: f32,
 ) -> Option<(f32, f32, f32)> {
+    let (t, b1, b2) = ray_plane_barycentrics(origin, dir, v0, e1, e2)?;
+    (b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0 && t > 0.0 && t < t_max).then_some((t, b1, b2))
+}
+
+/// Where the line `origin + t dir` meets the plane of the triangle (v0, v0 + e1, v0 + e2):
+/// (t, b1, b2) with b1, b2 the barycentric weights of the second and third vertex, inside the
+/// triangle or not (Möller–Trumbore's solution without its range tests; None when the line is
+/// parallel to the plane). Light sampling uses it for directions known to point into the
+/// triangle up to rounding.
+#[inline(always)]
+pub fn ray_plane_barycentrics(
+    origin: Vec3,
+    dir: Vec3,
+    v0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+) -> Option<(f32, f32, f32)> {
     let pvec = dir.cross(e2);
     let det = e1.dot(pvec);
     if det.abs() < 1e-20 {
@@ -18,17 +35,12 @@ pub fn intersect_triangle(
     }
     let inv_det = 1.0 / det;
     let tvec = origin - v0;
-    let b1 = tvec.dot(pvec) * inv_det;
-    if !(0.0..=1.0).contains(&b1) {
-        return None;
-    }
     let qvec = tvec.cross(e1);
-    let b2 = dir.dot(qvec) * inv_det;
-    if b2 < 0.0 || b1 + b2 > 1.0 {
-        return None;
-    }
-    let t = e2.dot(qvec) * inv_det;
-    (t > 0.0 && t < t_max).then_some((t, b1, b2))
+    Some((
+        e2.dot(qvec) * inv_det,
+        tvec.dot(pvec) * inv_det,
+        dir.dot(qvec) * inv_det,
+    ))
 }
 
 #[cfg(test)]

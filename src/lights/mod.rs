@@ -1097,18 +1097,10 @@ impl SphericalTriangle {
     fn sample(&self, u: Vec2) -> Option<(f32, f32)> {
         let [a, b, c] = self.dirs;
         let dir = sampling::sample_spherical_triangle(a, b, c, self.solid_angle, u)?;
-        // Where the ray from the origin along dir meets the triangle's plane (Moller-Trumbore
-        // without the range tests: dir points inside the triangle up to rounding).
+        // dir points into the triangle up to rounding: clamp its barycentrics onto it.
         let [v0, v1, v2] = self.world;
-        let (e1, e2) = (v1 - v0, v2 - v0);
-        let pvec = dir.cross(e2);
-        let det = e1.dot(pvec);
-        if det.abs() < 1e-20 {
-            return None;
-        }
-        let tvec = self.origin - v0;
-        let b1 = tvec.dot(pvec) / det;
-        let b2 = dir.dot(tvec.cross(e1)) / det;
+        let (_, b1, b2) =
+            crate::geometry::ray_plane_barycentrics(self.origin, dir, v0, v1 - v0, v2 - v0)?;
         let (b1, b2) = (b1.clamp(0.0, 1.0), b2.clamp(0.0, 1.0));
         let s = b1 + b2;
         Some(if s > 1.0 { (b1 / s, b2 / s) } else { (b1, b2) })

@@ -197,16 +197,12 @@ mod tests {
                 split(s, depth - 1, out);
             }
         }
-        // Moller-Trumbore hit test of the ray from the origin along d.
+        // The ray from the origin along d meets t (to rounding).
         fn hits(t: &[Vec3; 3], d: Vec3) -> bool {
             let (e1, e2) = (t[1] - t[0], t[2] - t[0]);
-            let p = d.cross(e2);
-            let det = e1.dot(p);
-            let s = -t[0];
-            let u = s.dot(p) / det;
-            let v = d.dot(s.cross(e1)) / det;
-            let tt = e2.dot(s.cross(e1)) / det;
-            u >= -1e-4 && v >= -1e-4 && u + v <= 1.0 + 1e-4 && tt > 0.0
+            crate::geometry::ray_plane_barycentrics(Vec3::ZERO, d, t[0], e1, e2).is_some_and(
+                |(tt, u, v)| u >= -1e-4 && v >= -1e-4 && u + v <= 1.0 + 1e-4 && tt > 0.0,
+            )
         }
         let triangles = [
             [

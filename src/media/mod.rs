@@ -106,6 +106,7 @@ pub struct Medium {
     density: Option<DensityField>,
     /// (sigma_a, sigma_s) where the field's colour is black (`VolumeDesc::color_zero`; black
     /// coefficients when the description has none); `sigma_a`, `sigma_s` hold where it is white.
+    /// Only homogeneous media and fields that drive the colour keep it (`with_density`).
     color_zero: Option<(CoefficientSpectrum, CoefficientSpectrum)>,
 }
 
@@ -171,8 +172,15 @@ impl Medium {
         self.scatters
     }
 
-    /// Makes the coefficients vary with `field`'s density.
+    /// Makes the coefficients vary with `field`'s density (and colour, if its graph drives
+    /// `volume_color`: otherwise the black end is dropped, so segments need not ask).
     pub fn with_density(mut self, field: DensityField) -> Self {
+        if !field
+            .graph
+            .drives(crate::shading::MaterialInput::VolumeColor)
+        {
+            self.color_zero = None;
+        }
         self.density = Some(field);
         self
     }
@@ -347,15 +355,10 @@ impl<'m> SegmentMedium<'m> {
                 SampledSpectrum::ZERO
             };
             if let Some(field) = &m.density {
-                let color_zero = field
-                    .graph
-                    .drives(crate::shading::MaterialInput::VolumeColor)
-                    .then_some(m.color_zero.as_ref())
-                    .flatten()
-                    .map(|(a0, s0)| {
-                        let s0 = s0.sample(w);
-                        (s0, a0.sample(w) + s0)
-                    });
+                let color_zero = m.color_zero.as_ref().map(|(a0, s0)| {
+                    let s0 = s0.sample(w);
+                    (s0, a0.sample(w) + s0)
+                });
                 let sigma_t_bound = match color_zero {
                     Some((_, t0)) => SampledSpectrum::from_fn(|k| (a + s)[k].max(t0[k])),
                     None => a + s,
