@@ -97,6 +97,11 @@ struct SceneArgs {
     /// the JSON's render.light_sampler, else tree
     #[arg(long, value_enum)]
     light_sampler: Option<LightSamplerArg>,
+    /// Subsurface scattering keeps its full spatial spread after a diffuse bounce too (for
+    /// comparisons). By default, as in Cycles, light entering a subsurface object after a
+    /// diffuse bounce leaves where it entered, with the medium's total diffuse reflectance
+    #[arg(long)]
+    full_indirect_subsurface: bool,
     /// Adaptive sampling: pixels whose estimated error (Cycles' definition) is below this stop
     /// early; --spp becomes the maximum. 0 = off (default: the JSON's render.noise_threshold,
     /// else 0)
@@ -444,6 +449,7 @@ fn load(args: &SceneArgs) -> Result<Loaded> {
         film_transparent: args.film_transparent || defaults.film_transparent.unwrap_or(false),
         crop: None,
         max_pass_samples: 64,
+        full_indirect_subsurface: args.full_indirect_subsurface,
     };
     let threshold = args
         .noise_threshold
@@ -852,6 +858,7 @@ fn run_bench(bench: &BenchArgs) -> Result<()> {
         bvh_cache: None,
         sampler: None,
         light_sampler: None,
+        full_indirect_subsurface: false,
         noise_threshold: None,
         min_samples: None,
         time_limit: None,

@@ -51,6 +51,9 @@ pub struct RenderSettings {
     /// The most samples a progressive pass takes (passes double up to it; 64 by default). A
     /// smaller cap shows results more often (the interactive viewport), at a little overhead.
     pub max_pass_samples: u32,
+    /// Subsurface scattering keeps its spatial spread after diffuse bounces too (for
+    /// comparisons; `PathTracer::with_full_indirect_subsurface`). Off by default, as in Cycles.
+    pub full_indirect_subsurface: bool,
 }
 
 /// A window of the image: top-left pixel and size.
@@ -120,6 +123,7 @@ impl Default for RenderSettings {
             film_transparent: false,
             crop: None,
             max_pass_samples: 64,
+            full_indirect_subsurface: false,
         }
     }
 }
@@ -198,7 +202,8 @@ pub fn render(
     let has_motion = scene.has_motion();
     let tracer = PathTracer::new(scene, settings.max_depth, settings.light_selection)
         .with_transparent_background(settings.film_transparent)
-        .with_pixel_footprint(camera.pixel_footprint());
+        .with_pixel_footprint(camera.pixel_footprint())
+        .with_full_indirect_subsurface(settings.full_indirect_subsurface);
     // Alpha is coverage only with a transparent background or holdouts; else 1 everywhere.
     film.track_alpha = settings.film_transparent || scene.geometry.has_holdout();
     let track_alpha = film.track_alpha;

@@ -39,6 +39,9 @@ pub struct PathTracer<'a> {
     transparent_background: bool,
     /// A pixel's footprint along the path (Bump nodes' offsets, `with_pixel_footprint`).
     footprint: PixelFootprint,
+    /// Subsurface scattering keeps its full spatial spread after a diffuse bounce too
+    /// (`with_full_indirect_subsurface`); by default it is collapsed to its entry point there.
+    full_indirect_subsurface: bool,
 }
 
 /// What one camera path returns.
@@ -99,7 +102,24 @@ impl<'a> PathTracer<'a> {
                 per_distance: 1e-2,
                 constant: 0.0,
             },
+            full_indirect_subsurface: false,
         }
+    }
+
+    /// After a diffuse bounce, a path that enters a subsurface object leaves it where it
+    /// entered (the BSSRDF collapsed to its entry point: the medium's total diffuse
+    /// reflectance rho_eff, then its exit lobe), unless `full` keeps the probe or the walk
+    /// there too. Cycles does the same (its closures drop subsurface for paths with a diffuse
+    /// ancestor): light that already bounced off a diffuse surface is too blurred for the
+    /// millimetres the exit point moves to show, while the probe's or walk's variance reaches
+    /// everything lit by the object. Energy is the same in expectation: the probe's weight
+    /// averages to rho_eff on a flat surface. Measured on the SSS Cornell box (64 spp, 2
+    /// threads, luminance noise between two renders): with the full BSSRDF after diffuse
+    /// bounces the ceiling was 1.7x noisier than with these objects made plain diffuse,
+    /// in Cycles 1.02x.
+    pub fn with_full_indirect_subsurface(mut self, full: bool) -> Self {
+        self.full_indirect_subsurface = full;
+        self
     }
 
     /// The camera's pixel footprint (`Camera::pixel_footprint`), which Bump nodes' filter
@@ -528,6 +548,9 @@ impl<'a> PathTracer<'a> {
         // Tint of the specular chain from the camera, for the albedo guide.
         let mut guide_tint = SampledSpectrum::ONE;
         let mut alpha = 1.0f32;
+        // Some earlier scattering was diffuse (a diffuse lobe or a subsurface exit): subsurface
+        // entered from here on is collapsed to its entry point (`with_full_indirect_subsurface`).
+        let mut diffuse_ancestor = false;
 
         for depth in 0..=self.max_depth {
             sampler.start_bounce(depth);
@@ -1087,13 +1110,29 @@ impl<'a> PathTracer<'a> {
             // Where the path continues: point, normal for the ray offset, direction.
             let mut next = (sp.p, ng, wi_world);
             let entering = wi_world.dot(sp.ng) < 0.0;
-            let sss_table = bs.is_transmission()
-                && entering
+            let enters_subsurface =
+                bs.is_transmission() && entering && walk_medium.is_none() && subsurface.is_some();
+            let collapsed = enters_subsurface && diffuse_ancestor && !self.full_indirect_subsurface;
+            let sss_table = enters_subsurface
+                && !collapsed
                 && subsurface.is_some_and(|s| s.method == SubsurfaceMethod::Table);
             // Where light leaves a subsurface medium, if it does here: point, outward geometric
             // normal, shading frame (outward normal), lobe.
             let mut exit = None;
-            if sss_table {
+            if collapsed {
+                // The BSSRDF collapsed to the entry point (`with_full_indirect_subsurface`):
+                // as the table's exit below, with rho_eff for the probe's weight (its mean), for
+                // either method.
+                let Some(ss) = subsurface else { break };
+                beta *= bs.eta * bs.eta * ss.effective_albedo(&alive);
+                let ns_out = if sp.ns.dot(sp.ng) < 0.0 {
+                    -sp.ns
+                } else {
+                    sp.ns
+                };
+                let frame_out = Frame::from_normal_tangent(ns_out, sp.dpdu);
+                exit = Some((sp.p, sp.ng, frame_out, ss.exit_lobe()));
+            } else if sss_table {
                 // Separable BSSRDF: the boundary's transmission sample stands for
                 // (1 - Fr(cos theta_o)); undo the radiance 1/eta^2 it carries (light refracts
                 // in at the exit point and out here), find the exit point and shade it with Sw.
@@ -1204,7 +1243,9 @@ impl<'a> PathTracer<'a> {
                 prev_bsdf_density = pdf * prev_denominator;
                 prev_ctx = exit_ctx;
                 next = (p_exit, ng_i, wi_world);
+                diffuse_ancestor = true;
             }
+            diffuse_ancestor |= bs.flags.contains(LobeFlags::DIFFUSE) && !enters_subsurface;
             if !beta.is_finite() {
                 break;
             }
