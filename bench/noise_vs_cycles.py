@@ -2,7 +2,8 @@
 """Noise per second, Prism vs Blender Cycles CPU, on the repository's benchmark scenes, in one run.
 
 For every scene (scenes/NAME/NAME.gltf for Prism, the .blend beside it for Cycles) both renderers render
-2 x ROUNDS images at the same spp with different seeds, interleaved, 2 threads. Cycles is set unbiased: no
+2 x ROUNDS images at the same spp with different seeds, interleaved, 2 threads, at the scene's own aspect
+ratio (render.width / render.height of its materials JSON) with about --size x --size pixels. Cycles is set unbiased: no
 clamping, Filter Glossy 0, every bounce limit max_depth - 1 (15), no adaptive sampling, no denoising.
 With --adaptive both renderers use adaptive sampling at Cycles' defaults (noise threshold 0.01, min samples
 0 = automatic, max samples --spp, default 4096 then) and the same time limit (--time-limit seconds): equal
@@ -39,6 +40,7 @@ PRISM = os.path.join(REPO, "target", "release", "prism")
 CYCLES_SCRIPT = r"""
 import sys, time, bpy
 blend, out, spp, seed, size, adaptive, time_limit = sys.argv[-7:]
+width, height = size.split("x")
 bpy.ops.wm.open_mainfile(filepath=blend)
 s = bpy.context.scene; c = s.cycles
 s.render.engine = "CYCLES"; c.device = "CPU"; c.samples = int(spp); c.seed = int(seed)
@@ -50,7 +52,7 @@ for k in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_boun
           "transparent_max_bounces"):
     setattr(c, k, 15)
 s.render.threads_mode = "FIXED"; s.render.threads = 2
-s.render.resolution_x = s.render.resolution_y = int(size); s.render.resolution_percentage = 100
+s.render.resolution_x = int(width); s.render.resolution_y = int(height); s.render.resolution_percentage = 100
 s.render.image_settings.file_format = "OPEN_EXR"; s.render.image_settings.color_depth = "32"
 s.render.filepath = out
 t = time.time(); bpy.ops.render.render(write_still=True); print("CYCLES_SECONDS %.4f" % (time.time() - t))
@@ -64,9 +66,24 @@ def read(path):
         return np.asarray(ch[key].pixels, dtype=np.float64)[..., :3]
 
 
+def image_size(scene_file, size):
+    """The scene's own aspect ratio (its render.width / render.height in the materials JSON beside
+    it) at about size x size pixels: a square image would show each renderer a different view of
+    a wide scene (Blender fits the camera's horizontal field of view, glTF gives the vertical)."""
+    sidecar = os.path.splitext(scene_file)[0] + ".materials.json"
+    try:
+        with open(sidecar) as f:
+            render = json.load(f).get("render", {})
+        aspect = float(render["width"]) / float(render["height"])
+    except (OSError, KeyError, ValueError, ZeroDivisionError):
+        aspect = 1.0
+    return max(1, round(size * aspect ** 0.5)), max(1, round(size / aspect ** 0.5))
+
+
 def prism(args, gltf, out, seed, spp, extra):
-    cmd = [PRISM, "render", gltf, "-o", out, "--spp", str(spp), "--width", str(args.size), "--height",
-           str(args.size), "--threads", "2", "--seed", str(seed), "--progress", "none",
+    width, height = image_size(gltf, args.size)
+    cmd = [PRISM, "render", gltf, "-o", out, "--spp", str(spp), "--width", str(width), "--height",
+           str(height), "--threads", "2", "--seed", str(seed), "--progress", "none",
            # Cycles' 15 bounces; the scene JSON's own depth and noise threshold must not leak in.
            "--max-depth", "16"] + extra
     if args.adaptive:
@@ -79,7 +96,8 @@ def prism(args, gltf, out, seed, spp, extra):
 
 
 def cycles(args, blend, out, seed, script):
-    p = subprocess.run([sys.executable, script, blend, out, str(args.spp), str(seed), str(args.size),
+    size = "%dx%d" % image_size(blend, args.size)
+    p = subprocess.run([sys.executable, script, blend, out, str(args.spp), str(seed), size,
                         "1" if args.adaptive else "0", str(args.time_limit if args.adaptive else 0.0)],
                        check=True, capture_output=True, text=True)
     return float([l for l in p.stdout.splitlines() if l.startswith("CYCLES_SECONDS")][0].split()[1])
@@ -124,7 +142,7 @@ def main():
     for name in args.scenes:
         gltf = os.path.join(REPO, "scenes", name, name + ".gltf")
         blend = os.path.join(REPO, "scenes", name, name + ".blend")
-        ref = os.path.join(work, "%s_ref%d_%d.exr" % (name, args.ref_spp, args.size))
+        ref = os.path.join(work, "%s_ref%d_%dx%d.exr" % ((name, args.ref_spp) + image_size(gltf, args.size)))
         if not os.path.exists(ref):
             prism(argparse.Namespace(size=args.size, adaptive=False, time_limit=0), gltf, ref, 1000, args.ref_spp, [])
         den = read(ref) ** 2 + 1e-2
