@@ -170,7 +170,7 @@ impl<'a> PathTracer<'a> {
     }
 
     /// Russian roulette after `depth`: continues with probability sqrt of the path's
-    /// film-counted throughput (`SpectralMis::mean_weight`), as Cycles does with its
+    /// film-counted throughput (`SpectralMis::max_weight`), as Cycles does with its
     /// throughput: the square root terminates later than the throughput itself would. Measured
     /// at 64 spp, 2 threads (bulk noise x time against the throughput itself): -13% on the SSS
     /// Cornell box, -38% on spheres and a floor under a grey world. False: the path ends.
@@ -184,7 +184,7 @@ impl<'a> PathTracer<'a> {
         sampler: &mut Sampler,
     ) -> bool {
         if depth + 1 >= RR_MIN_DEPTH {
-            let rr = (mis.mean_weight(*beta) * eta_scale).sqrt();
+            let rr = (mis.max_weight(*beta) * eta_scale).sqrt();
             if rr < 1.0 {
                 let q = (1.0 - rr).clamp(0.0, 0.95);
                 if sampler.russian_roulette() < q {

@@ -108,25 +108,27 @@ impl SpectralMis {
         (1..N_WAVELENGTHS).all(|k| self.hero_share[k] * self.ratio[k] == 0.0)
     }
 
-    /// The path's contribution scale for Russian roulette: the mean of beta / denominator over
-    /// the members still alive (nonzero hero share and path density), 1 at the camera. (The
-    /// maximum over members would keep hero paths alive longer than single-wavelength ones for
-    /// the same expected contribution. After a smooth dispersive refraction the hero alone
-    /// counts; normalising by all N members instead made hero paths through the diamond scene
-    /// 3% shorter than single-wavelength ones and raised its relMSE 1.7x through fireflies.)
-    pub fn mean_weight(&self, beta: SampledSpectrum) -> f32 {
-        let (mut sum, mut n) = (0.0f32, 0u32);
+    /// The path's contribution scale for Russian roulette: the largest beta / denominator over
+    /// the members still alive (nonzero hero share and path density), as Cycles takes the
+    /// largest of its RGB throughput; 1 at the camera. Members no longer alive do not count:
+    /// after a smooth dispersive refraction the hero alone does (normalising by all N members
+    /// made hero paths through the diamond scene 3% shorter than single-wavelength ones and
+    /// raised its relMSE 1.7x through fireflies). The largest rather than the mean: after a
+    /// saturated surface (a red wall reflects one or two of the four wavelengths) the mean
+    /// ended paths that still carried their colour. Measured at 64 spp, 2 threads, against the
+    /// mean: SSS Cornell box bulk noise -15% for 6% more rays, everyday scene -11% for 0.6%.
+    pub fn max_weight(&self, beta: SampledSpectrum) -> f32 {
+        let mut largest = 0.0f32;
         for k in 0..N_WAVELENGTHS {
             if self.hero_share[k] * self.ratio[k] > 0.0 {
-                sum += beta[k];
-                n += 1;
+                largest = largest.max(beta[k]);
             }
         }
         let d = self.denominator();
-        if n == 0 || !(d > 0.0) {
-            0.0
+        if d > 0.0 {
+            largest / d
         } else {
-            sum / (n as f32 * d)
+            0.0
         }
     }
 
