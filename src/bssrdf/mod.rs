@@ -141,6 +141,10 @@ pub struct SubsurfaceMaterial {
     /// How a colour becomes coefficients, for a textured colour (None: the material is not
     /// given by a colour).
     colour_map: Option<ColourMap>,
+    /// A random walk with a Lambertian boundary: its reflectance on a flat surface, for light
+    /// that leaves where it entered (`SubsurfaceAt::collapsed_albedo`). The table's rho_eff
+    /// counts internal reflection that boundary does not have.
+    walk_reflectance: Option<Arc<random_walk::LambertianWalkReflectance>>,
 }
 
 /// The colour-to-coefficients rule of a material given by a colour (see `media`).
@@ -177,6 +181,7 @@ impl std::ops::Deref for SubsurfaceAt<'_> {
 impl SubsurfaceMaterial {
     pub fn new(desc: &SubsurfaceDesc) -> Self {
         let table = table_for_eta(desc.eta);
+        let lambertian_walk = desc.method == "random_walk" && desc.boundary == "lambertian";
         let coefficients = media::coefficients(desc, &table);
         let r = desc.roughness.clamp(0.0, 1.0);
         SubsurfaceMaterial {
@@ -198,6 +203,7 @@ impl SubsurfaceMaterial {
                 WalkBoundary::Dielectric
             },
             sw_norm: (1.0 - 2.0 * table::fresnel_moment_external(desc.eta, 1)) as f32,
+            walk_reflectance: lambertian_walk.then(|| lambertian_walk_reflectance(desc.g)),
             colour_map: match desc.coefficients {
                 SubsurfaceCoefficients::Reflectance { mfp, .. } => Some(ColourMap::Reflectance {
                     mfp,
@@ -320,6 +326,27 @@ impl<'a> SubsurfaceAt<'a> {
         })
     }
 
+    /// The medium's total diffuse reflectance per wavelength for light entering a flat surface
+    /// along a direction at `cos_entry` to the inward normal, for light that leaves where it
+    /// entered (`PathTracer::with_full_indirect_subsurface`): the table's rho_eff (what the
+    /// probe's weight averages, and a walk with a dielectric boundary returns up to diffusion's
+    /// error), or for a walk with a Lambertian boundary its own tabulated reflectance.
+    pub fn collapsed_albedo(&self, w: &SampledWavelengths, cos_entry: f32) -> SampledSpectrum {
+        let Some(walk) = &self.walk_reflectance else {
+            return self.effective_albedo(w);
+        };
+        let (sigma_a, sigma_s) = self.walk_coefficients(w);
+        SampledSpectrum::from_fn(|i| {
+            let sigma_t = sigma_a[i] + sigma_s[i];
+            let alpha = if sigma_t > 0.0 {
+                sigma_s[i] / sigma_t
+            } else {
+                0.0
+            };
+            walk.at(cos_entry, alpha)
+        })
+    }
+
     /// The separable BSSRDF for the path's wavelengths.
     pub fn bssrdf(&self, w: &SampledWavelengths) -> SeparableBssrdf<'a> {
         let (sigma_a, sigma_s) = self.coefficients_at(w);
@@ -386,6 +413,19 @@ pub fn table_for_eta(eta: f32) -> Arc<BssrdfTable> {
     let mut map = cache.lock().unwrap_or_else(|e| e.into_inner());
     map.entry(eta.to_bits())
         .or_insert_with(|| Arc::new(BssrdfTable::new(eta)))
+        .clone()
+}
+
+/// The Lambertian walk's reflectance table for anisotropy `g`, built once per process and `g`.
+fn lambertian_walk_reflectance(g: f32) -> Arc<random_walk::LambertianWalkReflectance> {
+    use std::collections::HashMap;
+    use std::sync::{Mutex, OnceLock};
+    type Cache = Mutex<HashMap<u32, Arc<random_walk::LambertianWalkReflectance>>>;
+    static CACHE: OnceLock<Cache> = OnceLock::new();
+    let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
+    let mut map = cache.lock().unwrap_or_else(|e| e.into_inner());
+    map.entry(g.to_bits())
+        .or_insert_with(|| Arc::new(random_walk::LambertianWalkReflectance::new(g)))
         .clone()
 }
 

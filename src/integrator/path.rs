@@ -1121,10 +1121,11 @@ impl<'a> PathTracer<'a> {
             let mut exit = None;
             if collapsed {
                 // The BSSRDF collapsed to the entry point (`with_full_indirect_subsurface`):
-                // as the table's exit below, with rho_eff for the probe's weight (its mean), for
-                // either method.
+                // as the table's exit below, with the medium's reflectance for the probe's or
+                // walk's weight (its mean on a flat surface).
                 let Some(ss) = subsurface else { break };
-                beta *= bs.eta * bs.eta * ss.effective_albedo(&alive);
+                let cos_entry = -wi_world.dot(sp.ng);
+                beta *= bs.eta * bs.eta * ss.collapsed_albedo(&alive, cos_entry);
                 let ns_out = if sp.ns.dot(sp.ng) < 0.0 {
                     -sp.ns
                 } else {
