@@ -108,15 +108,16 @@ impl<'a> PathTracer<'a> {
 
     /// After a diffuse bounce, a path that enters a subsurface object leaves it where it
     /// entered (the BSSRDF collapsed to its entry point: the medium's total diffuse
-    /// reflectance rho_eff, then its exit lobe), unless `full` keeps the probe or the walk
-    /// there too. Cycles does the same (its closures drop subsurface for paths with a diffuse
-    /// ancestor): light that already bounced off a diffuse surface is too blurred for the
-    /// millimetres the exit point moves to show, while the probe's or walk's variance reaches
-    /// everything lit by the object. Energy is the same in expectation: the probe's weight
-    /// averages to rho_eff on a flat surface. Measured on the SSS Cornell box (64 spp, 2
-    /// threads, luminance noise between two renders): with the full BSSRDF after diffuse
-    /// bounces the ceiling was 1.7x noisier than with these objects made plain diffuse,
-    /// in Cycles 1.02x.
+    /// reflectance, `SubsurfaceAt::collapsed_albedo`, then its exit lobe), unless `full` keeps
+    /// the probe or the walk there too. Cycles does the same (its closures drop subsurface for
+    /// paths with a diffuse ancestor): light that already bounced off a diffuse surface is too
+    /// blurred for the millimetres the exit point moves to show, while the probe's or walk's
+    /// variance reaches everything lit by the object. Energy is the same in expectation on a
+    /// flat surface: the probe's weight averages to rho_eff there, a walk's to its reflectance
+    /// (up to diffusion's error for a dielectric boundary). Measured on the SSS Cornell box
+    /// (64 spp, 2 threads, luminance noise between two renders): with the full BSSRDF after
+    /// diffuse bounces the ceiling was 1.7x noisier than with these objects made plain
+    /// diffuse, in Cycles 1.02x.
     pub fn with_full_indirect_subsurface(mut self, full: bool) -> Self {
         self.full_indirect_subsurface = full;
         self
