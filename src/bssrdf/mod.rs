@@ -315,15 +315,8 @@ impl<'a> SubsurfaceAt<'a> {
     /// wavelength: the colour the material shows, used as the albedo guide for denoising.
     pub fn effective_albedo(&self, w: &SampledWavelengths) -> SampledSpectrum {
         let (sigma_a, sigma_s) = self.coefficients_at(w);
-        SampledSpectrum::from_fn(|i| {
-            let sigma_t = sigma_a[i] + sigma_s[i];
-            let rho = if sigma_t > 0.0 {
-                sigma_s[i] / sigma_t
-            } else {
-                0.0
-            };
-            self.table.rho_eff_at(rho)
-        })
+        let rho = single_scattering_albedo(sigma_a, sigma_s);
+        SampledSpectrum::from_fn(|i| self.table.rho_eff_at(rho[i]))
     }
 
     /// The medium's total diffuse reflectance per wavelength for light entering a flat surface
@@ -336,15 +329,8 @@ impl<'a> SubsurfaceAt<'a> {
             return self.effective_albedo(w);
         };
         let (sigma_a, sigma_s) = self.walk_coefficients(w);
-        SampledSpectrum::from_fn(|i| {
-            let sigma_t = sigma_a[i] + sigma_s[i];
-            let alpha = if sigma_t > 0.0 {
-                sigma_s[i] / sigma_t
-            } else {
-                0.0
-            };
-            walk.at(cos_entry, alpha)
-        })
+        let alpha = single_scattering_albedo(sigma_a, sigma_s);
+        SampledSpectrum::from_fn(|i| walk.at(cos_entry, alpha[i]))
     }
 
     /// The separable BSSRDF for the path's wavelengths.
@@ -414,6 +400,19 @@ pub fn table_for_eta(eta: f32) -> Arc<BssrdfTable> {
     map.entry(eta.to_bits())
         .or_insert_with(|| Arc::new(BssrdfTable::new(eta)))
         .clone()
+}
+
+/// Single-scattering albedo sigma_s / (sigma_a + sigma_s) per wavelength (0 where the medium
+/// neither absorbs nor scatters).
+fn single_scattering_albedo(sigma_a: SampledSpectrum, sigma_s: SampledSpectrum) -> SampledSpectrum {
+    SampledSpectrum::from_fn(|i| {
+        let sigma_t = sigma_a[i] + sigma_s[i];
+        if sigma_t > 0.0 {
+            sigma_s[i] / sigma_t
+        } else {
+            0.0
+        }
+    })
 }
 
 /// The Lambertian walk's reflectance table for anisotropy `g`, built once per process and `g`.
@@ -487,13 +486,8 @@ impl<'a> SeparableBssrdf<'a> {
         n_active: usize,
     ) -> Self {
         let sigma_t = sigma_a + sigma_s;
-        let rho = SampledSpectrum::from_fn(|i| {
-            if sigma_t[i] > 0.0 {
-                (sigma_s[i] / sigma_t[i]).clamp(0.0, 1.0)
-            } else {
-                0.0
-            }
-        });
+        let albedo = single_scattering_albedo(sigma_a, sigma_s);
+        let rho = SampledSpectrum::from_fn(|i| albedo[i].clamp(0.0, 1.0));
         let r_max = std::array::from_fn(|i| {
             if sigma_t[i] > 0.0 {
                 table.r_max_at(rho[i]) / sigma_t[i]
