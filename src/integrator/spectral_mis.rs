@@ -177,6 +177,21 @@ mod tests {
         assert_eq!(mis.member_weights()[0], 1.0);
     }
 
+    /// Russian roulette's scale is the largest live member's beta / denominator: a red wall's
+    /// one bright wavelength keeps the path (the mean would halve it), and members a
+    /// dispersive refraction ended do not count.
+    #[test]
+    fn roulette_weight_is_the_largest_live_member() {
+        let w = SampledWavelengths::sample_hero(0.37, WavelengthPdf::Visible);
+        let mut mis = SpectralMis::new(&w);
+        let red_wall = SampledSpectrum([0.05, 0.05, 0.8, 0.05]);
+        assert!((mis.max_weight(red_wall) - 0.8).abs() < 1e-6);
+        // After a smooth dispersive refraction only the hero (member 0) is alive.
+        mis.scatter(0.9, SampledSpectrum([0.9, 0.0, 0.0, 0.0]));
+        let d = mis.denominator();
+        assert!((mis.max_weight(red_wall) - 0.05 / d).abs() < 1e-6);
+    }
+
     #[test]
     fn single_wavelength_paths_are_hero_only() {
         let w = SampledWavelengths::sample_single(0.5, WavelengthPdf::Uniform);
