@@ -1127,13 +1127,7 @@ impl<'a> PathTracer<'a> {
                 let Some(ss) = subsurface else { break };
                 let cos_entry = -wi_world.dot(sp.ng);
                 beta *= bs.eta * bs.eta * ss.collapsed_albedo(&alive, cos_entry);
-                let ns_out = if sp.ns.dot(sp.ng) < 0.0 {
-                    -sp.ns
-                } else {
-                    sp.ns
-                };
-                let frame_out = Frame::from_normal_tangent(ns_out, sp.dpdu);
-                exit = Some((sp.p, sp.ng, frame_out, ss.exit_lobe()));
+                exit = Some((sp.p, sp.ng, exit_frame(&sp), ss.exit_lobe()));
             } else if sss_table {
                 // Separable BSSRDF: the boundary's transmission sample stands for
                 // (1 - Fr(cos theta_o)); undo the radiance 1/eta^2 it carries (light refracts
@@ -1160,11 +1154,7 @@ impl<'a> PathTracer<'a> {
                 let mut pi = probe.point;
                 let exit_material = &scene.materials[pi.material as usize];
                 exit_material.apply_normal_map(geometry, &scene.textures, &mut pi, None);
-                // Outward normals at the exit point (shading normal on the geometric side).
-                let ng_i = pi.ng;
-                let ns_i = if pi.ns.dot(ng_i) < 0.0 { -pi.ns } else { pi.ns };
-                let frame_i = Frame::from_normal_tangent(ns_i, pi.dpdu);
-                exit = Some((pi.p, ng_i, frame_i, ss.exit_lobe()));
+                exit = Some((pi.p, pi.ng, exit_frame(&pi), ss.exit_lobe()));
             } else if let (true, Some(ss)) = (bs.is_transmission(), walk_exit) {
                 // A random walk leaves its medium here. A dielectric boundary's transmission
                 // sample kept its weight (transmittance for the walk's direction, times eta^2);
@@ -1270,6 +1260,17 @@ impl<'a> PathTracer<'a> {
 /// The volumes enclosing the point `p`, found as Cycles initialises its camera volume stack: a
 /// ray from `p` crosses every boundary; a volume left before being entered along it encloses
 /// `p`. Assumes closed boundaries (as volumes need anyway).
+/// The shading frame where light leaves a subsurface medium at `sp`: around the shading normal
+/// turned to the outward geometric normal's side.
+fn exit_frame(sp: &crate::geometry::SurfacePoint) -> Frame {
+    let ns = if sp.ns.dot(sp.ng) < 0.0 {
+        -sp.ns
+    } else {
+        sp.ns
+    };
+    Frame::from_normal_tangent(ns, sp.dpdu)
+}
+
 pub fn enclosing_media(scene: &Scene, p: glam::Vec3) -> MediumStack {
     let mut inside = MediumStack::default();
     if !scene.materials.iter().any(|m| m.interior().is_some()) {
