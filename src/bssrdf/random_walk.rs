@@ -14,9 +14,10 @@
 //! Phase function: Henyey-Greenstein, sampled exactly (weight 1).
 
 use crate::geometry::{Geometry, Hit, Ray};
-use crate::media::phase::sample_hg;
+use crate::media::phase::{sample_hg, sample_hg_cos};
 use crate::sampler::Sampler;
 use crate::spectrum::{SampledSpectrum, N_WAVELENGTHS};
+use std::f32::consts::TAU;
 
 /// Upper bound on scattering events of one walk (a safety net: Russian roulette ends walks).
 const MAX_SCATTER: u32 = 100_000;
@@ -142,7 +143,9 @@ pub struct LambertianWalkReflectance {
 }
 
 impl LambertianWalkReflectance {
-    /// Bins of the entry direction's cosine to the inward normal, uniform over (0, 1].
+    /// Nodes of the entry direction's cosine to the inward normal: k / 16 for k = 1..=16
+    /// (normal incidence is a node: with forward scattering R changes fastest there; below
+    /// 1/16 the first node's value is used).
     const COSINE_BINS: usize = 16;
     const ALBEDO_NODES: usize = 65;
     /// Walks per cosine bin: R's standard error stays below 0.6%.
@@ -152,45 +155,64 @@ impl LambertianWalkReflectance {
     const MAX_EVENTS: u32 = 4096;
 
     /// The table for Henyey-Greenstein anisotropy `g` (deterministic, whatever the threads).
+    ///
+    /// Only the depth matters in a half-space, so a walk tracks the cosine mu of its direction
+    /// to the outward normal alone: after scattering by theta with azimuth phi about the old
+    /// direction, mu' = mu cos(theta) + sqrt(1 - mu^2) sin(theta) cos(phi) (for g = 0, mu' is
+    /// uniform on [-1, 1] directly). Event counts are histogrammed and R(alpha) = sum over n of
+    /// P(n) alpha^n evaluated once per bin by running powers, instead of one exp per walk and
+    /// albedo.
     pub fn new(g: f32) -> Self {
-        let ln_alpha: Vec<f64> = (0..Self::ALBEDO_NODES)
+        let alpha: Vec<f64> = (0..Self::ALBEDO_NODES)
             .map(|k| {
                 let s = k as f64 / (Self::ALBEDO_NODES - 1) as f64;
-                (1.0 - s * s).ln()
+                1.0 - s * s
             })
             .collect();
+        let isotropic = g.abs() < 1e-3;
         use rayon::prelude::*;
         let rows: Vec<Vec<f32>> = (0..Self::COSINE_BINS)
             .into_par_iter()
             .map(|c| {
-                let cos = (c as f32 + 0.5) / Self::COSINE_BINS as f32;
+                let cos = (c + 1) as f32 / Self::COSINE_BINS as f32;
                 let mut rng = crate::sampler::Pcg32::new(c as u64, 0, 0x5eed_3a1c);
-                let mut sums = vec![0.0f64; Self::ALBEDO_NODES];
+                let mut walks_with = vec![0u32; Self::MAX_EVENTS as usize + 1];
                 for _ in 0..Self::WALKS {
                     // Depth below the surface (z < 0 inside), unit extinction: the half-space has
-                    // no scale.
+                    // no scale. mu: the direction's z (inwards: negative).
                     let mut z = 0.0f32;
-                    let mut dir = glam::Vec3::new((1.0 - cos * cos).max(0.0).sqrt(), 0.0, -cos);
+                    let mut mu = -cos;
                     let mut events = 0u32;
                     loop {
                         let t = -(1.0 - rng.next_1d()).ln();
-                        z += dir.z * t;
+                        z += mu * t;
                         if z >= 0.0 || events == Self::MAX_EVENTS {
                             break;
                         }
                         events += 1;
-                        dir = sample_hg(dir, g, rng.next_1d(), rng.next_1d());
-                    }
-                    for (sum, la) in sums.iter_mut().zip(&ln_alpha) {
-                        *sum += if events == 0 {
-                            1.0
+                        let (u1, u2) = (rng.next_1d(), rng.next_1d());
+                        mu = if isotropic {
+                            1.0 - 2.0 * u1
                         } else {
-                            (events as f64 * la).exp()
+                            let cos_theta = sample_hg_cos(g, u1);
+                            let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+                            let sin_mu = (1.0 - mu * mu).max(0.0).sqrt();
+                            (mu * cos_theta + sin_mu * sin_theta * (TAU * u2).cos())
+                                .clamp(-1.0, 1.0)
                         };
                     }
+                    walks_with[events as usize] += 1;
                 }
-                sums.iter()
-                    .map(|sum| (sum / Self::WALKS as f64) as f32)
+                alpha
+                    .iter()
+                    .map(|&a| {
+                        let (mut power, mut sum) = (1.0f64, 0.0f64);
+                        for &count in &walks_with {
+                            sum += count as f64 * power;
+                            power *= a;
+                        }
+                        (sum / Self::WALKS as f64) as f32
+                    })
                     .collect()
             })
             .collect();
@@ -200,9 +222,9 @@ impl LambertianWalkReflectance {
     }
 
     /// R for an entry direction at `cos_entry` to the inward normal and single-scattering
-    /// albedo `alpha` (bilinear in the cosine's bin centres and in sqrt(1 - alpha)).
+    /// albedo `alpha` (bilinear in the cosine's nodes and in sqrt(1 - alpha)).
     pub fn at(&self, cos_entry: f32, alpha: f32) -> f32 {
-        let x = (cos_entry.clamp(0.0, 1.0) * Self::COSINE_BINS as f32 - 0.5)
+        let x = (cos_entry.clamp(0.0, 1.0) * Self::COSINE_BINS as f32 - 1.0)
             .clamp(0.0, (Self::COSINE_BINS - 1) as f32);
         let c0 = (x as usize).min(Self::COSINE_BINS - 2);
         let tc = x - c0 as f32;
@@ -226,44 +248,48 @@ mod tests {
     /// at a few points within their noise.
     #[test]
     fn lambertian_walk_reflectance_is_bounded_monotone_and_matches_walks() {
-        let r = LambertianWalkReflectance::new(0.0);
-        for cos in [0.05, 0.5, 1.0] {
-            assert!((r.at(cos, 1.0) - 1.0).abs() < 1e-3, "{}", r.at(cos, 1.0));
-            assert!(r.at(cos, 0.0).abs() < 1e-6);
-            let mut last = 0.0;
-            for k in 0..=100 {
-                let v = r.at(cos, k as f32 / 100.0);
-                assert!(v >= last - 1e-6, "not monotone at {k}: {v} < {last}");
-                last = v;
-            }
-        }
-        // Grazing entries stay near the surface and come back more often.
-        assert!(r.at(0.1, 0.9) > r.at(1.0, 0.9));
-        let mut rng = crate::sampler::Pcg32::new(7, 7, 7);
-        for (cos, alpha) in [(1.0f32, 0.9f32), (0.3, 0.99), (0.7, 0.6)] {
-            let n = 40_000;
-            let mut back = 0u32;
-            for _ in 0..n {
-                let mut z = 0.0f32;
-                let mut dir = glam::Vec3::new((1.0 - cos * cos).sqrt(), 0.0, -cos);
-                loop {
-                    z += dir.z * -(1.0 - rng.next_1d()).ln();
-                    if z >= 0.0 {
-                        back += 1;
-                        break;
-                    }
-                    if rng.next_1d() >= alpha {
-                        break;
-                    }
-                    dir = sample_hg(dir, 0.0, rng.next_1d(), rng.next_1d());
+        // Isotropic, and forward-scattering (the table tracks only the direction's depth
+        // cosine; the reference walks turn full 3D directions).
+        for g in [0.0f32, 0.7] {
+            let r = LambertianWalkReflectance::new(g);
+            for cos in [0.05, 0.5, 1.0] {
+                assert!((r.at(cos, 1.0) - 1.0).abs() < 1e-3, "{}", r.at(cos, 1.0));
+                assert!(r.at(cos, 0.0).abs() < 1e-6);
+                let mut last = 0.0;
+                for k in 0..=100 {
+                    let v = r.at(cos, k as f32 / 100.0);
+                    assert!(v >= last - 1e-6, "g {g}: not monotone at {k}: {v} < {last}");
+                    last = v;
                 }
             }
-            let direct = back as f32 / n as f32;
-            let tabulated = r.at(cos, alpha);
-            assert!(
-                (tabulated - direct).abs() < 0.012,
-                "cos {cos} alpha {alpha}: table {tabulated} vs walks {direct}"
-            );
+            // Grazing entries stay near the surface and come back more often.
+            assert!(r.at(0.1, 0.9) > r.at(1.0, 0.9));
+            let mut rng = crate::sampler::Pcg32::new(7, 7, 7);
+            for (cos, alpha) in [(1.0f32, 0.9f32), (0.3, 0.99), (0.7, 0.6)] {
+                let n = 40_000;
+                let mut back = 0u32;
+                for _ in 0..n {
+                    let mut z = 0.0f32;
+                    let mut dir = glam::Vec3::new((1.0 - cos * cos).sqrt(), 0.0, -cos);
+                    loop {
+                        z += dir.z * -(1.0 - rng.next_1d()).ln();
+                        if z >= 0.0 {
+                            back += 1;
+                            break;
+                        }
+                        if rng.next_1d() >= alpha {
+                            break;
+                        }
+                        dir = sample_hg(dir, g, rng.next_1d(), rng.next_1d());
+                    }
+                }
+                let direct = back as f32 / n as f32;
+                let tabulated = r.at(cos, alpha);
+                assert!(
+                    (tabulated - direct).abs() < 0.012,
+                    "g {g} cos {cos} alpha {alpha}: table {tabulated} vs walks {direct}"
+                );
+            }
         }
     }
 }

@@ -12,15 +12,22 @@ pub fn hg_phase(cos_theta: f32, g: f32) -> f32 {
     (1.0 - g * g) / (4.0 * PI * denom * denom.max(1e-12).sqrt())
 }
 
+/// The cosine of the scattering angle drawn from Henyey-Greenstein's phase function with
+/// anisotropy `g` (inverting its CDF; pbrt-v4 "Sampling the Henyey-Greenstein Phase Function").
+#[inline]
+pub fn sample_hg_cos(g: f32, u: f32) -> f32 {
+    if g.abs() < 1e-3 {
+        1.0 - 2.0 * u
+    } else {
+        let s = (1.0 - g * g) / (1.0 - g + 2.0 * g * u);
+        ((1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
+    }
+}
+
 /// Samples a new propagation direction from HG around `dir` (phase / pdf = 1), inverting the
 /// HG CDF of cos theta in closed form.
 pub fn sample_hg(dir: Vec3, g: f32, u1: f32, u2: f32) -> Vec3 {
-    let cos_theta = if g.abs() < 1e-3 {
-        1.0 - 2.0 * u1
-    } else {
-        let s = (1.0 - g * g) / (1.0 - g + 2.0 * g * u1);
-        ((1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
-    };
+    let cos_theta = sample_hg_cos(g, u1);
     let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
     let phi = 2.0 * PI * u2;
     let frame = Frame::from_normal(dir);
