@@ -13,11 +13,12 @@
 //! * Blackman–Harris (Harris 1978, the 4-term window): the window spread over ±w; Cycles'
 //!   default, with w = 1.5 px.
 //!
-//! Gaussian and Blackman–Harris are tabulated (piecewise constant over [`TABLE_BINS`] bins of
-//! the half range) and the tabulated function *is* the filter: its sampling density and the
-//! filter agree exactly, which is what keeps every sample's weight exactly 1.
+//! Gaussian and Blackman–Harris are tabulated over [`TABLE_BINS`] bins of the half range and
+//! sampled through an O(1) inverse CDF ([`InverseCdf`]); its density (the table averaged
+//! over each knot interval, piecewise constant) *is* the filter: sampling density and filter
+//! agree exactly, which is what keeps every sample's weight exactly 1.
 
-use crate::math::distribution::DiscreteDistribution;
+use crate::math::distribution::InverseCdf;
 
 /// Bins of the tabulated half range (0..radius): 512 keeps each bin under 0.003 px at the
 /// default width, far below what a pixel can show.
@@ -62,8 +63,8 @@ pub struct PixelFilter {
     width: f32,
     /// Half-range support: offsets lie in [-radius, radius] pixels.
     radius: f32,
-    /// Distribution over the bins of [0, radius) (None for the box filter).
-    half: Option<DiscreteDistribution>,
+    /// The density over [0, radius) in units of the radius (None for the box filter).
+    half: Option<InverseCdf>,
 }
 
 impl Default for PixelFilter {
@@ -92,7 +93,7 @@ impl PixelFilter {
             let weights: Vec<f32> = (0..TABLE_BINS)
                 .map(|i| Self::profile(kind, width, (i as f32 + 0.5) * bin))
                 .collect();
-            DiscreteDistribution::new(&weights).with_guide_table()
+            InverseCdf::new(&weights, TABLE_BINS)
         });
         Ok(PixelFilter {
             kind,
@@ -160,9 +161,8 @@ impl PixelFilter {
         } else {
             (1.0, 2.0 * u - 1.0)
         };
-        let (bin, _, within) = half.sample(u.min(0.999_999_94));
-        let magnitude = (bin as f32 + within) * (self.radius / TABLE_BINS as f32);
-        sign * magnitude.min(self.radius)
+        let (x, _) = half.sample(u);
+        sign * (x * self.radius).min(self.radius)
     }
 
     /// Density of [`Self::sample_1d`] at offset `x` (per pixel); integrates to 1 over
@@ -173,11 +173,7 @@ impl PixelFilter {
         }
         match &self.half {
             None => 1.0 / self.width,
-            Some(half) => {
-                let bin_width = self.radius / TABLE_BINS as f32;
-                let bin = ((x.abs() / bin_width) as usize).min(TABLE_BINS - 1);
-                0.5 * half.pmf(bin) / bin_width
-            }
+            Some(half) => 0.5 * half.pdf(x.abs() / self.radius) / self.radius,
         }
     }
 }

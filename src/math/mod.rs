@@ -6,7 +6,7 @@ pub mod distribution;
 pub mod frame;
 pub mod sampling;
 
-pub use distribution::DiscreteDistribution;
+pub use distribution::{DiscreteDistribution, InverseCdf};
 pub use frame::Frame;
 
 pub const PI: f32 = std::f32::consts::PI;
