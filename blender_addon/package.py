@@ -3,6 +3,9 @@
 
     python3 blender_addon/package.py [--out target/addon] [--no-build] [--binary PATH]
 
+Builds a portable binary (the architecture's baseline instruction set, in target/portable) unless
+--no-build is given.
+
 Writes two installable zips (the binary goes to prism/bin/prism, where the add-on looks first):
   target/addon/prism-<version>-addon.zip      legacy add-on (Blender 3.4+): one top-level folder prism/
                                       (Preferences > Add-ons > Install, or addon_install(filepath=...))
@@ -67,11 +70,20 @@ def stripped_copy(binary, out_dir):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default=os.path.join(REPO, "target", "addon"))
-    ap.add_argument("--no-build", action="store_true", help="use the existing target/release/prism")
-    ap.add_argument("--binary", default=os.path.join(REPO, "target", "release", "prism"))
+    ap.add_argument("--no-build", action="store_true", help="use an existing binary (--binary)")
+    ap.add_argument("--binary", help="the binary to package (default: the portable build, "
+                    "target/portable/release/prism; with --no-build: target/release/prism)")
     args = ap.parse_args()
+    if args.binary is None:
+        sub = "release" if args.no_build else os.path.join("portable", "release")
+        args.binary = os.path.join(REPO, "target", sub, "prism")
     if not args.no_build:
-        subprocess.run(["cargo", "build", "--release", "-q"], cwd=REPO, check=True)
+        # A zip is installed on other machines: build for the architecture's baseline, not for
+        # this machine's instruction set (.cargo/config.toml's target-cpu=native, which a set
+        # RUSTFLAGS replaces), in its own target directory so the native build stays.
+        env = dict(os.environ, RUSTFLAGS="")
+        subprocess.run(["cargo", "build", "--release", "-q", "--target-dir",
+                        os.path.join(REPO, "target", "portable")], cwd=REPO, check=True, env=env)
     if not os.path.isfile(args.binary):
         sys.exit("no binary at %s (run cargo build --release)" % args.binary)
     os.makedirs(args.out, exist_ok=True)

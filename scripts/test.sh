@@ -17,6 +17,8 @@ echo "   (${SECONDS} s since the start)"
 # (target/release/prism; run_addon_tests.sh's `cargo build --release` then has nothing to do).
 # A full compile is about 7 minutes on a 2-core machine: building twice would not fit CI's budget.
 export CARGO_PROFILE_RELEASE_DEBUG_ASSERTIONS=true CARGO_PROFILE_RELEASE_OVERFLOW_CHECKS=true
+# The release profile's whole-program LTO would be paid by every test binary's link.
+export CARGO_PROFILE_RELEASE_LTO=false CARGO_PROFILE_RELEASE_CODEGEN_UNITS=16
 
 echo "== Rust unit, statistical, image and CLI tests"
 # The benches are type-checked by clippy above; building them in release would add their
