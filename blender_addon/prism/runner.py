@@ -83,11 +83,15 @@ def find_binary(configured=""):
             return path
         raise RunnerError("binary not found at '%s' (set it in Preferences > Add-ons > Prism)" % configured)
     for where, path in candidate_binaries():
-        if where == "bundled" and os.path.isfile(path) and not os.access(path, os.X_OK):
-            try:  # zip installs (addon_install, extensions) drop the executable bit
-                os.chmod(path, os.stat(path).st_mode | 0o755)
-            except OSError:
-                pass
+        if where == "bundled":
+            # Zip installs (addon_install, extensions) drop the executable bit: of the binary,
+            # and of the AVX2 build beside it that the binary hands over to (package.py).
+            for p in (path, os.path.join(os.path.dirname(path), "prism-x86-64-v3")):
+                if os.path.isfile(p) and not os.access(p, os.X_OK):
+                    try:
+                        os.chmod(p, os.stat(p).st_mode | 0o755)
+                    except OSError:
+                        pass
         if os.path.isfile(path) and os.access(path, os.X_OK):
             return path
     raise RunnerError(

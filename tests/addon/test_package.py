@@ -4,7 +4,8 @@
 - extension zip, bpy wheel 5.0.1: extensions.package_install_files(repo='user_default')
 - legacy zip, Debian blender -b 3.4: preferences.addon_install + addon_enable
 Each runs in its own process with a fresh BLENDER_USER_RESOURCES/SCRIPTS/CONFIG, no binary path
-set and no prism on PATH: only the bundled binary can be found.
+set and no prism on PATH: only the bundled binary can be found. The bundled AVX2 build beside it
+must be executable after the install.
 """
 
 import os
@@ -44,6 +45,10 @@ C.use_prism(sc, spp=4)
 px = C.render_pixels(sc, out)
 last = prism.engine.LAST
 assert last.get("error") is None, last
+# The AVX2 build beside the bundled binary (the portable one hands over to it) is executable
+# after the install, which drops executable bits.
+sibling = os.path.join(os.path.dirname(prism.runner.find_binary()), "prism-x86-64-v3")
+assert os.path.isfile(sibling) and os.access(sibling, os.X_OK), sibling
 print("RESULT", px.shape, float(px[..., :3].mean()))
 '''
 
@@ -73,7 +78,10 @@ def run(mode, cmd_prefix, zip_path):
 
 
 def main():
-    p = subprocess.run([sys.executable, os.path.join(REPO, "blender_addon", "package.py"), "--no-build", "--out", OUT],
+    # The repository's build stands in for the AVX2 build too (only its file matters here).
+    binary = os.path.join(REPO, "target", "release", "prism")
+    p = subprocess.run([sys.executable, os.path.join(REPO, "blender_addon", "package.py"), "--no-build", "--out", OUT,
+                        "--avx2-binary", binary],
                        check=True, capture_output=True, text=True)
     legacy, ext = p.stdout.split()
     failed = []
