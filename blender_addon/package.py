@@ -76,7 +76,9 @@ def stripped_copy(binary, out_dir, name="prism"):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default=os.path.join(REPO, "target", "addon"))
-    ap.add_argument("--no-build", action="store_true", help="use an existing binary (--binary)")
+    ap.add_argument("--no-build", action="store_true",
+                    help="package an existing binary as it is (--binary; the default, target/release/prism, "
+                    "is built for this machine's instruction set: the zip then runs only on CPUs like it)")
     ap.add_argument("--binary", help="the binary to package (default: the portable build, "
                     "target/portable/release/prism; with --no-build: target/release/prism)")
     ap.add_argument("--avx2-binary", help="with --no-build: an x86-64-v3 build to bundle as "

@@ -345,11 +345,25 @@ fn hand_over_to_avx2_build() {
     let err = std::process::Command::new(&fast)
         .args(std::env::args_os().skip(1))
         .exec();
-    // Only reached when exec failed: the portable build renders the same image.
-    eprintln!(
-        "prism: warning: could not start {} ({err}); rendering with the portable build",
+    // Only reached when exec failed: the portable build renders the same image. The warning
+    // goes out the way the run reports (a JSON event for the add-on, which shows it).
+    let message = format!(
+        "could not start {} ({err}); rendering with the portable build",
         fast.display()
     );
+    let args: Vec<String> = std::env::args().collect();
+    let json = args
+        .windows(2)
+        .any(|a| a[0] == "--progress" && a[1] == "json")
+        || args.iter().any(|a| a == "--progress=json");
+    if json {
+        eprintln!(
+            "{{\"event\":\"warning\",\"message\":{}}}",
+            json_escape(&message)
+        );
+    } else {
+        eprintln!("prism: warning: {message}");
+    }
 }
 
 fn main() {

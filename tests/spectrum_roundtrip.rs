@@ -1,6 +1,9 @@
 //! End-to-end checks of the RGB <-> spectrum conversions: sRGB -> upsampled spectrum -> CIE XYZ
 //! (by deterministic quadrature, and by the renderer's Monte Carlo estimator) -> sRGB.
 
+#[path = "common/stats.rs"]
+mod stats;
+
 use glam::Vec3;
 use prism::spectrum::{
     cie, rgb, spectrum_to_xyz, RgbAlbedoSpectrum, RgbIlluminantSpectrum, RgbUnboundedSpectrum,
@@ -237,5 +240,69 @@ fn unbounded_spectra_reproduce_large_magnitudes() {
             let v = s.eval(LAMBDA_MIN + i as f32);
             assert!(v >= 0.0 && v <= 2.0 * c.max_element(), "{v}");
         }
+    }
+}
+
+/// Every wavelength density samples what its `pdf` says (chi-square over 94 bins of 5 nm, the
+/// expected counts by midpoint quadrature of `pdf` at 0.05 nm), and the density returned with
+/// a sample is `pdf` at it. The colour-balanced "rgb" table is sampled through an inverse CDF
+/// on uniform steps of u whose density is its knot-interval averages, not the 1-nm bins.
+#[test]
+fn wavelength_densities_sample_their_pdf_chi_square() {
+    let samples = 300_000;
+    let bins = 94;
+    let width = (LAMBDA_MAX - LAMBDA_MIN) / bins as f32;
+    for (case, d) in [
+        WavelengthPdf::Rgb,
+        WavelengthPdf::Visible,
+        WavelengthPdf::Uniform,
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let mut rng = stats::Pcg32::new(29, case as u64);
+        let mut observed = vec![0.0f64; bins];
+        for _ in 0..samples {
+            let (l, p) = d.sample_with_pdf(rng.next_f32());
+            assert!((LAMBDA_MIN..=LAMBDA_MAX).contains(&l), "{d:?}: {l}");
+            // Up to rounding at a knot: the sample's own interval or its neighbour.
+            let matches = [l - 1e-3, l, l + 1e-3]
+                .iter()
+                .any(|&m| (p - d.pdf(m)).abs() <= 1e-3 * p);
+            assert!(
+                matches,
+                "{d:?} at {l}: {p} vs {} {} {}",
+                d.pdf(l - 1e-3),
+                d.pdf(l),
+                d.pdf(l + 1e-3)
+            );
+            observed[(((l - LAMBDA_MIN) / width) as usize).min(bins - 1)] += 1.0;
+        }
+        let sub = 100;
+        let expected: Vec<f64> = (0..bins)
+            .map(|b| {
+                let h = width as f64 / sub as f64;
+                (0..sub)
+                    .map(|k| {
+                        let l = LAMBDA_MIN as f64 + b as f64 * width as f64 + (k as f64 + 0.5) * h;
+                        d.pdf(l as f32) as f64 * h
+                    })
+                    .sum::<f64>()
+                    * samples as f64
+            })
+            .collect();
+        let total: f64 = expected.iter().sum::<f64>() / samples as f64;
+        assert!(
+            (total - 1.0).abs() < 1e-3,
+            "{d:?}: pdf integrates to {total}"
+        );
+        let res = stats::chi2_test(&observed, &expected, 5.0);
+        assert!(
+            res.p_value > 1e-4,
+            "{d:?}: chi2 {:.1}, dof {}, p {:.2e}",
+            res.chi2,
+            res.dof,
+            res.p_value
+        );
     }
 }

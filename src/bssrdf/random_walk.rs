@@ -137,7 +137,7 @@ pub fn walk(
 /// number n of scattering events, give R(alpha) = mean(alpha^n) for every albedo at once.
 #[derive(Debug)]
 pub struct LambertianWalkReflectance {
-    /// R at (cosine bin c, albedo node k), index c * ALBEDO_NODES + k; albedo node k is
+    /// R at (cosine node c, albedo node k), index c * ALBEDO_NODES + k; albedo node k is
     /// alpha = 1 - s^2 with s = k / (ALBEDO_NODES - 1) (dense near alpha = 1, where R is steep).
     table: Vec<f32>,
 }
@@ -146,9 +146,9 @@ impl LambertianWalkReflectance {
     /// Nodes of the entry direction's cosine to the inward normal: k / 16 for k = 1..=16
     /// (normal incidence is a node: with forward scattering R changes fastest there; below
     /// 1/16 the first node's value is used).
-    const COSINE_BINS: usize = 16;
+    const COSINE_NODES: usize = 16;
     const ALBEDO_NODES: usize = 65;
-    /// Walks per cosine bin: R's standard error stays below 0.6%.
+    /// Walks per cosine node: R's standard error stays below 0.6%.
     const WALKS: u32 = 4096;
     /// Walks still inside after this many events count as leaving then (exact at alpha = 1,
     /// where every walk returns; for alpha < 1 they weigh alpha^4096).
@@ -171,10 +171,10 @@ impl LambertianWalkReflectance {
             .collect();
         let isotropic = g.abs() < 1e-3;
         use rayon::prelude::*;
-        let rows: Vec<Vec<f32>> = (0..Self::COSINE_BINS)
+        let rows: Vec<Vec<f32>> = (0..Self::COSINE_NODES)
             .into_par_iter()
             .map(|c| {
-                let cos = (c + 1) as f32 / Self::COSINE_BINS as f32;
+                let cos = (c + 1) as f32 / Self::COSINE_NODES as f32;
                 let mut rng = crate::sampler::Pcg32::new(c as u64, 0, 0x5eed_3a1c);
                 let mut walks_with = vec![0u32; Self::MAX_EVENTS as usize + 1];
                 for _ in 0..Self::WALKS {
@@ -224,9 +224,9 @@ impl LambertianWalkReflectance {
     /// R for an entry direction at `cos_entry` to the inward normal and single-scattering
     /// albedo `alpha` (bilinear in the cosine's nodes and in sqrt(1 - alpha)).
     pub fn at(&self, cos_entry: f32, alpha: f32) -> f32 {
-        let x = (cos_entry.clamp(0.0, 1.0) * Self::COSINE_BINS as f32 - 1.0)
-            .clamp(0.0, (Self::COSINE_BINS - 1) as f32);
-        let c0 = (x as usize).min(Self::COSINE_BINS - 2);
+        let x = (cos_entry.clamp(0.0, 1.0) * Self::COSINE_NODES as f32 - 1.0)
+            .clamp(0.0, (Self::COSINE_NODES - 1) as f32);
+        let c0 = (x as usize).min(Self::COSINE_NODES - 2);
         let tc = x - c0 as f32;
         let y = (1.0 - alpha.clamp(0.0, 1.0)).sqrt() * (Self::ALBEDO_NODES - 1) as f32;
         let k0 = (y as usize).min(Self::ALBEDO_NODES - 2);

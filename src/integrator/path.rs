@@ -1257,9 +1257,6 @@ impl<'a> PathTracer<'a> {
     }
 }
 
-/// The volumes enclosing the point `p`, found as Cycles initialises its camera volume stack: a
-/// ray from `p` crosses every boundary; a volume left before being entered along it encloses
-/// `p`. Assumes closed boundaries (as volumes need anyway).
 /// The shading frame where light leaves a subsurface medium at `sp`: around the shading normal
 /// turned to the outward geometric normal's side.
 fn exit_frame(sp: &crate::geometry::SurfacePoint) -> Frame {
@@ -1271,6 +1268,9 @@ fn exit_frame(sp: &crate::geometry::SurfacePoint) -> Frame {
     Frame::from_normal_tangent(ns, sp.dpdu)
 }
 
+/// The volumes enclosing the point `p`, found as Cycles initialises its camera volume stack: a
+/// ray from `p` crosses every boundary; a volume left before being entered along it encloses
+/// `p`. Assumes closed boundaries (as volumes need anyway).
 pub fn enclosing_media(scene: &Scene, p: glam::Vec3) -> MediumStack {
     let mut inside = MediumStack::default();
     if !scene.materials.iter().any(|m| m.interior().is_some()) {

@@ -240,7 +240,8 @@ mod tests {
     }
 
     /// x(u) is monotone, the density integrates to 1, follows the source density, and is the
-    /// density of the samples (chi-square over 64 bins).
+    /// density returned with each sample. (That it is the density of the samples is checked by
+    /// chi-square through its users: tests/pixel_filter.rs, tests/spectrum_roundtrip.rs.)
     #[test]
     fn inverse_cdf_samples_its_own_density() {
         let weights: Vec<f32> = (0..200)
@@ -271,30 +272,5 @@ mod tests {
                 d.pdf(x)
             );
         }
-        // Chi-square of independent samples against the density's bin probabilities.
-        let bins = 64;
-        let mut rng = crate::sampler::Pcg32::new(3, 1, 4);
-        let n = 200_000;
-        let mut counts = vec![0f64; bins];
-        for _ in 0..n {
-            let (x, _) = d.sample(rng.next_1d());
-            counts[((x * bins as f32) as usize).min(bins - 1)] += 1.0;
-        }
-        let fine = 64;
-        let chi2: f64 = (0..bins)
-            .map(|b| {
-                let expected: f64 = (0..fine)
-                    .map(|s| {
-                        let x = (b * fine + s) as f32 / (bins * fine) as f32
-                            + 0.5 / (bins * fine) as f32;
-                        d.pdf(x) as f64 / (bins * fine) as f64
-                    })
-                    .sum::<f64>()
-                    * n as f64;
-                (counts[b] - expected).powi(2) / expected
-            })
-            .sum();
-        // 63 degrees of freedom: 1e-3 tail at about 103.
-        assert!(chi2 < 103.0, "chi2 {chi2}");
     }
 }
