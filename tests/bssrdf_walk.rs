@@ -31,15 +31,7 @@ fn walk_exitance(sigma_s: f32, sigma_a: f32, n: usize) -> Vec<f64> {
             let mut bins = vec![0.0f64; EDGES.len() - 1];
             for k in 0..per {
                 let mut sampler = Sampler::new(c as u64, k as u64, 99);
-                let exit = slab_walk_exit(
-                    &geometry,
-                    sigma_a,
-                    sigma_s,
-                    Some(ETA),
-                    64,
-                    true,
-                    &mut sampler,
-                );
+                let exit = slab_walk_exit(&geometry, sigma_a, sigma_s, Some(ETA), 64, &mut sampler);
                 if let Some((p, weight)) = exit {
                     let r = (p.x * p.x + p.y * p.y).sqrt();
                     if let Some(b) = EDGES.windows(2).position(|e| r >= e[0] && r < e[1]) {

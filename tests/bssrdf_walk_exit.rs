@@ -62,8 +62,7 @@ fn render_under_sun(desc: &SubsurfaceDesc, spp: u32) -> Vec3 {
 }
 
 /// Fraction of the light entering the top of the slab that leaves through the top, from `n`
-/// walks of `random_walk::walk`, unguided (the phase function alone: a check on the integrator's
-/// guided walks that shares none of their sampling). `fresnel`: internal reflection by the smooth dielectric
+/// walks of `random_walk::walk`. `fresnel`: internal reflection by the smooth dielectric
 /// boundary (else every boundary hit leaves). The light enters along the inward normal.
 fn walk_reflectance(fresnel: bool, n: usize) -> f64 {
     let geometry = slab_geometry(HALF_WIDTH, DEPTH);
@@ -76,7 +75,7 @@ fn walk_reflectance(fresnel: bool, n: usize) -> f64 {
             (0..per)
                 .filter_map(|k| {
                     let mut sampler = Sampler::new(c as u64, k as u64, 7);
-                    slab_walk_exit(&geometry, SIGMA_A, SIGMA_S, eta, 256, false, &mut sampler)
+                    slab_walk_exit(&geometry, SIGMA_A, SIGMA_S, eta, 256, &mut sampler)
                 })
                 .map(|(_, weight)| weight as f64)
                 .sum::<f64>()

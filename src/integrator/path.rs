@@ -544,9 +544,6 @@ impl<'a> PathTracer<'a> {
         // The random-walk subsurface medium the ray travels inside, if any (as at its entry
         // point: a textured colour gives each entry its own coefficients).
         let mut walk_medium: Option<SubsurfaceAt<'_>> = None;
-        // The surface the walk in `walk_medium` starts from, which guides it (none after a
-        // flight through an inner shell: no surface the light entered through).
-        let mut walk_entry: Option<random_walk::EntryPlane> = None;
         let mut guides = DenoiseGuides::default();
         let mut guides_done = false;
         // Tint of the specular chain from the camera, for the albedo guide.
@@ -566,7 +563,7 @@ impl<'a> PathTracer<'a> {
                     let (sigma_a, sigma_s) = ss.walk_coefficients(&alive);
                     let n = active_wavelengths(&alive);
                     match random_walk::walk(
-                        geometry, ray, sigma_a, sigma_s, ss.g, n, walk_entry, sampler, &mut beta,
+                        geometry, ray, sigma_a, sigma_s, ss.g, n, sampler, &mut beta,
                     ) {
                         Some((hit, last)) => {
                             ray = last;
@@ -849,7 +846,6 @@ impl<'a> PathTracer<'a> {
                     // The segment lies in the medium: walk it instead (the light scatters on
                     // from the inner shell as if that were no boundary).
                     walk_medium = Some(ss.at(None));
-                    walk_entry = None;
                     continue;
                 }
                 // The table method has no medium to continue in; the light that leaves
@@ -1250,11 +1246,6 @@ impl<'a> PathTracer<'a> {
             }
             let (p, n, dir) = next;
             ray = Ray::new_at(offset_ray_origin(p, n, dir), dir, ray.time);
-            // A walk (re)starts from this surface, into the medium: it is guided back to it.
-            walk_entry = walk_medium.map(|_| random_walk::EntryPlane {
-                point: ray.origin,
-                outward_normal: if dir.dot(n) < 0.0 { n } else { -n },
-            });
         }
         PathSample {
             radiance: l,

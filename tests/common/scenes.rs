@@ -199,15 +199,13 @@ pub fn slab_geometry(w: f32, depth: f32) -> prism::geometry::Geometry {
 /// boundary of relative index `eta` reflects it back in with probability Fresnel (no
 /// reflection when `eta` is None). Returns where it leaves through the top and its weight
 /// (first wavelength), or None when it leaves through the sides or bottom, is absorbed, or
-/// hits the top `max_boundary_hits` times. `guide`: walks guided back to the top face (as the
-/// integrator's), or the phase function alone.
+/// hits the top `max_boundary_hits` times.
 pub fn slab_walk_exit(
     geometry: &prism::geometry::Geometry,
     sigma_a: f32,
     sigma_s: f32,
     eta: Option<f32>,
     max_boundary_hits: usize,
-    guide: bool,
     sampler: &mut prism::sampler::Sampler,
 ) -> Option<(Vec3, f32)> {
     use prism::geometry::Ray;
@@ -222,10 +220,6 @@ pub fn slab_walk_exit(
             SampledSpectrum::splat(sigma_s),
             0.0,
             1,
-            guide.then_some(prism::bssrdf::random_walk::EntryPlane {
-                point: ray.origin,
-                outward_normal: Vec3::Z,
-            }),
             sampler,
             &mut beta,
         )?;
