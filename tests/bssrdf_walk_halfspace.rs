@@ -1,0 +1,156 @@
+//! Random walks against an exact result: a half-space of isotropically scattering medium with
+//! an index-matched boundary, lit by a beam at normal incidence, reflects
+//! R = 1 - H(1) sqrt(1 - alpha) in total, with Chandrasekhar's H-function (Chandrasekhar 1960,
+//! "Radiative Transfer", ch. V). `random_walk::walk` must find it for one wavelength and, per
+//! wavelength, when the four wavelengths of a path have different albedos (the whole-walk
+//! spectral MIS).
+
+mod common;
+
+use common::scenes::slab_geometry;
+use glam::Vec3;
+use prism::bssrdf::random_walk::walk;
+use prism::geometry::{Geometry, Ray};
+use prism::sampler::Sampler;
+use prism::spectrum::{SampledSpectrum, N_WAVELENGTHS};
+use rayon::prelude::*;
+
+/// Chandrasekhar's H-function for isotropic scattering with albedo `alpha`, at mu = 1: the
+/// fixed point of 1 / H(mu) = sqrt(1 - alpha) + (alpha / 2) int_0^1 mu' H(mu') / (mu + mu') dmu'
+/// on a midpoint grid (the form that converges for alpha near 1).
+fn chandrasekhar_h1(alpha: f64) -> f64 {
+    let nodes = 400;
+    let mu: Vec<f64> = (0..nodes)
+        .map(|i| (i as f64 + 0.5) / nodes as f64)
+        .collect();
+    let mut h = vec![1.0f64; nodes];
+    let s = (1.0 - alpha).sqrt();
+    let at = |h: &[f64], m: f64| {
+        let integral: f64 = mu
+            .iter()
+            .zip(h)
+            .map(|(&x, &hx)| x * hx / (m + x))
+            .sum::<f64>();
+        1.0 / (s + alpha / 2.0 * integral / nodes as f64)
+    };
+    for _ in 0..200 {
+        h = mu.iter().map(|&m| at(&h, m)).collect();
+    }
+    at(&h, 1.0)
+}
+
+/// Where a walk entering the slab at the origin straight down leaves: Some(true) through the
+/// top face (z = 0), Some(false) through the bottom, None if absorbed or lost at the sides;
+/// with the walk's weight per wavelength. No Fresnel: every boundary hit leaves.
+fn one_walk(
+    geometry: &Geometry,
+    depth: f32,
+    sigma_a: SampledSpectrum,
+    sigma_s: SampledSpectrum,
+    n: usize,
+    sampler: &mut Sampler,
+) -> Option<(bool, SampledSpectrum)> {
+    let origin = Vec3::new(0.0, 0.0, -1e-4);
+    let mut beta = SampledSpectrum::ONE;
+    let (hit, last) = walk(
+        geometry,
+        Ray::new(origin, -Vec3::Z),
+        sigma_a,
+        sigma_s,
+        0.0,
+        n,
+        sampler,
+        &mut beta,
+    )?;
+    let z = last.at(hit.t).z;
+    if z.abs() < 1e-2 {
+        Some((true, beta))
+    } else if (z + depth).abs() < 1e-2 {
+        Some((false, beta))
+    } else {
+        None
+    }
+}
+
+/// Mean and standard error per wavelength of the weight leaving through the top (or bottom).
+#[allow(clippy::too_many_arguments)]
+fn tally(
+    geometry: &Geometry,
+    depth: f32,
+    sigma_a: SampledSpectrum,
+    sigma_s: SampledSpectrum,
+    n: usize,
+    top: bool,
+    walks: usize,
+    seed: u64,
+) -> ([f64; N_WAVELENGTHS], [f64; N_WAVELENGTHS]) {
+    let chunks = 32;
+    let per = walks / chunks;
+    let sums: Vec<([f64; N_WAVELENGTHS], [f64; N_WAVELENGTHS])> = (0..chunks)
+        .into_par_iter()
+        .map(|c| {
+            let (mut s1, mut s2) = ([0.0f64; N_WAVELENGTHS], [0.0f64; N_WAVELENGTHS]);
+            for k in 0..per {
+                let mut sampler = Sampler::new(c as u64, k as u64, seed);
+                let exit = one_walk(geometry, depth, sigma_a, sigma_s, n, &mut sampler);
+                if let Some((true, w)) | Some((false, w)) =
+                    exit.filter(|&(at_top, _)| at_top == top)
+                {
+                    for i in 0..N_WAVELENGTHS {
+                        s1[i] += w[i] as f64;
+                        s2[i] += (w[i] as f64).powi(2);
+                    }
+                }
+            }
+            (s1, s2)
+        })
+        .collect();
+    let total = (per * chunks) as f64;
+    let mut mean = [0.0; N_WAVELENGTHS];
+    let mut se = [0.0; N_WAVELENGTHS];
+    for i in 0..N_WAVELENGTHS {
+        let s1: f64 = sums.iter().map(|s| s.0[i]).sum();
+        let s2: f64 = sums.iter().map(|s| s.1[i]).sum();
+        mean[i] = s1 / total;
+        se[i] = ((s2 / total - mean[i] * mean[i]).max(0.0) / total).sqrt();
+    }
+    (mean, se)
+}
+
+#[test]
+fn walks_reflect_chandrasekhars_half_space_albedo() {
+    // 150 units deep and 300 wide (75 mean free paths and more): a half-space for these
+    // albedos.
+    let geometry = slab_geometry(300.0, 150.0);
+    // One wavelength per albedo, and four different albedos and extinctions in one path (R
+    // depends on the albedo alone; different extinctions make the wavelengths' distance
+    // densities differ, so the whole-walk MIS decides the weights).
+    let cases: [(&[f32], &[f32], usize); 4] = [
+        (&[0.9], &[1.0], 1),
+        (&[0.99], &[1.0], 1),
+        (&[0.999], &[1.0], 1),
+        (&[0.95, 0.99, 0.8, 0.998], &[1.0, 2.0, 0.5, 3.0], 4),
+    ];
+    for (albedos, extinctions, n) in cases {
+        let alpha = SampledSpectrum::from_fn(|i| albedos[i.min(albedos.len() - 1)]);
+        let sigma_t = SampledSpectrum::from_fn(|i| extinctions[i.min(extinctions.len() - 1)]);
+        let sigma_s = alpha * sigma_t;
+        let sigma_a = sigma_t - sigma_s;
+        let (mean, se) = tally(&geometry, 150.0, sigma_a, sigma_s, n, true, 1 << 16, 5);
+        for i in 0..n {
+            let expected = 1.0 - chandrasekhar_h1(alpha[i] as f64) * (1.0 - alpha[i] as f64).sqrt();
+            eprintln!(
+                "alpha {:.3} ({n} wavelengths): R {:.4} +- {:.4}, exact {expected:.4}",
+                alpha[i], mean[i], se[i]
+            );
+            // 2e-3: the H-function's quadrature and the slab's finite size.
+            assert!(
+                (mean[i] - expected).abs() < 4.0 * se[i] + 2e-3,
+                "alpha {}: {} +- {} vs {expected}",
+                alpha[i],
+                mean[i],
+                se[i]
+            );
+        }
+    }
+}
