@@ -39,17 +39,16 @@ fn chandrasekhar_h1(alpha: f64) -> f64 {
     at(&h, 1.0)
 }
 
-/// Where a walk entering the slab at the origin straight down leaves: Some(true) through the
-/// top face (z = 0), Some(false) through the bottom, None if absorbed or lost at the sides;
-/// with the walk's weight per wavelength. No Fresnel: every boundary hit leaves.
-fn one_walk(
+/// The weight per wavelength with which a walk entering the half-space at the origin straight
+/// down leaves through its top face (z = 0); None if it is absorbed or leaves elsewhere. No
+/// Fresnel: every boundary hit leaves.
+fn reflected(
     geometry: &Geometry,
-    depth: f32,
     sigma_a: SampledSpectrum,
     sigma_s: SampledSpectrum,
     n: usize,
     sampler: &mut Sampler,
-) -> Option<(bool, SampledSpectrum)> {
+) -> Option<SampledSpectrum> {
     let origin = Vec3::new(0.0, 0.0, -1e-4);
     let mut beta = SampledSpectrum::ONE;
     let (hit, last) = walk(
@@ -62,25 +61,15 @@ fn one_walk(
         sampler,
         &mut beta,
     )?;
-    let z = last.at(hit.t).z;
-    if z.abs() < 1e-2 {
-        Some((true, beta))
-    } else if (z + depth).abs() < 1e-2 {
-        Some((false, beta))
-    } else {
-        None
-    }
+    (last.at(hit.t).z.abs() < 1e-2).then_some(beta)
 }
 
-/// Mean and standard error per wavelength of the weight leaving through the top (or bottom).
-#[allow(clippy::too_many_arguments)]
+/// Mean and standard error per wavelength of the reflected weight over `walks` walks.
 fn tally(
     geometry: &Geometry,
-    depth: f32,
     sigma_a: SampledSpectrum,
     sigma_s: SampledSpectrum,
     n: usize,
-    top: bool,
     walks: usize,
     seed: u64,
 ) -> ([f64; N_WAVELENGTHS], [f64; N_WAVELENGTHS]) {
@@ -92,10 +81,7 @@ fn tally(
             let (mut s1, mut s2) = ([0.0f64; N_WAVELENGTHS], [0.0f64; N_WAVELENGTHS]);
             for k in 0..per {
                 let mut sampler = Sampler::new(c as u64, k as u64, seed);
-                let exit = one_walk(geometry, depth, sigma_a, sigma_s, n, &mut sampler);
-                if let Some((true, w)) | Some((false, w)) =
-                    exit.filter(|&(at_top, _)| at_top == top)
-                {
+                if let Some(w) = reflected(geometry, sigma_a, sigma_s, n, &mut sampler) {
                     for i in 0..N_WAVELENGTHS {
                         s1[i] += w[i] as f64;
                         s2[i] += (w[i] as f64).powi(2);
@@ -136,7 +122,7 @@ fn walks_reflect_chandrasekhars_half_space_albedo() {
         let sigma_t = SampledSpectrum::from_fn(|i| extinctions[i.min(extinctions.len() - 1)]);
         let sigma_s = alpha * sigma_t;
         let sigma_a = sigma_t - sigma_s;
-        let (mean, se) = tally(&geometry, 150.0, sigma_a, sigma_s, n, true, 1 << 16, 5);
+        let (mean, se) = tally(&geometry, sigma_a, sigma_s, n, 1 << 16, 5);
         for i in 0..n {
             let expected = 1.0 - chandrasekhar_h1(alpha[i] as f64) * (1.0 - alpha[i] as f64).sqrt();
             eprintln!(
