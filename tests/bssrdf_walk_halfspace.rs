@@ -2,8 +2,8 @@
 //! an index-matched boundary, lit by a beam at normal incidence, reflects
 //! R = 1 - H(1) sqrt(1 - alpha) in total, with Chandrasekhar's H-function (Chandrasekhar 1960,
 //! "Radiative Transfer", ch. V). `random_walk::walk` must find it for one wavelength and, per
-//! wavelength, when the four wavelengths of a path have different albedos (the whole-walk
-//! spectral MIS).
+//! wavelength, when the four wavelengths of a path have different albedos and extinctions (the
+//! whole-walk spectral MIS then decides the weights).
 
 mod common;
 
