@@ -206,14 +206,7 @@ fn radius_sampling_chi_square() {
             tail > 2e-4 && tail < 2e-3,
             "channel {ch}: mass beyond r_max {tail}"
         );
-        let res = chi2_test(&observed, &expected, 5.0);
-        assert!(
-            res.p_value > 1e-3,
-            "channel {ch}: chi2 {} dof {} p {}",
-            res.chi2,
-            res.dof,
-            res.p_value
-        );
+        chi2_test(&observed, &expected, 5.0).assert_fits(1e-3, format!("channel {ch}"));
     }
 }
 

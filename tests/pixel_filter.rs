@@ -113,14 +113,7 @@ fn filter_sampling_matches_its_density_chi_square() {
             (total - 1.0).abs() < 1e-4,
             "{kind:?} {width}: pdf integrates to {total}"
         );
-        let res = chi2_test(&observed, &expected, 5.0);
-        assert!(
-            res.p_value > 1e-4,
-            "{kind:?} {width}: chi2 {:.1}, dof {}, p {:.2e}",
-            res.chi2,
-            res.dof,
-            res.p_value
-        );
+        chi2_test(&observed, &expected, 5.0).assert_fits(1e-4, format!("{kind:?} {width}"));
     }
 }
 

@@ -139,6 +139,20 @@ pub struct Chi2Result {
     pub cells: usize,
 }
 
+impl Chi2Result {
+    /// Fails the test unless the fit's p-value exceeds `min_p`, naming `what` was tested.
+    #[track_caller]
+    pub fn assert_fits(&self, min_p: f64, what: impl std::fmt::Display) {
+        assert!(
+            self.p_value > min_p,
+            "{what}: chi2 {:.1}, dof {}, p {:.2e} (needs > {min_p:.0e})",
+            self.chi2,
+            self.dof,
+            self.p_value
+        );
+    }
+}
+
 /// Pearson's chi-square goodness-of-fit test. All cells whose expected count is below
 /// `min_expected` are pooled into one cell, which absorbs the next smallest cells while it is
 /// itself below `min_expected` (the usual validity rule of the chi-square approximation,
@@ -285,6 +299,15 @@ mod tests {
         assert!((chi2_sf(124.342_113_404_047_3, 100) - 0.05).abs() < 1e-9);
         // dof = 2: Q = exp(-x/2).
         assert!((chi2_sf(7.0, 2) - (-3.5f64).exp()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn assert_fits_passes_a_fit_and_fails_a_mismatch() {
+        let expected = vec![1000.0; 10];
+        chi2_test(&expected, &expected, 5.0).assert_fits(1e-4, "exact counts");
+        let skewed: Vec<f64> = (0..10).map(|i| 820.0 + 40.0 * i as f64).collect();
+        let r = chi2_test(&skewed, &expected, 5.0);
+        assert!(std::panic::catch_unwind(|| r.assert_fits(1e-4, "skewed counts")).is_err());
     }
 
     #[test]
