@@ -315,10 +315,17 @@ pub fn render(
                             };
                             let result = tracer.radiance(ray, &wavelengths, &mut sampler);
                             band_rays += result.rays as u64;
+                            // The world seen directly counts with its exact colour.
+                            let (world, world_xyz) = result
+                                .world_exact
+                                .unwrap_or((SampledSpectrum::ZERO, glam::Vec3::ZERO));
                             let xyz = if clamp_off {
-                                spectrum_to_xyz(&result.radiance, &wavelengths)
+                                spectrum_to_xyz(&(result.radiance - world), &wavelengths)
+                                    + world_xyz
                             } else {
-                                let direct = spectrum_to_xyz(&result.direct, &wavelengths);
+                                let direct =
+                                    spectrum_to_xyz(&(result.direct - world), &wavelengths)
+                                        + world_xyz;
                                 let indirect = spectrum_to_xyz(
                                     &(result.radiance - result.direct),
                                     &wavelengths,

@@ -480,3 +480,54 @@ fn cli_reports_bad_world_and_camera_blocks() {
         assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     }
 }
+
+// ------------------------------------------------------------------ the world seen directly
+
+/// The camera sees a uniform world with its exact colour (`PathSample::world_exact`): every
+/// pure-background pixel is the same value, with no colour noise from sampling wavelengths,
+/// and that value is what the spectral estimate averages to (so the swap keeps the image's
+/// expectation) and the world's RGB within the RGB-to-spectrum table's round trip.
+#[test]
+fn uniform_world_seen_directly_has_its_exact_colour() {
+    let colour = Vec3::new(0.3, 0.6, 0.9);
+    let (_, rgba) = common::scenes::render_mean(
+        furnace_scene(diffuse_material("grey", Vec3::splat(0.5)), colour),
+        32,
+        4,
+        8,
+        3,
+    );
+    // The corners are far from the sphere (radius 1 at distance 3, yfov 0.8).
+    let corners = [0usize, 31, 32 * 31, 32 * 32 - 1, 1, 32];
+    let first = rgba[corners[0]];
+    for &i in &corners {
+        assert_eq!(rgba[i], first, "background pixel {i} differs from pixel 0");
+    }
+    let got = Vec3::new(first[0], first[1], first[2]);
+    for (g, want) in got.to_array().iter().zip(colour.to_array()) {
+        assert!(
+            (g / want - 1.0).abs() < 0.01,
+            "background {got} vs world {colour}"
+        );
+    }
+    // The spectral estimate of the same world (what paths that bounce see), averaged over
+    // 2^16 stratified hero wavelengths, against the exact value.
+    let spectrum = prism::spectrum::RgbIlluminantSpectrum::new(colour);
+    let n = 1 << 16;
+    let mut mean = glam::DVec3::ZERO;
+    for i in 0..n {
+        let w = SampledWavelengths::sample_hero(
+            (i as f32 + 0.5) / n as f32,
+            prism::integrator::WavelengthPdf::Visible,
+        );
+        mean += prism::spectrum::spectrum_to_xyz(&spectrum.sample(&w), &w).as_dvec3();
+    }
+    let estimate = prism::spectrum::rgb::xyz_to_linear_srgb((mean / n as f64).as_vec3());
+    println!("background {got}, spectral estimate {estimate}, world {colour}");
+    for (e, g) in estimate.to_array().iter().zip(got.to_array()) {
+        assert!(
+            (e / g - 1.0).abs() < 2e-3,
+            "spectral {estimate} vs exact {got}"
+        );
+    }
+}

@@ -57,6 +57,97 @@ pub struct PathSample {
     /// Coverage: 0 where the camera ray escaped (only counted as transparent with
     /// `transparent_background`) or reached a holdout, else 1 (Blender's alpha).
     pub alpha: f32,
+    /// Where the camera ray escaped straight to a uniform world: the world's share of
+    /// `radiance` (and of `direct`) and the exact XYZ it estimates. The film counts the exact
+    /// value instead, as an RGB renderer does: the background then has no colour noise from
+    /// sampling wavelengths (the spectral estimate of a grey world varies per sample unless
+    /// the wavelength density were proportional to all three matching functions at once).
+    pub world_exact: Option<(SampledSpectrum, glam::Vec3)>,
+}
+
+/// The state of one camera path between bounces: what `PathTracer::trace` carries from one
+/// vertex to the next.
+#[derive(Clone, Copy, Debug)]
+struct PathState<'a> {
+    /// The ray leaving the last vertex (or the camera).
+    ray: Ray,
+    /// Radiance gathered so far, already divided by the spectral MIS denominator.
+    l: SampledSpectrum,
+    /// The direct share of `l` (`PathSample::direct`).
+    l_direct: SampledSpectrum,
+    /// Throughput.
+    beta: SampledSpectrum,
+    rays: u32,
+    mis: SpectralMis,
+    /// The wavelengths the path evaluates materials and lights at (see `radiance`).
+    alive: SampledWavelengths,
+    /// Aggregated density of the BSDF sample that produced `ray` and the MIS denominator
+    /// before it (for MIS against light sampling when `ray` hits a light).
+    prev_bsdf_density: f32,
+    prev_denominator: f32,
+    specular_bounce: bool,
+    /// The lobe of the last scattering (`LobeFlags::VOLUME` in a volume), for lights that
+    /// some kinds of scattering do not see (Blender's light Ray Visibility); None after the
+    /// camera or a subsurface exit, which see every light.
+    last_lobe: Option<LobeFlags>,
+    /// Where the BSDF sample that produced `ray` was taken (light-selection probabilities
+    /// for MIS depend on the shading point).
+    prev_ctx: ShadingContext,
+    /// The volumes the ray travels inside (also coloured glass), entered at the camera.
+    media: MediumStack,
+    /// Product of eta^2 over refractions: undoes radiance scaling for Russian roulette.
+    eta_scale: f32,
+    /// The random-walk subsurface medium the ray travels inside, if any (as at its entry
+    /// point: a textured colour gives each entry its own coefficients).
+    walk_medium: Option<SubsurfaceAt<'a>>,
+    guides: DenoiseGuides,
+    guides_done: bool,
+    /// Tint of the specular chain from the camera, for the albedo guide.
+    guide_tint: SampledSpectrum,
+    alpha: f32,
+    /// Some earlier scattering was diffuse (a diffuse lobe or a subsurface exit): subsurface
+    /// entered from here on is collapsed to its entry point (`with_full_indirect_subsurface`).
+    diffuse_ancestor: bool,
+    /// `PathSample::world_exact`.
+    world_exact: Option<(SampledSpectrum, glam::Vec3)>,
+}
+
+/// A surface vertex of the path once its BSDF is known: what continuing the path from it
+/// needs (`PathTracer::scatter`).
+#[derive(Clone, Copy)]
+struct Vertex<'a> {
+    sp: crate::geometry::SurfacePoint,
+    instance: u32,
+    material: &'a crate::scene::material::Material,
+    bsdf: crate::bsdf::Bsdf,
+    subsurface: Option<SubsurfaceAt<'a>>,
+    /// The boundary of the random-walk medium the path travels in (see `trace`).
+    walk_exit: Option<SubsurfaceAt<'a>>,
+    frame: Frame,
+    /// Outgoing direction in `frame` and in the world.
+    wo: glam::Vec3,
+    wo_world: glam::Vec3,
+    /// Shading and geometric normals, turned towards the viewer for reflective models.
+    ns: glam::Vec3,
+    ng: glam::Vec3,
+    /// A bump or normal map moved the shading normal of a reflective surface.
+    bumped: bool,
+    ctx: ShadingContext,
+}
+
+impl Vertex<'_> {
+    /// The diffuse part of a normal-mapped surface is masked near the smooth normal's horizon
+    /// (Conty Estevez et al. 2019), as Cycles does for its diffuse closures: f loses
+    /// (1 - G(wi)) of its diffuse part, for light and BSDF samples alike. This is that loss.
+    fn bump_loss(&self, wi: glam::Vec3, wi_world: glam::Vec3) -> SampledSpectrum {
+        let n_smooth = if self.ns.dot(self.sp.ns) < 0.0 {
+            -self.sp.ns_smooth
+        } else {
+            self.sp.ns_smooth
+        };
+        let g = bump_terminator_shadowing(n_smooth, self.ns, wi_world);
+        self.bsdf.diffuse_part(self.wo, wi) * (1.0 - g)
+    }
 }
 
 /// Feature buffers for denoisers (and Blender's Depth/Normal passes), recorded like Cycles'
@@ -497,21 +588,8 @@ impl<'a> PathTracer<'a> {
 
     /// Radiance arriving along `ray` for the path's wavelengths, already weighted by the
     /// hero-wavelength MIS (the film divides slot i by `w.pdf[i]`).
-    pub fn radiance(
-        &self,
-        mut ray: Ray,
-        w: &SampledWavelengths,
-        sampler: &mut Sampler,
-    ) -> PathSample {
-        let scene = self.scene;
-        let geometry = &scene.geometry;
-        let lights = &scene.lights;
-        let mut l = SampledSpectrum::ZERO;
-        // The direct share of `l` (`PathSample::direct`).
-        let mut l_direct = SampledSpectrum::ZERO;
-        let mut beta = SampledSpectrum::ONE;
-        let mut rays = 0u32;
-        let mut mis = SpectralMis::new(w);
+    pub fn radiance(&self, ray: Ray, w: &SampledWavelengths, sampler: &mut Sampler) -> PathSample {
+        let mis = SpectralMis::new(w);
         // The wavelengths the path evaluates materials and lights at. After a smooth
         // dispersive refraction only the hero carries light: the secondaries are collapsed onto
         // it (their throughput is 0), so later dispersive interfaces cost what a
@@ -520,59 +598,80 @@ impl<'a> PathTracer<'a> {
         if mis.hero_only() {
             alive.terminate_secondary();
         }
-        // Aggregated density of the BSDF sample that produced `ray` and the MIS denominator
-        // before it (for MIS against light sampling when `ray` hits a light).
-        let mut prev_bsdf_density = 0.0f32;
-        let mut prev_denominator = 1.0f32;
-        let mut specular_bounce = true;
-        // The lobe of the last scattering (`LobeFlags::VOLUME` in a volume), for lights that
-        // some kinds of scattering do not see (Blender's light Ray Visibility); None after the
-        // camera or a subsurface exit, which see every light.
-        let mut last_lobe: Option<LobeFlags> = None;
-        // Where the BSDF sample that produced `ray` was taken (light-selection probabilities
-        // for MIS depend on the shading point).
-        let mut prev_ctx = ShadingContext {
-            p: ray.origin,
-            n: None,
-            time: ray.time,
+        let mut st = PathState {
+            ray,
+            l: SampledSpectrum::ZERO,
+            l_direct: SampledSpectrum::ZERO,
+            beta: SampledSpectrum::ONE,
+            rays: 0,
+            mis,
+            alive,
+            prev_bsdf_density: 0.0,
+            prev_denominator: 1.0,
+            specular_bounce: true,
+            last_lobe: None,
+            prev_ctx: ShadingContext {
+                p: ray.origin,
+                n: None,
+                time: ray.time,
+            },
+            media: self.camera_media,
+            eta_scale: 1.0,
+            walk_medium: None,
+            guides: DenoiseGuides::default(),
+            guides_done: false,
+            guide_tint: SampledSpectrum::ONE,
+            alpha: 1.0,
+            diffuse_ancestor: false,
+            world_exact: None,
         };
-        let selection = self.selection;
-        // The volumes the ray travels inside (also coloured glass), entered at the camera.
-        let mut media = self.camera_media;
-        // Product of eta^2 over refractions: undoes radiance scaling for Russian roulette.
-        let mut eta_scale = 1.0f32;
-        // The random-walk subsurface medium the ray travels inside, if any (as at its entry
-        // point: a textured colour gives each entry its own coefficients).
-        let mut walk_medium: Option<SubsurfaceAt<'_>> = None;
-        let mut guides = DenoiseGuides::default();
-        let mut guides_done = false;
-        // Tint of the specular chain from the camera, for the albedo guide.
-        let mut guide_tint = SampledSpectrum::ONE;
-        let mut alpha = 1.0f32;
-        // Some earlier scattering was diffuse (a diffuse lobe or a subsurface exit): subsurface
-        // entered from here on is collapsed to its entry point (`with_full_indirect_subsurface`).
-        let mut diffuse_ancestor = false;
+        self.trace(&mut st, 0, sampler);
+        PathSample {
+            radiance: st.l,
+            direct: st.l_direct,
+            rays: st.rays,
+            guides: st.guides,
+            alpha: st.alpha,
+            world_exact: st.world_exact,
+        }
+    }
 
-        for depth in 0..=self.max_depth {
+    /// Follows the path in `st` from bounce `first_depth` (its ray leaves the vertex of bounce
+    /// `first_depth - 1`, or the camera) until it ends, adding what it gathers to `st.l`.
+    fn trace(&self, st: &mut PathState<'a>, first_depth: u32, sampler: &mut Sampler) {
+        let scene = self.scene;
+        let geometry = &scene.geometry;
+        let lights = &scene.lights;
+        let selection = self.selection;
+        let uniform_world = lights.uniform_world_xyz();
+
+        for depth in first_depth..=self.max_depth {
             sampler.start_bounce(depth);
-            rays += 1;
-            let next_hit = match walk_medium {
+            st.rays += 1;
+            let next_hit = match st.walk_medium {
                 // Inside a random-walk medium: free flights until the walk reaches a surface,
                 // which is then shaded from inside like any other hit.
                 Some(ss) => {
-                    let (sigma_a, sigma_s) = ss.walk_coefficients(&alive);
-                    let n = active_wavelengths(&alive);
+                    let (sigma_a, sigma_s) = ss.walk_coefficients(&st.alive);
+                    let n = active_wavelengths(&st.alive);
                     match random_walk::walk(
-                        geometry, ray, sigma_a, sigma_s, ss.g, n, sampler, &mut beta,
+                        geometry,
+                        st.ray,
+                        sigma_a,
+                        sigma_s,
+                        ss.g,
+                        n,
+                        sampler,
+                        &mut st.beta,
                     ) {
                         Some((hit, last)) => {
-                            ray = last;
+                            st.ray = last;
                             Some(hit)
                         }
                         None => break,
                     }
                 }
-                None => geometry.intersect(&ray, f32::INFINITY),
+                None => geometry.intersect(&st.ray, f32::INFINITY),
             };
             // Rays pass through surfaces they do not shade: camera rays through instances hidden
             // from the camera (meshes standing for Blender area lights), as Blender's ray
@@ -590,16 +689,16 @@ impl<'a> PathTracer<'a> {
             // and single-scattering albedo there.
             let mut medium_event: Option<(f32, PhaseMixture, SampledSpectrum)> = None;
             loop {
-                let in_walk = walk_medium.is_some();
+                let in_walk = st.walk_medium.is_some();
                 let segment = if in_walk {
                     None
                 } else {
-                    self.segment_medium(&media, &alive)
+                    self.segment_medium(&st.media, &st.alive)
                 };
                 let segment_end = next_hit.map_or(f32::INFINITY, |h| h.t);
                 // The throughput and spectral MIS at the segment's start, and where the flight
                 // along it ends.
-                let (beta_start, mis_start) = (beta, mis);
+                let (beta_start, mis_start) = (st.beta, st.mis);
                 let mut flight_end = segment_end;
                 // A scattering event ended the flight: its phase function and albedo.
                 let mut scattered: Option<(PhaseMixture, SampledSpectrum)> = None;
@@ -608,11 +707,11 @@ impl<'a> PathTracer<'a> {
                     let emitted = if heterogeneous {
                         let (end, emitted, event) = self.delta_track(
                             seg,
-                            &ray,
+                            &st.ray,
                             segment_end,
-                            &mut beta,
-                            &mut mis,
-                            &alive,
+                            &mut st.beta,
+                            &mut st.mis,
+                            &st.alive,
                             sampler,
                         );
                         flight_end = end;
@@ -620,23 +719,23 @@ impl<'a> PathTracer<'a> {
                         emitted
                     } else {
                         // Volume emission seen along the segment, in closed form.
-                        let emitted = beta * seg.emitted(segment_end) / mis.denominator();
+                        let emitted = st.beta * seg.emitted(segment_end) / st.mis.denominator();
                         if let Some(phase) = seg.phase {
                             let flight = seg.sample_distance(segment_end, sampler.next_1d());
                             flight_end = flight.t;
-                            beta *= flight.weight;
-                            mis.scatter(flight.pdf_hero, flight.pdf_wavelengths);
+                            st.beta *= flight.weight;
+                            st.mis.scatter(flight.pdf_hero, flight.pdf_wavelengths);
                             if flight.scattered {
                                 scattered = Some((phase, seg.sigma_s.safe_div(seg.sigma_t)));
                             }
                         } else {
-                            beta *= seg.transmittance(segment_end);
+                            st.beta *= seg.transmittance(segment_end);
                         }
                         emitted
                     };
-                    l += emitted;
+                    st.l += emitted;
                     if depth == 0 {
-                        l_direct += emitted;
+                        st.l_direct += emitted;
                     }
                 }
                 if lights.has_round() && !in_walk {
@@ -647,32 +746,40 @@ impl<'a> PathTracer<'a> {
                     // carries its density ratio as above. Through heterogeneous volumes the
                     // lights along the whole segment count, times a ratio-tracking estimate
                     // of T(s).
-                    let dir = ray.dir;
+                    let dir = st.ray.dir;
                     let t_max = if heterogeneous {
                         segment_end
                     } else {
                         flight_end
                     };
                     lights.for_each_round_hit(
-                        ray.origin,
+                        st.ray.origin,
                         dir,
                         t_max,
                         depth == 0,
-                        &alive,
+                        &st.alive,
                         |index, s, le| {
-                            if last_lobe.is_some_and(|fl| !lights.visibility(index).sees(fl)) {
+                            if st
+                                .last_lobe
+                                .is_some_and(|fl| !lights.visibility(index).sees(fl))
+                            {
                                 return;
                             }
-                            let weight = if specular_bounce {
+                            let weight = if st.specular_bounce {
                                 1.0
                             } else {
-                                let light_pdf = lights.round_pdf(&prev_ctx, index, dir, selection);
-                                power_heuristic(prev_bsdf_density, light_pdf * prev_denominator)
+                                let light_pdf =
+                                    lights.round_pdf(&st.prev_ctx, index, dir, selection);
+                                power_heuristic(
+                                    st.prev_bsdf_density,
+                                    light_pdf * st.prev_denominator,
+                                )
                             };
                             let (mut b, mut m) = (beta_start, mis_start);
                             if let Some(seg) = &segment {
                                 if heterogeneous {
-                                    b *= self.segment_transmittance(seg, &ray, s, &alive, sampler);
+                                    b *= self
+                                        .segment_transmittance(seg, &st.ray, s, &st.alive, sampler);
                                 } else {
                                     let tr = seg.transmittance(s);
                                     if seg.phase.is_some() {
@@ -685,9 +792,9 @@ impl<'a> PathTracer<'a> {
                             }
                             let c = b * le * (weight / m.denominator());
                             if c.is_finite() {
-                                l += c;
+                                st.l += c;
                                 if depth <= 1 {
-                                    l_direct += c;
+                                    st.l_direct += c;
                                 }
                             }
                         },
@@ -710,8 +817,8 @@ impl<'a> PathTracer<'a> {
                 }
                 let sp = geometry.surface_point(&h);
                 if !hidden {
-                    match self.passes_through(&sp, ray.dir, depth == 0, &alive, sampler) {
-                        Some(weight) => beta *= weight,
+                    match self.passes_through(&sp, st.ray.dir, depth == 0, &st.alive, sampler) {
+                        Some(weight) => st.beta *= weight,
                         None => break,
                     }
                 }
@@ -721,35 +828,35 @@ impl<'a> PathTracer<'a> {
                         instance: h.instance,
                         material: sp.material,
                     };
-                    media.cross(entry, ray.dir.dot(sp.ng) < 0.0);
+                    st.media.cross(entry, st.ray.dir.dot(sp.ng) < 0.0);
                 }
                 skipped += 1;
                 if skipped > 64 {
                     // Degenerate stack of skipped surfaces: give up on this path.
                     next_hit = None;
-                    beta = SampledSpectrum::ZERO;
+                    st.beta = SampledSpectrum::ZERO;
                     break;
                 }
-                rays += 1;
-                let origin = offset_ray_origin(sp.p, sp.ng, ray.dir);
-                camera_offset += (origin - ray.origin).dot(ray.dir);
-                ray = Ray::new_at(origin, ray.dir, ray.time);
-                next_hit = geometry.intersect(&ray, f32::INFINITY);
+                st.rays += 1;
+                let origin = offset_ray_origin(sp.p, sp.ng, st.ray.dir);
+                camera_offset += (origin - st.ray.origin).dot(st.ray.dir);
+                st.ray = Ray::new_at(origin, st.ray.dir, st.ray.time);
+                next_hit = geometry.intersect(&st.ray, f32::INFINITY);
             }
-            if beta.is_black() {
+            if st.beta.is_black() {
                 break;
             }
             if let Some((t, phase, albedo)) = medium_event {
                 // A scattering event in a volume: next-event estimation with the phase
                 // function, then a direction sampled from it (phase / pdf = 1).
-                let p = ray.at(t);
+                let p = st.ray.at(t);
                 if depth == 0 {
-                    guides.first_distance = camera_offset + t;
+                    st.guides.first_distance = camera_offset + t;
                 }
-                if !guides_done {
-                    guides.albedo = guide_tint * albedo;
-                    guides.normal = glam::Vec3::ZERO;
-                    guides_done = true;
+                if !st.guides_done {
+                    st.guides.albedo = st.guide_tint * albedo;
+                    st.guides.normal = glam::Vec3::ZERO;
+                    st.guides_done = true;
                 }
                 if depth == self.max_depth {
                     break;
@@ -757,63 +864,78 @@ impl<'a> PathTracer<'a> {
                 let ctx = ShadingContext {
                     p,
                     n: None,
-                    time: ray.time,
+                    time: st.ray.time,
                 };
                 let u = sampler.light();
-                let c = beta
+                let c = st.beta
                     * self.sample_direct(
                         &ctx,
                         u,
-                        &alive,
-                        &media,
-                        &mis,
+                        &st.alive,
+                        &st.media,
+                        &st.mis,
                         sampler,
-                        &mut rays,
+                        &mut st.rays,
                         Some(LobeFlags::VOLUME),
                         |wi| {
-                            let f = phase.eval(ray.dir.dot(wi));
+                            let f = phase.eval(st.ray.dir.dot(wi));
                             (f > 0.0).then_some((f, f, p))
                         },
                     );
-                l += c;
+                st.l += c;
                 if depth == 0 {
-                    l_direct += c;
+                    st.l_direct += c;
                 }
                 let (u_lobe, u_dir) = sampler.bsdf();
-                let wi = phase.sample(ray.dir, u_lobe, u_dir.x, u_dir.y);
-                let pdf = phase.eval(ray.dir.dot(wi));
-                specular_bounce = false;
-                last_lobe = Some(LobeFlags::VOLUME);
-                prev_denominator = mis.denominator();
-                prev_bsdf_density = mis.bsdf_density(SampledSpectrum::splat(pdf));
-                prev_ctx = ctx;
-                if !self.russian_roulette(depth, &mut beta, &mis, eta_scale, sampler) {
+                let wi = phase.sample(st.ray.dir, u_lobe, u_dir.x, u_dir.y);
+                let pdf = phase.eval(st.ray.dir.dot(wi));
+                st.specular_bounce = false;
+                st.last_lobe = Some(LobeFlags::VOLUME);
+                st.prev_denominator = st.mis.denominator();
+                st.prev_bsdf_density = st.mis.bsdf_density(SampledSpectrum::splat(pdf));
+                st.prev_ctx = ctx;
+                if !self.russian_roulette(depth, &mut st.beta, &st.mis, st.eta_scale, sampler) {
                     break;
                 }
-                ray = Ray::new_at(p, wi, ray.time);
+                st.ray = Ray::new_at(p, wi, st.ray.time);
                 continue;
             }
             let Some(hit) = next_hit else {
                 if depth == 0 && self.transparent_background {
                     // The background is transparent: no world where the camera sees it.
-                    alpha = 0.0;
+                    st.alpha = 0.0;
                     break;
                 }
                 // The world and any sun disc along the ray, each with its own MIS weight.
-                lights.for_each_at_infinity(ray.dir, &alive, |index, le| {
-                    if last_lobe.is_some_and(|fl| !lights.visibility(index).sees(fl)) {
+                lights.for_each_at_infinity(st.ray.dir, &st.alive, |index, le| {
+                    if st
+                        .last_lobe
+                        .is_some_and(|fl| !lights.visibility(index).sees(fl))
+                    {
                         return;
                     }
-                    let weight = if specular_bounce {
+                    let weight = if st.specular_bounce {
                         1.0
                     } else {
-                        let light_pdf = lights.infinite_pdf(&prev_ctx, index, ray.dir, selection);
-                        power_heuristic(prev_bsdf_density, light_pdf * prev_denominator)
+                        let light_pdf =
+                            lights.infinite_pdf(&st.prev_ctx, index, st.ray.dir, selection);
+                        power_heuristic(st.prev_bsdf_density, light_pdf * st.prev_denominator)
                     };
-                    let c = beta * le * (weight / mis.denominator());
-                    l += c;
+                    let c = st.beta * le * (weight / st.mis.denominator());
+                    st.l += c;
                     if depth <= 1 {
-                        l_direct += c;
+                        st.l_direct += c;
+                    }
+                    // The camera sees a uniform world directly, unweighted: the film takes its
+                    // exact colour instead of this sample's estimate (`PathSample::world_exact`).
+                    let unweighted = st.beta == SampledSpectrum::ONE
+                        && st.mis.denominator() == 1.0
+                        && weight == 1.0
+                        && !st.alive.secondary_terminated();
+                    if let Some((_, xyz)) = uniform_world.filter(|(i, _)| *i == index) {
+                        if depth == 0 && unweighted {
+                            st.world_exact = Some((c, xyz));
+                        }
                     }
                 });
                 break;
@@ -822,18 +944,18 @@ impl<'a> PathTracer<'a> {
                 // A holdout: a hole in the image for camera rays; every path ends here
                 // (Cycles terminates paths at full holdouts).
                 if depth == 0 {
-                    alpha = 0.0;
+                    st.alpha = 0.0;
                 }
                 break;
             }
             if depth == 0 {
-                guides.first_distance = camera_offset + hit.t;
+                st.guides.first_distance = camera_offset + hit.t;
             }
             let mut sp = geometry.surface_point(&hit);
             let material = &scene.materials[sp.material as usize];
             if let Some(ss) = material
                 .subsurface()
-                .filter(|_| depth > 0 && walk_medium.is_none() && ray.dir.dot(sp.ng) > 0.0)
+                .filter(|_| depth > 0 && st.walk_medium.is_none() && st.ray.dir.dot(sp.ng) > 0.0)
             {
                 // The ray crossed the inside of a subsurface object without scattering, which
                 // light in a scattering medium does not do. Only exits through shells inside
@@ -845,7 +967,7 @@ impl<'a> PathTracer<'a> {
                 if ss.method == SubsurfaceMethod::RandomWalk {
                     // The segment lies in the medium: walk it instead (the light scatters on
                     // from the inner shell as if that were no boundary).
-                    walk_medium = Some(ss.at(None));
+                    st.walk_medium = Some(ss.at(None));
                     continue;
                 }
                 // The table method has no medium to continue in; the light that leaves
@@ -858,7 +980,7 @@ impl<'a> PathTracer<'a> {
                 // meshes, as in Cycles.
                 break;
             }
-            let wo_world = -ray.dir;
+            let wo_world = -st.ray.dir;
             // The clear coat's own normal (glTF clearcoatNormalTexture, Blender's Coat Normal).
             let mut coat_normal = material.coat_normal_map(geometry, &scene.textures, &sp);
             material.apply_normal_map(geometry, &scene.textures, &mut sp, Some(wo_world));
@@ -885,19 +1007,19 @@ impl<'a> PathTracer<'a> {
 
             if material.is_emissive() {
                 let cos_light = sp.ng.dot(wo_world);
-                let le = material.emitted(graph_inputs.as_ref(), cos_light, &alive);
-                let seen = last_lobe.is_none_or(|fl| {
+                let le = material.emitted(graph_inputs.as_ref(), cos_light, &st.alive);
+                let seen = st.last_lobe.is_none_or(|fl| {
                     geometry.instances[hit.instance as usize]
                         .light_visibility
                         .sees(fl)
                 });
                 if seen && !le.is_black() {
-                    let weight = if specular_bounce {
+                    let weight = if st.specular_bounce {
                         1.0
                     } else {
                         let light_pdf = lights.triangle_pdf(
                             geometry,
-                            &prev_ctx,
+                            &st.prev_ctx,
                             hit.instance,
                             hit.prim,
                             sp.area,
@@ -905,12 +1027,12 @@ impl<'a> PathTracer<'a> {
                             cos_light,
                             selection,
                         );
-                        power_heuristic(prev_bsdf_density, light_pdf * prev_denominator)
+                        power_heuristic(st.prev_bsdf_density, light_pdf * st.prev_denominator)
                     };
-                    let c = beta * le * (weight / mis.denominator());
-                    l += c;
+                    let c = st.beta * le * (weight / st.mis.denominator());
+                    st.l += c;
                     if depth <= 1 {
-                        l_direct += c;
+                        st.l_direct += c;
                     }
                 }
             }
@@ -920,14 +1042,14 @@ impl<'a> PathTracer<'a> {
 
             let (bsdf, subsurface) = material.scattering(
                 graph_inputs.as_ref(),
-                &alive,
+                &st.alive,
                 sampler.material_component(),
-                walk_medium.is_some(),
+                st.walk_medium.is_some(),
             );
             // The path reached the boundary of the random-walk medium it travels in: light
             // leaves through the exit lobe below (`bssrdf::WalkBoundary`), which gets its own
             // next-event estimation; internal reflection cannot reach a light outside.
-            let walk_exit = subsurface.filter(|_| walk_medium.is_some());
+            let walk_exit = subsurface.filter(|_| st.walk_medium.is_some());
             let transmissive = bsdf.has_transmission();
             // Reflective models shade both faces alike: turn the normals towards the viewer.
             // Dielectrics keep the outward normal so that inside/outside (eta) stays meaningful.
@@ -961,26 +1083,17 @@ impl<'a> PathTracer<'a> {
             // horizon (Conty Estevez et al. 2019), as Cycles does for its diffuse closures: f
             // loses (1 - G(wi)) of its diffuse part, for light and BSDF samples alike.
             let bumped = sp.ns != sp.ns_smooth && !transmissive;
-            let bump_loss = |wi: glam::Vec3, wi_world: glam::Vec3| -> SampledSpectrum {
-                let n_smooth = if ns.dot(sp.ns) < 0.0 {
-                    -sp.ns_smooth
-                } else {
-                    sp.ns_smooth
-                };
-                let g = bump_terminator_shadowing(n_smooth, ns, wi_world);
-                bsdf.diffuse_part(wo, wi) * (1.0 - g)
-            };
 
             let guide_here =
                 subsurface.is_some() || !bsdf.is_specular() || depth >= GUIDE_MAX_SPECULAR;
-            if !guides_done && walk_medium.is_none() && guide_here {
-                guides.albedo = guide_tint
+            if !st.guides_done && st.walk_medium.is_none() && guide_here {
+                st.guides.albedo = st.guide_tint
                     * match subsurface {
-                        Some(ss) => ss.effective_albedo(&alive),
+                        Some(ss) => ss.effective_albedo(&st.alive),
                         None => bsdf.albedo(),
                     };
-                guides.normal = if ns.dot(wo_world) < 0.0 { -ns } else { ns };
-                guides_done = true;
+                st.guides.normal = if ns.dot(wo_world) < 0.0 { -ns } else { ns };
+                st.guides_done = true;
             }
 
             // Next-event estimation. A surface that only reflects receives light on the side of
@@ -988,7 +1101,22 @@ impl<'a> PathTracer<'a> {
             let ctx = ShadingContext {
                 p: sp.p,
                 n: (!transmissive).then_some(ng),
-                time: ray.time,
+                time: st.ray.time,
+            };
+            let vertex = Vertex {
+                sp,
+                instance: hit.instance,
+                material,
+                bsdf,
+                subsurface,
+                walk_exit,
+                frame,
+                wo,
+                wo_world,
+                ns,
+                ng,
+                bumped,
+                ctx,
             };
             let (u_light2, u_light) = sampler.light();
             if !bsdf.is_specular() && walk_exit.is_none() {
@@ -998,7 +1126,7 @@ impl<'a> PathTracer<'a> {
                     &ctx,
                     u_light,
                     u_light2,
-                    &alive,
+                    &st.alive,
                     selection,
                 ) {
                     let wi = frame.to_local(ls.wi);
@@ -1017,19 +1145,19 @@ impl<'a> PathTracer<'a> {
                     let same_side = ls.wi.dot(ng) * wo_world.dot(ng) > 0.0;
                     let side_ok = if transmissive { true } else { same_side };
                     if side_ok && !f.is_black() {
-                        rays += 1;
+                        st.rays += 1;
                         let origin = offset_ray_origin(sp.p, ng, ls.wi);
                         // The shadow ray travels in the medium on its side of the surface.
                         let shadow_media = if ls.wi.dot(sp.ng) * wo_world.dot(sp.ng) > 0.0 {
-                            media
+                            st.media
                         } else {
-                            self.media_across(&media, hit.instance, sp.material, ls.wi, sp.ng)
+                            self.media_across(&st.media, hit.instance, sp.material, ls.wi, sp.ng)
                         };
                         let shadow = self.transmittance(
                             Ray::new_at(origin, ls.wi, ctx.time),
                             ls.distance,
                             &shadow_media,
-                            &alive,
+                            &st.alive,
                             sampler,
                         );
                         let visible = !shadow.is_black();
@@ -1040,220 +1168,235 @@ impl<'a> PathTracer<'a> {
                             f = bsdf.visible_part(wo, wi, f, ls.visibility);
                         }
                         if visible && bumped && ls.visibility.diffuse {
-                            f = (f - bump_loss(wi, ls.wi)).clamp_zero();
+                            f = (f - vertex.bump_loss(wi, ls.wi)).clamp_zero();
                         }
                         f *= wi.z.abs();
                         if visible && !f.is_black() {
                             let weight = if ls.delta {
                                 1.0
                             } else {
-                                mis.light_weight(ls.pdf, bsdf_pdfs)
+                                st.mis.light_weight(ls.pdf, bsdf_pdfs)
                             };
-                            let contrib =
-                                beta * f * ls.li * shadow * (weight / (ls.pdf * mis.denominator()));
-                            l += contrib;
+                            let contrib = st.beta
+                                * f
+                                * ls.li
+                                * shadow
+                                * (weight / (ls.pdf * st.mis.denominator()));
+                            st.l += contrib;
                             if depth == 0 {
-                                l_direct += contrib;
+                                st.l_direct += contrib;
                             }
                         }
                     }
                 }
             }
 
-            // Continue the path by sampling the BSDF.
-            let bs = match walk_exit {
-                // A Lambertian walk boundary lets every walk out (weight 1); the exit lobe
-                // below picks the direction. Stands for a transmission along the normal.
-                Some(ss) if ss.boundary == WalkBoundary::Lambertian => BsdfSample {
-                    wi: glam::Vec3::Z,
-                    f: SampledSpectrum::ONE,
-                    pdf: 1.0,
-                    flags: LobeFlags::sample(true, true),
-                    eta: SampledSpectrum::ONE,
-                    pdf_wavelengths: SampledSpectrum::ONE,
-                },
-                _ => {
-                    let (u_lobe, u_dir) = sampler.bsdf();
-                    match bsdf.sample(wo, u_lobe, u_dir) {
-                        Some(bs) => bs,
-                        None => break,
-                    }
-                }
-            };
-            if !(bs.pdf > 0.0) || bs.f.is_black() {
+            if !self.scatter(&vertex, st, depth, sampler) {
                 break;
             }
-            let wi_world = frame.to_world(bs.wi);
-            let crosses = wi_world.dot(ng) * wo_world.dot(ng) < 0.0;
-            if crosses != bs.is_transmission() {
-                // Shading normal disagrees with the geometry: the sample would leak light.
-                break;
-            }
-            let f = if bumped && !bs.is_specular() {
-                (bs.f - bump_loss(bs.wi, wi_world)).clamp_zero()
-            } else {
-                bs.f
-            };
-            beta *= f * (bs.wi.z.abs() / bs.pdf);
-            if !guides_done {
-                // Only a Dirac BSDF gets here (see above): glass tint or mirror colour.
-                guide_tint *= bsdf.albedo();
-            }
-            specular_bounce = bs.is_specular();
-            last_lobe = Some(bs.flags);
-            prev_denominator = mis.denominator();
-            prev_bsdf_density = mis.bsdf_density(bs.pdf_wavelengths);
-            prev_ctx = ctx;
-            mis.scatter(bs.pdf, bs.pdf_wavelengths);
-            if mis.hero_only() && !alive.secondary_terminated() {
-                alive.terminate_secondary();
-            }
-            // Where the path continues: point, normal for the ray offset, direction.
-            let mut next = (sp.p, ng, wi_world);
-            let entering = wi_world.dot(sp.ng) < 0.0;
-            let enters_subsurface =
-                bs.is_transmission() && entering && walk_medium.is_none() && subsurface.is_some();
-            let collapsed = enters_subsurface && diffuse_ancestor && !self.full_indirect_subsurface;
-            let sss_table = enters_subsurface
-                && !collapsed
-                && subsurface.is_some_and(|s| s.method == SubsurfaceMethod::Table);
-            // Where light leaves a subsurface medium, if it does here: point, outward geometric
-            // normal, shading frame (outward normal), lobe.
-            let mut exit = None;
-            if collapsed {
-                // The BSSRDF collapsed to the entry point (`with_full_indirect_subsurface`):
-                // as the table's exit below, with the medium's reflectance for the probe's or
-                // walk's weight (its mean on a flat surface).
-                let Some(ss) = subsurface else { break };
-                let cos_entry = -wi_world.dot(sp.ng);
-                beta *= bs.eta * bs.eta * ss.collapsed_albedo(&alive, cos_entry);
-                exit = Some((sp.p, sp.ng, exit_frame(&sp), ss.exit_lobe()));
-            } else if sss_table {
-                // Separable BSSRDF: the boundary's transmission sample stands for
-                // (1 - Fr(cos theta_o)); undo the radiance 1/eta^2 it carries (light refracts
-                // in at the exit point and out here), find the exit point and shade it with Sw.
-                let Some(ss) = subsurface else { break };
-                // Per wavelength: the boundary may be dispersive.
-                beta *= bs.eta * bs.eta;
-                let bssrdf = ss.bssrdf(&alive);
-                let (u_axis, u_disk, u_hit) = sampler.subsurface_probe();
-                rays += 1;
-                let Some(probe) = bssrdf.sample_probe(
-                    geometry,
-                    sp.material,
-                    sp.p,
-                    sp.time,
-                    &frame,
-                    u_axis,
-                    u_disk,
-                    u_hit,
-                ) else {
-                    break;
-                };
-                beta *= probe.weight;
-                let mut pi = probe.point;
-                let exit_material = &scene.materials[pi.material as usize];
-                exit_material.apply_normal_map(geometry, &scene.textures, &mut pi, None);
-                exit = Some((pi.p, pi.ng, exit_frame(&pi), ss.exit_lobe()));
-            } else if let (true, Some(ss)) = (bs.is_transmission(), walk_exit) {
-                // A random walk leaves its medium here. A dielectric boundary's transmission
-                // sample kept its weight (transmittance for the walk's direction, times eta^2);
-                // only its direction is replaced by the exit lobe's (`WalkBoundary`).
-                if ss.boundary == WalkBoundary::Dielectric {
-                    eta_scale *= bs.eta[0] * bs.eta[0];
-                }
-                walk_medium = None;
-                exit = Some((sp.p, sp.ng, frame, ss.exit_lobe()));
-            } else if bs.is_transmission() {
-                // Radiance scales by 1/eta^2 across a refraction; Russian roulette works on the
-                // throughput without it (pbrt-v4's etaScale).
-                eta_scale *= bs.eta[0] * bs.eta[0];
-                if material.interior().is_some() {
-                    let entry = MediumEntry {
-                        instance: hit.instance,
-                        material: sp.material,
-                    };
-                    media.cross(entry, entering);
-                }
-                walk_medium = match subsurface {
-                    Some(s) if entering && s.method == SubsurfaceMethod::RandomWalk => Some(s),
-                    _ => None,
-                };
-                if subsurface.is_some_and(|s| s.boundary == WalkBoundary::Lambertian)
-                    && walk_medium.is_some()
-                {
-                    // Lambertian walk boundary: the light enters along the refracted direction
-                    // but without the refraction's 1/eta^2 radiance factor (the Lambertian exit
-                    // has no eta^2 either).
-                    beta *= bs.eta * bs.eta;
-                    eta_scale /= bs.eta[0] * bs.eta[0];
-                }
-            }
-            if let Some((p_exit, ng_i, frame_i, lobe)) = exit {
-                // Next-event estimation at the exit point with the exit lobe.
-                let exit_ctx = ShadingContext {
-                    p: p_exit,
-                    n: Some(ng_i),
-                    time: ray.time,
-                };
-                let u = sampler.exit_light();
-                let c = beta
-                    * self.sample_direct(
-                        &exit_ctx,
-                        u,
-                        &alive,
-                        &media,
-                        &mis,
-                        sampler,
-                        &mut rays,
-                        None,
-                        |wi| {
-                            let cos = frame_i.to_local(wi).z;
-                            let f = lobe.eval(cos);
-                            (f > 0.0 && wi.dot(ng_i) > 0.0).then(|| {
-                                (f * cos, lobe.pdf(cos), offset_ray_origin(p_exit, ng_i, wi))
-                            })
-                        },
-                    );
-                l += c;
-                if depth == 0 {
-                    l_direct += c;
-                }
-                let wi = lobe.sample(sampler.exit_lobe());
-                let pdf = lobe.pdf(wi.z);
-                if !(pdf > 0.0) {
-                    break;
-                }
-                let wi_world = frame_i.to_world(wi);
-                if !(wi_world.dot(ng_i) > 0.0) {
-                    break;
-                }
-                beta *= lobe.eval(wi.z) * wi.z / pdf;
-                specular_bounce = false;
-                last_lobe = None;
-                prev_denominator = mis.denominator();
-                prev_bsdf_density = pdf * prev_denominator;
-                prev_ctx = exit_ctx;
-                next = (p_exit, ng_i, wi_world);
-                diffuse_ancestor = true;
-            }
-            diffuse_ancestor |= bs.flags.contains(LobeFlags::DIFFUSE) && !enters_subsurface;
-            if !beta.is_finite() {
-                break;
-            }
-            if !self.russian_roulette(depth, &mut beta, &mis, eta_scale, sampler) {
-                break;
-            }
-            let (p, n, dir) = next;
-            ray = Ray::new_at(offset_ray_origin(p, n, dir), dir, ray.time);
         }
-        PathSample {
-            radiance: l,
-            direct: l_direct,
-            rays,
-            guides,
-            alpha,
+    }
+
+    /// Continues the path from the vertex `v` of bounce `depth`: samples the BSDF (and, for
+    /// light entering a subsurface medium, its exit point, with next-event estimation there)
+    /// and sets `st.ray` to the next ray. False when the path ends here.
+    fn scatter(
+        &self,
+        v: &Vertex<'a>,
+        st: &mut PathState<'a>,
+        depth: u32,
+        sampler: &mut Sampler,
+    ) -> bool {
+        let scene = self.scene;
+        let geometry = &scene.geometry;
+        // Continue the path by sampling the BSDF.
+        let bs = match v.walk_exit {
+            // A Lambertian walk boundary lets every walk out (weight 1); the exit lobe
+            // below picks the direction. Stands for a transmission along the normal.
+            Some(ss) if ss.boundary == WalkBoundary::Lambertian => BsdfSample {
+                wi: glam::Vec3::Z,
+                f: SampledSpectrum::ONE,
+                pdf: 1.0,
+                flags: LobeFlags::sample(true, true),
+                eta: SampledSpectrum::ONE,
+                pdf_wavelengths: SampledSpectrum::ONE,
+            },
+            _ => {
+                let (u_lobe, u_dir) = sampler.bsdf();
+                match v.bsdf.sample(v.wo, u_lobe, u_dir) {
+                    Some(bs) => bs,
+                    None => return false,
+                }
+            }
+        };
+        if !(bs.pdf > 0.0) || bs.f.is_black() {
+            return false;
         }
+        let wi_world = v.frame.to_world(bs.wi);
+        let crosses = wi_world.dot(v.ng) * v.wo_world.dot(v.ng) < 0.0;
+        if crosses != bs.is_transmission() {
+            // Shading normal disagrees with the geometry: the sample would leak light.
+            return false;
+        }
+        let f = if v.bumped && !bs.is_specular() {
+            (bs.f - v.bump_loss(bs.wi, wi_world)).clamp_zero()
+        } else {
+            bs.f
+        };
+        st.beta *= f * (bs.wi.z.abs() / bs.pdf);
+        if !st.guides_done {
+            // Only a Dirac BSDF gets here (see above): glass tint or mirror colour.
+            st.guide_tint *= v.bsdf.albedo();
+        }
+        st.specular_bounce = bs.is_specular();
+        st.last_lobe = Some(bs.flags);
+        st.prev_denominator = st.mis.denominator();
+        st.prev_bsdf_density = st.mis.bsdf_density(bs.pdf_wavelengths);
+        st.prev_ctx = v.ctx;
+        st.mis.scatter(bs.pdf, bs.pdf_wavelengths);
+        if st.mis.hero_only() && !st.alive.secondary_terminated() {
+            st.alive.terminate_secondary();
+        }
+        // Where the path continues: point, normal for the ray offset, direction.
+        let mut next = (v.sp.p, v.ng, wi_world);
+        let entering = wi_world.dot(v.sp.ng) < 0.0;
+        let enters_subsurface =
+            bs.is_transmission() && entering && st.walk_medium.is_none() && v.subsurface.is_some();
+        let collapsed = enters_subsurface && st.diffuse_ancestor && !self.full_indirect_subsurface;
+        let sss_table = enters_subsurface
+            && !collapsed
+            && v.subsurface
+                .is_some_and(|s| s.method == SubsurfaceMethod::Table);
+        // Where light leaves a subsurface medium, if it does here: point, outward geometric
+        // normal, shading frame (outward normal), lobe.
+        let mut exit = None;
+        if collapsed {
+            // The BSSRDF collapsed to the entry point (`with_full_indirect_subsurface`):
+            // as the table's exit below, with the medium's reflectance for the probe's or
+            // walk's weight (its mean on a flat surface).
+            let Some(ss) = v.subsurface else { return false };
+            let cos_entry = -wi_world.dot(v.sp.ng);
+            st.beta *= bs.eta * bs.eta * ss.collapsed_albedo(&st.alive, cos_entry);
+            exit = Some((v.sp.p, v.sp.ng, exit_frame(&v.sp), ss.exit_lobe()));
+        } else if sss_table {
+            // Separable BSSRDF: the boundary's transmission sample stands for
+            // (1 - Fr(cos theta_o)); undo the radiance 1/eta^2 it carries (light refracts
+            // in at the exit point and out here), find the exit point and shade it with Sw.
+            let Some(ss) = v.subsurface else { return false };
+            // Per wavelength: the boundary may be dispersive.
+            st.beta *= bs.eta * bs.eta;
+            let bssrdf = ss.bssrdf(&st.alive);
+            let (u_axis, u_disk, u_hit) = sampler.subsurface_probe();
+            st.rays += 1;
+            let Some(probe) = bssrdf.sample_probe(
+                geometry,
+                v.sp.material,
+                v.sp.p,
+                v.sp.time,
+                &v.frame,
+                u_axis,
+                u_disk,
+                u_hit,
+            ) else {
+                return false;
+            };
+            st.beta *= probe.weight;
+            let mut pi = probe.point;
+            let exit_material = &scene.materials[pi.material as usize];
+            exit_material.apply_normal_map(geometry, &scene.textures, &mut pi, None);
+            exit = Some((pi.p, pi.ng, exit_frame(&pi), ss.exit_lobe()));
+        } else if let (true, Some(ss)) = (bs.is_transmission(), v.walk_exit) {
+            // A random walk leaves its medium here. A dielectric boundary's transmission
+            // sample kept its weight (transmittance for the walk's direction, times eta^2);
+            // only its direction is replaced by the exit lobe's (`WalkBoundary`).
+            if ss.boundary == WalkBoundary::Dielectric {
+                st.eta_scale *= bs.eta[0] * bs.eta[0];
+            }
+            st.walk_medium = None;
+            exit = Some((v.sp.p, v.sp.ng, v.frame, ss.exit_lobe()));
+        } else if bs.is_transmission() {
+            // Radiance scales by 1/eta^2 across a refraction; Russian roulette works on the
+            // throughput without it (pbrt-v4's etaScale).
+            st.eta_scale *= bs.eta[0] * bs.eta[0];
+            if v.material.interior().is_some() {
+                let entry = MediumEntry {
+                    instance: v.instance,
+                    material: v.sp.material,
+                };
+                st.media.cross(entry, entering);
+            }
+            st.walk_medium = match v.subsurface {
+                Some(s) if entering && s.method == SubsurfaceMethod::RandomWalk => Some(s),
+                _ => None,
+            };
+            if v.subsurface
+                .is_some_and(|s| s.boundary == WalkBoundary::Lambertian)
+                && st.walk_medium.is_some()
+            {
+                // Lambertian walk boundary: the light enters along the refracted direction
+                // but without the refraction's 1/eta^2 radiance factor (the Lambertian exit
+                // has no eta^2 either).
+                st.beta *= bs.eta * bs.eta;
+                st.eta_scale /= bs.eta[0] * bs.eta[0];
+            }
+        }
+        if let Some((p_exit, ng_i, frame_i, lobe)) = exit {
+            // Next-event estimation at the exit point with the exit lobe.
+            let exit_ctx = ShadingContext {
+                p: p_exit,
+                n: Some(ng_i),
+                time: st.ray.time,
+            };
+            let u = sampler.exit_light();
+            let c = st.beta
+                * self.sample_direct(
+                    &exit_ctx,
+                    u,
+                    &st.alive,
+                    &st.media,
+                    &st.mis,
+                    sampler,
+                    &mut st.rays,
+                    None,
+                    |wi| {
+                        let cos = frame_i.to_local(wi).z;
+                        let f = lobe.eval(cos);
+                        (f > 0.0 && wi.dot(ng_i) > 0.0)
+                            .then(|| (f * cos, lobe.pdf(cos), offset_ray_origin(p_exit, ng_i, wi)))
+                    },
+                );
+            st.l += c;
+            if depth == 0 {
+                st.l_direct += c;
+            }
+            let wi = lobe.sample(sampler.exit_lobe());
+            let pdf = lobe.pdf(wi.z);
+            if !(pdf > 0.0) {
+                return false;
+            }
+            let wi_world = frame_i.to_world(wi);
+            if !(wi_world.dot(ng_i) > 0.0) {
+                return false;
+            }
+            st.beta *= lobe.eval(wi.z) * wi.z / pdf;
+            st.specular_bounce = false;
+            st.last_lobe = None;
+            st.prev_denominator = st.mis.denominator();
+            st.prev_bsdf_density = pdf * st.prev_denominator;
+            st.prev_ctx = exit_ctx;
+            next = (p_exit, ng_i, wi_world);
+            st.diffuse_ancestor = true;
+        }
+        st.diffuse_ancestor |= bs.flags.contains(LobeFlags::DIFFUSE) && !enters_subsurface;
+        if !st.beta.is_finite() {
+            return false;
+        }
+        if !self.russian_roulette(depth, &mut st.beta, &st.mis, st.eta_scale, sampler) {
+            return false;
+        }
+        let (p, n, dir) = next;
+        st.ray = Ray::new_at(offset_ray_origin(p, n, dir), dir, st.ray.time);
+        true
     }
 }
 

@@ -152,7 +152,8 @@ pub enum World {
 }
 
 enum WorldLight {
-    Uniform(RgbIlluminantSpectrum),
+    /// The radiance spectrum and its exact XYZ (`Lights::uniform_world_xyz`).
+    Uniform(RgbIlluminantSpectrum, Vec3),
     Map(Box<EnvironmentMap>),
 }
 
@@ -442,10 +443,15 @@ impl Lights {
         // Power of the world through a disk of the scene's radius: pi r^2 x the integral of
         // the luminance over the sphere.
         let world = match world {
-            World::Uniform(rgb) if rgb.max_element() > 0.0 && rgb.is_finite() => Some((
-                WorldLight::Uniform(RgbIlluminantSpectrum::new(rgb)),
-                4.0 * PI * luminance(rgb),
-            )),
+            World::Uniform(rgb) if rgb.max_element() > 0.0 && rgb.is_finite() => {
+                let spectrum = RgbIlluminantSpectrum::new(rgb);
+                // The XYZ the film's wavelength sampling converges to, by quadrature.
+                let xyz = crate::spectrum::cie::integrate_xyz(|l| spectrum.eval(l), 4);
+                Some((
+                    WorldLight::Uniform(spectrum, xyz),
+                    4.0 * PI * luminance(rgb),
+                ))
+            }
             World::Map(map) if map.luminance_integral() > 0.0 => {
                 let l = map.luminance_integral();
                 Some((WorldLight::Map(map), l))
@@ -657,12 +663,21 @@ impl Lights {
             }
         }
         let le = match &self.environment {
-            Some((i, WorldLight::Uniform(radiance))) => Some((*i, radiance.sample(w))),
+            Some((i, WorldLight::Uniform(radiance, _))) => Some((*i, radiance.sample(w))),
             Some((i, WorldLight::Map(map))) => Some((*i, map.radiance(dir, w))),
             None => None,
         };
         if let Some((i, le)) = le.filter(|(_, le)| !le.is_black()) {
             f(i, le);
+        }
+    }
+
+    /// A uniform world: its light index and the exact XYZ of its radiance (what
+    /// `spectrum::spectrum_to_xyz` of its spectrum averages to over the wavelengths).
+    pub fn uniform_world_xyz(&self) -> Option<(usize, Vec3)> {
+        match &self.environment {
+            Some((i, WorldLight::Uniform(_, xyz))) => Some((*i, *xyz)),
+            _ => None,
         }
     }
 
@@ -966,7 +981,7 @@ impl Lights {
                 },
             }),
             Light::Environment => match &self.environment {
-                Some((_, WorldLight::Uniform(_))) => None,
+                Some((_, WorldLight::Uniform(..))) => None,
                 Some((_, WorldLight::Map(map))) => {
                     let (wi, pdf) = map.sample(u)?;
                     let li = map.radiance(wi, w);
