@@ -429,9 +429,41 @@ impl<'a> PathTracer<'a> {
     /// `u`, `scatter(wi)` giving (f times its cosine if any, the density with which the vertex
     /// samples wi, the shadow ray's origin) or `None` where it does not scatter, the shadow ray
     /// traced through `media`. Returns the contribution per unit throughput, MIS-weighted
-    /// against sampling the scattering function, divided by the hero MIS denominator.
+    /// against sampling the scattering function, divided by the hero MIS denominator, times
+    /// the path's throughput, is added to the path's radiance (and to its direct share at
+    /// bounce 0).
     #[allow(clippy::too_many_arguments)]
     fn sample_direct(
+        &self,
+        st: &mut PathState<'a>,
+        depth: u32,
+        ctx: &ShadingContext,
+        u: (glam::Vec2, f32),
+        sampler: &mut Sampler,
+        seen_by: Option<LobeFlags>,
+        scatter: impl Fn(glam::Vec3) -> Option<(f32, f32, glam::Vec3)>,
+    ) {
+        let c = st.beta
+            * self.direct_light(
+                ctx,
+                u,
+                &st.alive,
+                &st.media,
+                &st.mis,
+                sampler,
+                &mut st.rays,
+                seen_by,
+                scatter,
+            );
+        st.l += c;
+        if depth == 0 {
+            st.l_direct += c;
+        }
+    }
+
+    /// `sample_direct`'s contribution per unit throughput.
+    #[allow(clippy::too_many_arguments)]
+    fn direct_light(
         &self,
         ctx: &ShadingContext,
         (u_light2, u_light): (glam::Vec2, f32),
@@ -867,25 +899,11 @@ impl<'a> PathTracer<'a> {
                     time: st.ray.time,
                 };
                 let u = sampler.light();
-                let c = st.beta
-                    * self.sample_direct(
-                        &ctx,
-                        u,
-                        &st.alive,
-                        &st.media,
-                        &st.mis,
-                        sampler,
-                        &mut st.rays,
-                        Some(LobeFlags::VOLUME),
-                        |wi| {
-                            let f = phase.eval(st.ray.dir.dot(wi));
-                            (f > 0.0).then_some((f, f, p))
-                        },
-                    );
-                st.l += c;
-                if depth == 0 {
-                    st.l_direct += c;
-                }
+                let wo_dir = st.ray.dir;
+                self.sample_direct(st, depth, &ctx, u, sampler, Some(LobeFlags::VOLUME), |wi| {
+                    let f = phase.eval(wo_dir.dot(wi));
+                    (f > 0.0).then_some((f, f, p))
+                });
                 let (u_lobe, u_dir) = sampler.bsdf();
                 let wi = phase.sample(st.ray.dir, u_lobe, u_dir.x, u_dir.y);
                 let pdf = phase.eval(st.ray.dir.dot(wi));
@@ -1352,27 +1370,12 @@ impl<'a> PathTracer<'a> {
                 time: st.ray.time,
             };
             let u = sampler.exit_light();
-            let c = st.beta
-                * self.sample_direct(
-                    &exit_ctx,
-                    u,
-                    &st.alive,
-                    &st.media,
-                    &st.mis,
-                    sampler,
-                    &mut st.rays,
-                    None,
-                    |wi| {
-                        let cos = frame_i.to_local(wi).z;
-                        let f = lobe.eval(cos);
-                        (f > 0.0 && wi.dot(ng_i) > 0.0)
-                            .then(|| (f * cos, lobe.pdf(cos), offset_ray_origin(p_exit, ng_i, wi)))
-                    },
-                );
-            st.l += c;
-            if depth == 0 {
-                st.l_direct += c;
-            }
+            self.sample_direct(st, depth, &exit_ctx, u, sampler, None, |wi| {
+                let cos = frame_i.to_local(wi).z;
+                let f = lobe.eval(cos);
+                (f > 0.0 && wi.dot(ng_i) > 0.0)
+                    .then(|| (f * cos, lobe.pdf(cos), offset_ray_origin(p_exit, ng_i, wi)))
+            });
             let wi = lobe.sample(sampler.exit_lobe());
             let pdf = lobe.pdf(wi.z);
             if !(pdf > 0.0) {
