@@ -154,18 +154,21 @@ pub struct RenderStats {
 /// Rows per parallel work item: small enough to balance load over 2-64 threads, large enough
 /// to amortise scheduling.
 const BAND_ROWS: usize = 4;
+/// Pixels per parallel work item in a prioritised adaptive pass, whose samples gather in a few
+/// regions of the image (a caustic): with whole bands one thread worked alone at the end of
+/// each pass.
+const PRIORITISED_CHUNK: usize = 16;
 
-/// Samples of the pass after `done` of `spp`: 1, 1, 2, 4, ... doubling up to `cap` (64 by
-/// default) per pass (so passes end at stratified prefixes of every pixel's sequence). With
-/// adaptive sampling the passes land exactly on `min_samples` and continue in steps of a
-/// quarter of the samples done (4 to `cap`), so converged pixels stop soon after they converge.
-fn next_pass(done: u32, spp: u32, adaptive_min: Option<u32>, cap: u32) -> u32 {
+/// Samples of the uniform pass after `done` of `spp`: 1, 1, 2, 4, ... doubling up to `cap`
+/// (64 by default) per pass (so passes end at stratified prefixes of every pixel's sequence).
+/// With adaptive sampling the uniform passes land exactly on `warm_up`, after which passes are
+/// planned pixel by pixel (`film::adaptive::plan_pass`).
+fn next_pass(done: u32, spp: u32, warm_up: Option<u32>, cap: u32) -> u32 {
     let cap = cap.max(1);
     let doubling = if done <= 1 { 1 } else { done.min(cap) };
-    let n = match adaptive_min {
-        Some(min) if done < min => doubling.min(min - done),
-        Some(_) => (done / 4).clamp(4.min(cap), cap),
-        None => doubling,
+    let n = match warm_up {
+        Some(w) if done < w => doubling.min(w - done),
+        _ => doubling,
     };
     n.min(spp - done)
 }
@@ -258,33 +261,66 @@ pub fn render(
         // A time limit ends the render inside a pass (between pixels): the pixels after that
         // point keep the samples of the passes before, each still a prefix of its sequence.
         let out_of_time = || settings.time_limit.is_some_and(|t| start.elapsed() >= t);
+        // Samples every pixel has had (the uniform passes); with adaptive sampling, past
+        // `warm_up` the passes are planned pixel by pixel (`film::adaptive::plan_pass`).
         let mut spp_done = 0u32;
-        while spp_done < settings.spp && active_count > 0 {
-            if cancel.load(Ordering::Relaxed) {
+        let warm_up = adaptive_min.map(|min| min.min(film::adaptive::PRIORITY_WARM_UP));
+        let mut prioritised = false;
+        // The sample count each pixel reaches in the current pass.
+        let mut pass_end = vec![0u32; w * h];
+        loop {
+            if cancel.load(Ordering::Relaxed) || active_count == 0 {
                 break;
             }
-            let pass = next_pass(
-                spp_done,
-                settings.spp,
-                adaptive_min,
-                settings.max_pass_samples,
-            );
-            let (s0, s1) = (spp_done, spp_done + pass);
+            if prioritised {
+                let (Some(a), Some(min)) = (settings.adaptive, adaptive_min) else {
+                    break;
+                };
+                let planned = film::adaptive::plan_pass(
+                    &film,
+                    &active,
+                    a.threshold,
+                    min,
+                    settings.spp,
+                    settings.max_pass_samples,
+                    &mut pass_end,
+                );
+                if planned == 0 {
+                    break;
+                }
+            } else {
+                if spp_done >= settings.spp {
+                    break;
+                }
+                let pass = next_pass(spp_done, settings.spp, warm_up, settings.max_pass_samples);
+                spp_done += pass;
+                pass_end.fill(spp_done);
+            }
+            let chunk = if prioritised {
+                PRIORITISED_CHUNK
+            } else {
+                w * BAND_ROWS
+            };
             film.pixels
-                .par_chunks_mut(w * BAND_ROWS)
-                .zip(active.par_chunks(w * BAND_ROWS))
+                .par_chunks_mut(chunk)
+                .zip(active.par_chunks(chunk))
+                .zip(pass_end.par_chunks(chunk))
                 .enumerate()
-                .for_each(|(band, (pixels, band_active))| {
+                // Every chunk its own job: rayon's default splitting can leave one thread a
+                // long run of chunks that the idle thread cannot steal.
+                .with_max_len(1)
+                .for_each(|(band, ((pixels, band_active), band_end))| {
                     let mut band_rays = 0u64;
                     let mut band_discarded = 0u64;
                     for (i, px) in pixels.iter_mut().enumerate() {
                         if cancel.load(Ordering::Relaxed) || out_of_time() {
                             break;
                         }
-                        if !band_active[i] {
+                        let (s0, s1) = (px.samples, band_end[i]);
+                        if !band_active[i] || s1 <= s0 {
                             continue;
                         }
-                        let index = band * w * BAND_ROWS + i;
+                        let index = band * chunk + i;
                         // Pixel coordinates in the full image (the same samples with a crop).
                         let (px_x, px_y) =
                             ((index % w) as u32 + window.x, (index / w) as u32 + window.y);
@@ -358,27 +394,38 @@ pub fn render(
                     rays.fetch_add(band_rays, Ordering::Relaxed);
                     discarded.fetch_add(band_discarded, Ordering::Relaxed);
                 });
-            spp_done = s1;
             if cancel.load(Ordering::Relaxed) {
                 break;
             }
             let mut active_fraction = None;
-            if let (Some(min), Some(a)) = (adaptive_min, settings.adaptive) {
-                if spp_done >= min && spp_done < settings.spp {
+            let mut pass_spp = spp_done;
+            if let (Some(min), Some(warm_up), Some(a)) = (adaptive_min, warm_up, settings.adaptive)
+            {
+                prioritised |= spp_done >= warm_up;
+                if prioritised {
                     let mut now = vec![false; w * h];
-                    film::adaptive::update_active(&film, a.threshold, &mut now);
+                    film::adaptive::update_active(&film, a.threshold, min, &mut now);
                     // A pixel that stopped stays stopped (its neighbours' later convergence
                     // tests must not restart it with a gap in its sequence).
                     let mut newly_stopped = 0u64;
                     for (i, (was, is)) in active.iter().zip(&now).enumerate() {
-                        if *was && !*is {
-                            newly_stopped += (settings.spp - film.pixels[i].samples) as u64;
+                        let samples = film.pixels[i].samples;
+                        if *was && (!*is || samples >= settings.spp) {
+                            newly_stopped += (settings.spp.saturating_sub(samples)) as u64;
                         }
                     }
-                    active = active.iter().zip(&now).map(|(a, b)| *a && *b).collect();
+                    for (i, (a, is)) in active.iter_mut().zip(&now).enumerate() {
+                        *a = *a && *is && film.pixels[i].samples < settings.spp;
+                    }
                     active_count = active.iter().filter(|&&a| a).count();
                     skipped.fetch_add(newly_stopped, Ordering::Relaxed);
                     active_fraction = Some(active_count as f64 / (w * h).max(1) as f64);
+                    // The samples every pixel still sampling has (all of them at the end).
+                    pass_spp = (0..w * h)
+                        .filter(|&i| active[i])
+                        .map(|i| film.pixels[i].samples)
+                        .min()
+                        .unwrap_or(settings.spp);
                 }
             }
             let done = samples_done.load(Ordering::Relaxed);
@@ -386,10 +433,10 @@ pub fn render(
                 fraction: (done + skipped.load(Ordering::Relaxed)) as f64 / total.max(1) as f64,
                 samples_done: done,
                 elapsed: start.elapsed(),
-                pass_spp: Some(spp_done),
+                pass_spp: Some(pass_spp),
                 active_fraction,
             });
-            on_pass(&film, spp_done);
+            on_pass(&film, pass_spp);
             if out_of_time() {
                 break;
             }

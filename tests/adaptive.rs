@@ -194,3 +194,106 @@ fn adaptive_renders_are_identical_for_any_thread_count() {
     assert!(one == render(2), "1 and 2 threads differ");
     assert!(one == render(3), "1 and 3 threads differ");
 }
+
+/// A grey floor under a white sky, seen from above, with a low wall across it: next to the
+/// wall a pixel's sky rays are blocked or not (the noise of ambient occlusion), far from it
+/// nearly all reach the sky (cosine sampling of a uniform sky: almost no noise). No fireflies:
+/// every estimate is bounded, so an image's error is a stable measure.
+fn low_wall_scene() -> SceneDesc {
+    SceneDesc {
+        meshes: vec![
+            // Facing the camera (+z).
+            quad_mesh("floor", Vec3::ZERO, Vec3::X * 3.0, Vec3::Y * 3.0, 0),
+            // Across the floor at x = 0.6, 0.2 high (facing +x).
+            quad_mesh(
+                "wall",
+                Vec3::new(0.6, 0.0, 0.1),
+                Vec3::Y * 3.0,
+                Vec3::Z * 0.1,
+                0,
+            ),
+        ],
+        instances: vec![
+            InstanceDesc {
+                mesh: 0,
+                object_to_world: Mat4::IDENTITY,
+                name: "floor".into(),
+            },
+            InstanceDesc {
+                mesh: 1,
+                object_to_world: Mat4::IDENTITY,
+                name: "wall".into(),
+            },
+        ],
+        materials: vec![diffuse_material("grey", Vec3::splat(0.5))],
+        camera: Some(common::scenes::camera(3.0, 0.9)),
+        world: prism::scene::WorldDesc {
+            color: Vec3::ONE,
+            strength: 1.0,
+            texture: None,
+        },
+        ..Default::default()
+    }
+}
+
+/// Past the warm-up, passes go to the pixels where samples lower the error most: a render cut
+/// at a budget of samples (here: cancelled after the pass that reaches it) has a lower error
+/// than a fixed render with as many samples spread evenly, and the pixels beside the wall
+/// hold more samples than the open floor.
+#[test]
+fn a_cut_adaptive_render_put_its_samples_where_the_error_falls_most() {
+    let scene = Scene::build(low_wall_scene()).expect("scene builds");
+    let pixels = 48 * 48;
+    let reference = render_quiet(&scene, &settings(4096, None)).0.to_rgba();
+    // A threshold no pixel reaches: only the order of the samples is at work.
+    let adaptive = AdaptiveSampling {
+        threshold: 1e-4,
+        min_samples: 0,
+    };
+    let budget = (pixels * 32) as u64;
+    let cancel = std::sync::atomic::AtomicBool::new(false);
+    let (film, _) = prism::render::render(
+        &scene,
+        &settings(4096, Some(adaptive)),
+        &cancel,
+        &|_| {},
+        &mut |film, _| {
+            let done: u64 = film.pixels.iter().map(|p| p.samples as u64).sum();
+            if done >= budget {
+                cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+            }
+        },
+    );
+    let spent: u64 = film.pixels.iter().map(|p| p.samples as u64).sum();
+    // The even film takes at least as many samples.
+    let even_spp = spent.div_ceil(pixels as u64) as u32;
+    let even = render_quiet(&scene, &settings(even_spp, None)).0.to_rgba();
+    let (prioritised, uniform) = (
+        common::scenes::rel_mse(&film.to_rgba(), &reference),
+        common::scenes::rel_mse(&even, &reference),
+    );
+    // Columns 0-7 of the image are the floor far left of the wall (x < -1.2), 30-33 beside it.
+    let mean_samples = |cols: std::ops::Range<usize>| {
+        let (mut sum, mut n) = (0.0, 0.0);
+        for y in 8..40 {
+            for x in cols.clone() {
+                sum += film.pixels[y * 48 + x].samples as f64;
+                n += 1.0;
+            }
+        }
+        sum / n
+    };
+    let (open, beside) = (mean_samples(0..8), mean_samples(30..34));
+    println!(
+        "relMSE {prioritised:.3e} prioritised ({spent} samples) vs {uniform:.3e} even \
+         ({even_spp} spp); spp: open floor {open:.1}, beside the wall {beside:.1}"
+    );
+    assert!(
+        prioritised < 0.8 * uniform,
+        "prioritised {prioritised:.3e} vs even {uniform:.3e}"
+    );
+    assert!(
+        beside > 2.0 * open,
+        "beside the wall {beside:.1} vs open floor {open:.1}"
+    );
+}
