@@ -227,6 +227,17 @@ pub fn render(
     let mut active = vec![true; w * h];
     let mut active_count = w * h;
     let start = Instant::now();
+    // Share of the render done: of its samples, or with a time limit of its time if more (an
+    // adaptive render's maximum spp is rarely reached, so its samples alone would leave a
+    // time-limited progress bar near 0 until the end).
+    let time_limit = settings.time_limit;
+    let fraction_done = move |samples: u64| {
+        let by_samples = samples as f64 / total.max(1) as f64;
+        let by_time = time_limit.map_or(0.0, |t| {
+            (start.elapsed().as_secs_f64() / t.as_secs_f64().max(1e-9)).min(1.0)
+        });
+        by_samples.max(by_time)
+    };
     // The reporter waits on this channel: it wakes every 20 ms to check the time, and at once
     // when the sender is dropped at the end of the render (so finishing never waits on a sleep).
     let (stop_reporter, reporter_wakeup) = std::sync::mpsc::channel::<()>();
@@ -249,7 +260,7 @@ pub fn render(
                 last_report = Instant::now();
                 let done = samples_done.load(Ordering::Relaxed);
                 on_progress(&Progress {
-                    fraction: (done + skipped.load(Ordering::Relaxed)) as f64 / total.max(1) as f64,
+                    fraction: fraction_done(done + skipped.load(Ordering::Relaxed)),
                     samples_done: done,
                     elapsed: start.elapsed(),
                     pass_spp: None,
@@ -430,7 +441,7 @@ pub fn render(
             }
             let done = samples_done.load(Ordering::Relaxed);
             on_progress(&Progress {
-                fraction: (done + skipped.load(Ordering::Relaxed)) as f64 / total.max(1) as f64,
+                fraction: fraction_done(done + skipped.load(Ordering::Relaxed)),
                 samples_done: done,
                 elapsed: start.elapsed(),
                 pass_spp: Some(pass_spp),
