@@ -213,18 +213,7 @@ fn low_wall_scene() -> SceneDesc {
                 0,
             ),
         ],
-        instances: vec![
-            InstanceDesc {
-                mesh: 0,
-                object_to_world: Mat4::IDENTITY,
-                name: "floor".into(),
-            },
-            InstanceDesc {
-                mesh: 1,
-                object_to_world: Mat4::IDENTITY,
-                name: "wall".into(),
-            },
-        ],
+        instances: common::scenes::instances_in_place(&["floor", "wall"]),
         materials: vec![diffuse_material("grey", Vec3::splat(0.5))],
         camera: Some(common::scenes::camera(3.0, 0.9)),
         world: prism::scene::WorldDesc {

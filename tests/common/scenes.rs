@@ -270,6 +270,19 @@ pub fn render_mean(
     (mean, rgba)
 }
 
+/// One instance of each mesh in turn, in place (identity transform), named `names[i]`.
+pub fn instances_in_place(names: &[&str]) -> Vec<InstanceDesc> {
+    names
+        .iter()
+        .enumerate()
+        .map(|(mesh, name)| InstanceDesc {
+            mesh,
+            object_to_world: Mat4::IDENTITY,
+            name: (*name).into(),
+        })
+        .collect()
+}
+
 /// A quad (two triangles) centred at `c` with half-edges `u` and `v`; its geometric normal is
 /// along u x v (the front face of a one-sided emitter).
 pub fn quad_mesh(name: &str, c: Vec3, u: Vec3, v: Vec3, material: usize) -> MeshDesc {
