@@ -279,6 +279,8 @@ pub fn render(
         let mut prioritised = false;
         // The sample count each pixel reaches in the current pass.
         let mut pass_end = vec![0u32; w * h];
+        // The pixels' errors after the last pass (`film::adaptive::pixel_errors`).
+        let mut errors = Vec::new();
         loop {
             if cancel.load(Ordering::Relaxed) || active_count == 0 {
                 break;
@@ -289,11 +291,14 @@ pub fn render(
                 };
                 let planned = film::adaptive::plan_pass(
                     &film,
+                    &errors,
                     &active,
-                    a.threshold,
-                    min,
-                    settings.spp,
-                    settings.max_pass_samples,
+                    film::adaptive::PassLimits {
+                        threshold: a.threshold,
+                        min_samples: min,
+                        spp: settings.spp,
+                        cap: settings.max_pass_samples,
+                    },
                     &mut pass_end,
                 );
                 if planned == 0 {
@@ -415,7 +420,8 @@ pub fn render(
                 prioritised |= spp_done >= warm_up;
                 if prioritised {
                     let mut now = vec![false; w * h];
-                    film::adaptive::update_active(&film, a.threshold, min, &mut now);
+                    errors = film::adaptive::pixel_errors(&film);
+                    film::adaptive::update_active(&film, &errors, a.threshold, min, &mut now);
                     // A pixel that stopped stays stopped (its neighbours' later convergence
                     // tests must not restart it with a gap in its sequence).
                     let mut newly_stopped = 0u64;

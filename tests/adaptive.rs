@@ -70,6 +70,20 @@ fn caustic_scene() -> SceneDesc {
     }
 }
 
+/// Mean samples per pixel of a film's window `rows` x `cols`.
+fn mean_samples(
+    film: &prism::film::Film,
+    rows: std::ops::Range<usize>,
+    cols: std::ops::Range<usize>,
+) -> f64 {
+    let w = film.width as usize;
+    let n = (rows.len() * cols.len()) as f64;
+    rows.flat_map(|y| cols.clone().map(move |x| y * w + x))
+        .map(|i| film.pixels[i].samples as f64)
+        .sum::<f64>()
+        / n
+}
+
 fn settings(spp: u32, adaptive: Option<AdaptiveSampling>) -> RenderSettings {
     RenderSettings {
         width: 48,
@@ -93,20 +107,9 @@ fn flat_pixels_stop_early_and_the_caustic_keeps_sampling() {
     assert_eq!(stats.discarded, 0);
     // Regions of the 48 x 48 image: the open floor in front (rows 40-47, lit directly, flat),
     // the caustic and the ball (rows 26-31, columns 18-29) and the black sky (top corners).
-    let mean_samples = |rows: std::ops::Range<usize>, cols: std::ops::Range<usize>| {
-        let mut sum = 0.0;
-        let mut n = 0.0;
-        for y in rows {
-            for x in cols.clone() {
-                sum += film.pixels[y * 48 + x].samples as f64;
-                n += 1.0;
-            }
-        }
-        sum / n
-    };
-    let floor = mean_samples(40..48, 0..48);
-    let caustic = mean_samples(26..32, 18..30);
-    let sky = mean_samples(0..4, 0..8);
+    let floor = mean_samples(&film, 40..48, 0..48);
+    let caustic = mean_samples(&film, 26..32, 18..30);
+    let sky = mean_samples(&film, 0..4, 0..8);
     println!(
         "mean spp: floor {floor:.1}, caustic {caustic:.1}, sky {sky:.1} (total {})",
         stats.samples
@@ -262,17 +265,10 @@ fn a_cut_adaptive_render_put_its_samples_where_the_error_falls_most() {
         common::scenes::rel_mse(&even, &reference),
     );
     // Columns 0-7 of the image are the floor far left of the wall (x < -1.2), 30-33 beside it.
-    let mean_samples = |cols: std::ops::Range<usize>| {
-        let (mut sum, mut n) = (0.0, 0.0);
-        for y in 8..40 {
-            for x in cols.clone() {
-                sum += film.pixels[y * 48 + x].samples as f64;
-                n += 1.0;
-            }
-        }
-        sum / n
-    };
-    let (open, beside) = (mean_samples(0..8), mean_samples(30..34));
+    let (open, beside) = (
+        mean_samples(&film, 8..40, 0..8),
+        mean_samples(&film, 8..40, 30..34),
+    );
     println!(
         "relMSE {prioritised:.3e} prioritised ({spent} samples) vs {uniform:.3e} even \
          ({even_spp} spp); spp: open floor {open:.1}, beside the wall {beside:.1}"

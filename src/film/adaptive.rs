@@ -61,23 +61,40 @@ pub fn pixel_error(px: &FilmPixel) -> f32 {
     difference / (1e-4 + normalise)
 }
 
+/// Every pixel's `pixel_error`, in pixel order (in parallel: a 4K frame has 8 M pixels and a
+/// render dozens of passes). Computed once per pass for `update_active` and `plan_pass`.
+pub fn pixel_errors(film: &Film) -> Vec<f32> {
+    film.pixels.par_iter().map(pixel_error).collect()
+}
+
+/// The indices of pixel `i`'s 3 x 3 neighbourhood (itself included) in a `w` x `h` image.
+fn neighbourhood(i: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
+    let (x, y) = (i % w, i / w);
+    (y.saturating_sub(1)..(y + 2).min(h))
+        .flat_map(move |ny| (x.saturating_sub(1)..(x + 2).min(w)).map(move |nx| ny * w + nx))
+}
+
 /// Marks the pixels that keep sampling: unconverged ones (and those below `min_samples`,
-/// which are never tested) and their 8 neighbours. Returns their number.
-pub fn update_active(film: &Film, threshold: f32, min_samples: u32, active: &mut [bool]) -> usize {
+/// which are never tested) and their 8 neighbours. `errors` are the film's `pixel_errors`.
+/// Returns their number.
+pub fn update_active(
+    film: &Film,
+    errors: &[f32],
+    threshold: f32,
+    min_samples: u32,
+    active: &mut [bool],
+) -> usize {
     let (w, h) = (film.width as usize, film.height as usize);
     let unconverged: Vec<bool> = film
         .pixels
         .iter()
-        .map(|p| p.samples < min_samples || !(pixel_error(p) < threshold))
+        .zip(errors)
+        .map(|(p, &e)| p.samples < min_samples || !(e < threshold))
         .collect();
     let mut count = 0;
-    for y in 0..h {
-        for x in 0..w {
-            let near = (y.saturating_sub(1)..(y + 2).min(h))
-                .any(|ny| (x.saturating_sub(1)..(x + 2).min(w)).any(|nx| unconverged[ny * w + nx]));
-            active[y * w + x] = near;
-            count += near as usize;
-        }
+    for (i, a) in active.iter_mut().enumerate().take(w * h) {
+        *a = neighbourhood(i, w, h).any(|j| unconverged[j]);
+        count += *a as usize;
     }
     count
 }
@@ -86,6 +103,16 @@ pub fn update_active(film: &Film, threshold: f32, min_samples: u32, active: &mut
 /// halves of its error estimate.
 pub const PRIORITY_WARM_UP: u32 = 16;
 
+/// What bounds a planned pass: the noise threshold, the samples a pixel takes before it may
+/// stop, the maximum spp and the most samples a pixel takes in one pass.
+#[derive(Clone, Copy, Debug)]
+pub struct PassLimits {
+    pub threshold: f32,
+    pub min_samples: u32,
+    pub spp: u32,
+    pub cap: u32,
+}
+
 /// Plans the next pass of an adaptive render (module documentation): sets `pass_end[i]` to
 /// the sample count pixel i is to reach in it (at most its count now: it waits) and returns
 /// the pass's number of samples. Pixels not `active` wait; active pixels that have converged
@@ -93,22 +120,23 @@ pub const PRIORITY_WARM_UP: u32 = 16;
 /// past `spp`, nor by more than `cap` samples in one pass.
 pub fn plan_pass(
     film: &Film,
+    errors: &[f32],
     active: &[bool],
-    threshold: f32,
-    min_samples: u32,
-    spp: u32,
-    cap: u32,
+    limits: PassLimits,
     pass_end: &mut [u32],
 ) -> u64 {
+    let PassLimits {
+        threshold,
+        min_samples,
+        spp,
+        cap,
+    } = limits;
     let (w, h) = (film.width as usize, film.height as usize);
     // e^2 N: the pixel's squared per-sample deviation (infinite before two samples).
-    // (The per-pixel maps run in parallel: a 4K frame has 8 M pixels and a render dozens of
-    // planned passes.)
-    let errors: Vec<f32> = film.pixels.par_iter().map(pixel_error).collect();
     let deviation2: Vec<f32> = film
         .pixels
         .par_iter()
-        .zip(&errors)
+        .zip(errors)
         .map(|(p, &e)| {
             if e.is_finite() {
                 e * e * p.samples as f32
@@ -117,21 +145,17 @@ pub fn plan_pass(
             }
         })
         .collect();
-    let gain = |i: usize| -> f32 {
-        let (x, y) = (i % w, i / w);
-        let (mut sum, mut n) = (0.0f32, 0.0f32);
-        for ny in y.saturating_sub(1)..(y + 2).min(h) {
-            for nx in x.saturating_sub(1)..(x + 2).min(w) {
-                sum += deviation2[ny * w + nx];
-                n += 1.0;
-            }
-        }
-        let samples = film.pixels[i].samples.max(1) as f32;
-        sum / n / (samples * samples)
-    };
     let gains: Vec<f32> = (0..w * h)
         .into_par_iter()
-        .map(|i| if active[i] { gain(i) } else { 0.0 })
+        .map(|i| {
+            if !active[i] {
+                return 0.0;
+            }
+            let (sum, n) = neighbourhood(i, w, h)
+                .fold((0.0f32, 0.0f32), |(s, n), j| (s + deviation2[j], n + 1.0));
+            let samples = film.pixels[i].samples.max(1) as f32;
+            sum / n / (samples * samples)
+        })
         .collect();
     let mut positive: Vec<f32> = (0..w * h)
         .filter(|&i| active[i] && gains[i] > 0.0)
@@ -229,8 +253,15 @@ mod tests {
             }
         }
         let active = vec![true; 12];
+        let errors = pixel_errors(&film);
+        let limits = |spp| PassLimits {
+            threshold: 0.01,
+            min_samples: 16,
+            spp,
+            cap: 64,
+        };
         let mut end = vec![0u32; 12];
-        let total = plan_pass(&film, &active, 0.01, 16, 1024, 64, &mut end);
+        let total = plan_pass(&film, &errors, &active, limits(1024), &mut end);
         assert_eq!(total, end.iter().map(|&e| (e - 16) as u64).sum::<u64>());
         // Gains (3 x 3 means): pixels 0-2 the highest, 3 and 4 (beside the noisy block) next;
         // pixel 4's is the median of the positive gains. The noisiest take the most samples
@@ -248,9 +279,9 @@ mod tests {
         }
         // Pixels not active, or at the maximum, take nothing.
         let mut end2 = vec![0u32; 12];
-        plan_pass(&film, &[false; 12], 0.01, 16, 1024, 64, &mut end2);
+        plan_pass(&film, &errors, &[false; 12], limits(1024), &mut end2);
         assert_eq!(end2, vec![16; 12]);
-        plan_pass(&film, &active, 0.01, 16, 16, 64, &mut end2);
+        plan_pass(&film, &errors, &active, limits(16), &mut end2);
         assert_eq!(end2, vec![16; 12]);
     }
 
@@ -264,7 +295,10 @@ mod tests {
             }
         }
         let mut active = vec![true; 25];
-        assert_eq!(update_active(&film, 0.01, 1, &mut active), 9);
+        assert_eq!(
+            update_active(&film, &pixel_errors(&film), 0.01, 1, &mut active),
+            9
+        );
         for y in 0..5 {
             for x in 0..5 {
                 let inside = (1..4).contains(&x) && (1..4).contains(&y);
