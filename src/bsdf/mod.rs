@@ -245,15 +245,13 @@ pub struct Iridescence {
 }
 
 /// The terms of a filmed specular layer that do not depend on the directions
-/// (`MetallicRoughnessBsdf::film_averages`): the layer's Schlick equivalent (F0, F90), the
-/// filmed conductor's hemispherical Fresnel average and what the layer leaves to the diffuse
-/// base on average (1 - A_avg).
+/// (`MetallicRoughnessBsdf::film_averages`): the layer's Schlick equivalent (F0, F90) and the
+/// filmed conductor's hemispherical Fresnel average.
 #[derive(Clone, Copy, Debug)]
 pub struct FilmAverages {
     pub f0_d: SampledSpectrum,
     pub f90_d: f32,
     pub conductor_avg: SampledSpectrum,
-    pub diffuse_avg: SampledSpectrum,
 }
 
 impl Bsdf {
