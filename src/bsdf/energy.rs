@@ -4,15 +4,14 @@
 //! after bouncing between microfacets: at roughness 1 a white conductor reflects about 60% at
 //! grazing view instead of 100%. Two compensations use the tables here:
 //!
-//! - **Reflection lobes** (conductors, the Principled dielectric specular layer) add the
-//!   multiple-scattering lobe of Kulla & Conty 2017 ("Revisiting Physically Based Shading at
-//!   Imageworks", SIGGRAPH course, section "Multiple scattering"):
-//!   `f_ms(wo, wi) = F_ms (1 - E(mu_o)) (1 - E(mu_i)) / (pi (1 - E_avg))`, where `E(mu)` is
-//!   the directional albedo of the lobe with F = 1 and `E_avg = 2 int E(mu) mu dmu`; its albedo
-//!   at `mu_o` is `F_ms (1 - E(mu_o))`, so with F = 1 the pair reflects exactly 1. The colour
-//!   term `F_ms = F_avg^2 E_avg / (1 - F_avg (1 - E_avg))` (their eq. for the Fresnel-averaged
-//!   series of bounces) darkens and saturates coloured metals as interreflection does. The
-//!   lobe is symmetric in (wo, wi), so the BSDF stays reciprocal.
+//! - **Reflection lobes** (conductors, the Principled dielectric specular layer) are scaled by
+//!   `1 + (F_ms / F_avg) (1 - E(mu_o)) / E(mu_o)`, where `E(mu)` is the directional albedo of
+//!   the lobe with F = 1 and `F_ms = F_avg^2 E_avg / (1 - F_avg (1 - E_avg))` (Kulla & Conty
+//!   2017, "Revisiting Physically Based Shading at Imageworks", the Fresnel-averaged series of
+//!   bounces, `E_avg = 2 int E(mu) mu dmu`), which darkens and saturates coloured metals as
+//!   interreflection does; with F = 1 the lobe reflects exactly 1. This is Cycles'
+//!   `microfacet_ggx_preserve_energy`: the energy stays in the lobe's shape (a rough metal
+//!   under a sun agrees with Cycles), at the cost of reciprocity (`metallic_roughness.rs`).
 //! - **Rough dielectrics** (glass, transmission, subsurface boundaries) scale the
 //!   single-scattering BSDF by `1 / E_T(mu_o, eta)`, the reciprocal of the albedo of reflection
 //!   plus refraction (Turquin 2019, "Practical multiple scattering compensation for microfacet
