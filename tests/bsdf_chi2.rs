@@ -1219,11 +1219,14 @@ fn principled_white_furnace() {
 /// A clear coat over a white base (Principled Coat): with a white tint the energy-conserving
 /// layering reflects all the light (the coat's albedo plus the base's share of the rest); a
 /// coloured tint absorbs, never adds (the bound: <= 1); the glTF spec's layering
-/// (`KHR_materials_clearcoat`) stays within the same bound plus its own base's excess.
+/// (`KHR_materials_clearcoat`) stays within the same bound plus its own base's excess. The
+/// low bound, 0.975: the coat's albedo with the exact Fresnel is its Fresnel at the lobe's
+/// effective cosine times E (`energy::effective_cosine`), a little high for rough coats at
+/// grazing views (0.980 at coat roughness 1, cos_o 0.1), so the base gets that much less.
 #[test]
 fn coat_over_white_base_conserves_energy() {
     let white = SampledSpectrum::ONE;
-    let mut furnace = Furnace::new(200_000, 37, false, 0.985..=1.007);
+    let mut furnace = Furnace::new(200_000, 37, false, 0.975..=1.007);
     for metallic in [0.0f32, 1.0] {
         for roughness in [0.2f32, 0.8] {
             for (weight, coat_roughness) in [(1.0f32, 0.0f32), (1.0, 0.1), (0.5, 0.5), (1.0, 1.0)] {

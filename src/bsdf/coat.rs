@@ -1,18 +1,21 @@
 //! A clear coat: a dielectric GGX reflection layer over a material (Blender's Principled Coat,
 //! `KHR_materials_clearcoat`).
 //!
-//! The coat reflects `weight x` its lobe (Schlick Fresnel with `f0 = ((ior - 1) / (ior + 1))^2`,
-//! `f90 = 1`) and lets through what it does not reflect. Two layerings:
+//! The coat reflects `weight x` its lobe and lets through what it does not reflect. Two
+//! layerings:
 //!
-//! - energy-conserving (Cycles' Principled BSDF, 4.x): the lobe carries Kulla & Conty's
-//!   multiple-scattering term (`energy.rs`), and the material below is scaled by
+//! - energy-conserving (Cycles' Principled BSDF, 4.x): the exact dielectric Fresnel of the
+//!   coat's IOR (Cycles' coat is a dielectric microfacet closure; Schlick's curve reflects up to
+//!   17% less at 50-70 degrees), the lobe scaled by its multiple scattering at `wo`
+//!   (`energy::multiscatter_boost`, Cycles' form), and the material below scaled by
 //!   `1 - weight A_c(mu_o)`, `A_c` the coat lobe's albedo, then by the coat's absorption
 //!   `mix(1, tint^(1 / cos_t), weight)` with `cos_t` the cosine of the view direction refracted
 //!   into the coat (the tint is the colour after one vertical pass). Scaling by the albedo at
 //!   `wo` keeps the whole at most 1 for every `wo` (layer + rest <= A_c + (1 - A_c) = 1) but is
 //!   not reciprocal, as in Cycles;
-//! - the glTF spec's (`KHR_materials_clearcoat`): single scattering, the layer below scaled by
-//!   `1 - weight F(wo.h)` per direction pair, no tint.
+//! - the glTF spec's (`KHR_materials_clearcoat`) and Blender 3.x's: single scattering, Schlick's
+//!   Fresnel with `f0 = ((ior - 1) / (ior + 1))^2`, `f90 = 1`; the glTF spec's scales the layer
+//!   below by `1 - weight F(wo.h)` per direction pair, no tint.
 //!
 //! The coat has its own shading normal (`normal`, in the base's local frame): Blender's Coat
 //! Normal, glTF's `clearcoatNormalTexture`, and by default the unperturbed shading normal,
@@ -22,12 +25,12 @@
 //! carry over unchanged.
 
 use super::energy::{
-    ggx_reflection_albedo, ggx_reflection_average, multiscatter_fresnel, ReflectionAlbedo,
-    SCHLICK_WEIGHT_AVERAGE,
+    dielectric_fresnel_average, effective_cosine, ggx_reflection_albedo, ggx_reflection_average,
+    multiscatter_boost, ReflectionAlbedo, SCHLICK_WEIGHT_AVERAGE,
 };
-use super::fresnel::{reflect, schlick_weight};
+use super::fresnel::{fresnel_dielectric, reflect, schlick_weight};
 use super::microfacet::TrowbridgeReitz;
-use crate::math::{safe_sqrt, sqr, Frame, PI};
+use crate::math::{safe_sqrt, sqr, Frame};
 use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
 
@@ -109,11 +112,16 @@ impl Coat {
         }
     }
 
-    /// Schlick Fresnel for a cosine with the microfacet normal.
+    /// Fresnel for a cosine with the microfacet normal: the exact dielectric one of the coat's
+    /// IOR in the energy-conserving model (`exact`), else Schlick's.
     #[inline]
-    pub(super) fn fresnel(&self, cos: f32) -> f32 {
-        let f0 = self.f0();
-        f0 + (1.0 - f0) * schlick_weight(cos)
+    pub(super) fn fresnel(&self, cos: f32, exact: bool) -> f32 {
+        if exact {
+            fresnel_dielectric(cos.clamp(0.0, 1.0), self.ior.max(1.0))
+        } else {
+            let f0 = self.f0();
+            f0 + (1.0 - f0) * schlick_weight(cos)
+        }
     }
 
     fn albedos(&self, mu: f32) -> (ReflectionAlbedo, ReflectionAlbedo) {
@@ -128,19 +136,20 @@ impl Coat {
         }
     }
 
-    /// Kulla & Conty's Fresnel colour of the coat's multiple scattering.
-    fn multiscatter(&self, average: ReflectionAlbedo) -> f32 {
-        let f0 = self.f0();
-        multiscatter_fresnel(f0 + (1.0 - f0) * SCHLICK_WEIGHT_AVERAGE, average.e)
+    /// The energy-conserving lobe's multiple-scattering factor at `mu_o`
+    /// (`energy::multiscatter_boost` with the exact Fresnel's hemispherical average).
+    fn boost(&self, mu_o: f32) -> f32 {
+        let (a, average) = self.albedos(mu_o);
+        multiscatter_boost(dielectric_fresnel_average(self.ior), a.e, average.e)
     }
 
-    /// The weighted coat lobe's albedo at `mu` (energy-conserving model): single scattering
-    /// `f0 E + (1 - f0) B` plus the multiple scattering `F_ms (1 - E)`.
+    /// The weighted coat lobe's albedo at `mu` (energy-conserving model): the exact Fresnel at
+    /// the lobe's effective cosine times E, times the multiple-scattering factor.
     pub fn albedo(&self, mu: f32) -> f32 {
         let (a, average) = self.albedos(mu);
-        let f0 = self.f0();
-        let single = f0 * a.e + (1.0 - f0) * a.b;
-        self.weight() * (single + self.multiscatter(average) * (1.0 - a.e)).clamp(0.0, 1.0)
+        let boost = multiscatter_boost(dielectric_fresnel_average(self.ior), a.e, average.e);
+        let single = self.fresnel(effective_cosine(a), true) * a.e;
+        self.weight() * (single * boost).clamp(0.0, 1.0)
     }
 
     /// What reaches the layer below and comes back, as a factor on it (energy-conserving
@@ -158,9 +167,9 @@ impl Coat {
     }
 
     /// The weighted coat lobe f(wo, wi) (no cosine) for `wo`, `wi` (base frame) and their
-    /// half vector `h`; `multiscatter` adds the energy-compensation lobe. Zero for a smooth
-    /// coat except for its multiple scattering (which is zero too), and below the coat.
-    pub fn eval(&self, wo: Vec3, wi: Vec3, h: Vec3, multiscatter: bool) -> f32 {
+    /// half vector `h`; `energy_conserving`: the exact Fresnel and the lobe's multiple
+    /// scattering. Zero for a smooth coat and below the coat.
+    pub fn eval(&self, wo: Vec3, wi: Vec3, h: Vec3, energy_conserving: bool) -> f32 {
         let cos_base = wi.z;
         // One frame for the three vectors (it is rebuilt per call, not stored in the coat).
         let frame = self.frame();
@@ -182,14 +191,9 @@ impl Coat {
             let distrib = self.distribution();
             let s = distrib.d(h) * distrib.g(wo, wi) / (4.0 * wo.z * wi.z);
             if s.is_finite() && s > 0.0 {
-                f += self.fresnel(wo.dot(h)) * s;
-            }
-            if multiscatter {
-                let (a_o, average) = self.albedos(wo.z);
-                let (a_i, _) = self.albedos(wi.z);
-                if average.e < 1.0 - 1e-6 {
-                    f += self.multiscatter(average) * (1.0 - a_o.e) * (1.0 - a_i.e)
-                        / (PI * (1.0 - average.e));
+                f += self.fresnel(wo.dot(h), energy_conserving) * s;
+                if energy_conserving {
+                    f *= self.boost(wo.z);
                 }
             }
         }

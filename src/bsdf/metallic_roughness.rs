@@ -72,8 +72,8 @@
 //! rescaled to run from F0 to 1. The GGX lobe scatters once (Blender 3.x's default "GGX").
 
 use super::energy::{
-    ggx_reflection_albedo, ggx_reflection_average, multiscatter_fresnel, ReflectionAlbedo,
-    SCHLICK_WEIGHT_AVERAGE,
+    dielectric_fresnel_average, effective_cosine, ggx_reflection_albedo, ggx_reflection_average,
+    multiscatter_boost, ReflectionAlbedo, SCHLICK_WEIGHT_AVERAGE,
 };
 use super::fresnel::{fresnel_dielectric, reflect, schlick_weight};
 use super::microfacet::TrowbridgeReitz;
@@ -154,13 +154,7 @@ impl MetallicRoughnessBsdf {
     /// reflects through face the viewer more than the macro-surface does). Exact for a smooth
     /// layer (`mu_eff = mu`, boost 1); for rough ones the base of a white furnace gets 0.989-1.007.
     fn layer_reflectance(&self, a: ReflectionAlbedo, boost: SampledSpectrum) -> SampledSpectrum {
-        let w = if a.e > 0.0 {
-            (a.b / a.e).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let mu_eff = 1.0 - w.powf(0.2);
-        self.dielectric_fresnel(mu_eff) * boost * a.e
+        self.dielectric_fresnel(effective_cosine(a)) * boost * a.e
     }
 
     /// `2 int g(mu) mu dmu` over the hemisphere for a spectral `g` (8-point Gauss-Legendre in
@@ -237,22 +231,17 @@ impl MetallicRoughnessBsdf {
         if f0 <= 0.0 {
             return 0.0;
         }
-        let sqrt_f0 = f0.sqrt();
-        let eta = (1.0 + sqrt_f0) / (1.0 - sqrt_f0);
+        let eta = ior_from_f0(f0);
         ((fresnel_dielectric(cos.clamp(0.0, 1.0), eta) - f0) / (1.0 - f0)).clamp(0.0, 1.0)
     }
 
-    /// The hemispherical average of `real_fresnel_weight`, 2 int s(mu) mu dmu, from Kulla &
-    /// Conty's 2017 fit of a dielectric's average Fresnel, (eta - 1) / (4.08567 + 1.00071 eta)
-    /// (within 3% for eta 1-3: 0.0895 at eta 1.5 against 0.0918 by quadrature).
+    /// The hemispherical average of `real_fresnel_weight`, 2 int s(mu) mu dmu.
     fn real_fresnel_weight_average(&self) -> f32 {
         let f0 = self.untinted_f0();
         if f0 <= 0.0 {
             return 0.0;
         }
-        let sqrt_f0 = f0.sqrt();
-        let eta = (1.0 + sqrt_f0) / (1.0 - sqrt_f0);
-        let f_avg = (eta - 1.0) / (4.08567 + 1.00071 * eta);
+        let f_avg = dielectric_fresnel_average(ior_from_f0(f0));
         ((f_avg - f0) / (1.0 - f0)).clamp(0.0, 1.0)
     }
 
@@ -375,7 +364,7 @@ impl MetallicRoughnessBsdf {
 
     /// Probabilities of sampling the sheen lobe (`sheen_probability`), then, among the layers
     /// below it, the coat lobe and the base's GGX lobe at `cos_o` (the cosine-weighted branch,
-    /// which samples the diffuse lobe and the coat's multiple scattering, has the rest): each
+    /// which samples the diffuse lobe, has the rest): each
     /// lobe's estimated albedo over the total, with the Fresnel terms at the macro-surface
     /// angle. A lobe that vanishes gets exactly 0.
     fn all_lobe_probabilities(&self, wo: Vec3, layers: Option<&Layers>) -> (f32, f32, f32) {
@@ -432,31 +421,28 @@ impl MetallicRoughnessBsdf {
         let m = self.metallic();
         let (fd, fc) = self.fresnels(wo.z);
         let coat = &self.coat;
-        let (w_coat, below, coat_ms) = if coat.is_present() {
+        let (w_coat, below) = if coat.is_present() {
             let cos_c = coat.cos(wo).clamp(0.0, 1.0);
-            let single = coat.weight() * coat.fresnel(cos_c);
             if self.energy_compensation {
-                let albedo = coat.albedo(cos_c);
-                let below = coat.transmittance(cos_c).average();
-                (single, below, (albedo - single).max(0.0))
+                (coat.albedo(cos_c), coat.transmittance(cos_c).average())
             } else {
-                (single, 1.0 - single, 0.0)
+                let single = coat.weight() * coat.fresnel(cos_c, false);
+                (single, 1.0 - single)
             }
         } else {
-            (0.0, 1.0, 0.0)
+            (0.0, 1.0)
         };
         let (boost_d, boost_c) = layers.map_or((SampledSpectrum::ONE, SampledSpectrum::ONE), |l| {
             (l.boost_d, l.boost_c)
         });
         let w_spec = below * ((1.0 - m) * (fd * boost_d).average() + m * (fc * boost_c).average());
-        let w_cos = coat_ms
-            + below
-                * match layers {
-                    Some(l) => (1.0 - m) * (l.diffuse_o * self.base_color).average(),
-                    // Burley's diffuse is undimmed (its albedo is about 1).
-                    None if self.principled_v1 => (1.0 - m) * self.base_color.average(),
-                    None => (1.0 - m) * ((SampledSpectrum::ONE - fd) * self.base_color).average(),
-                };
+        let w_cos = below
+            * match layers {
+                Some(l) => (1.0 - m) * (l.diffuse_o * self.base_color).average(),
+                // Burley's diffuse is undimmed (its albedo is about 1).
+                None if self.principled_v1 => (1.0 - m) * self.base_color.average(),
+                None => (1.0 - m) * ((SampledSpectrum::ONE - fd) * self.base_color).average(),
+            };
         (w_coat, w_spec, w_cos)
     }
 
@@ -470,7 +456,7 @@ impl MetallicRoughnessBsdf {
         } else if self.energy_compensation || coat.additive {
             coat.transmittance(coat.cos(wo).clamp(0.0, 1.0))
         } else {
-            SampledSpectrum::splat(1.0 - coat.weight() * coat.fresnel(cos_h))
+            SampledSpectrum::splat(1.0 - coat.weight() * coat.fresnel(cos_h, false))
         }
     }
 
@@ -558,7 +544,7 @@ impl MetallicRoughnessBsdf {
                 self.dielectric_f0().map(|f| f + (1.0 - f) * s_avg)
             }
         };
-        let fms_d = fd_avg.map(|f| multiscatter_fresnel(f, average.e));
+
         // Hemispherical average of the conductor's Fresnel: Schlick's, minus the F82 term's
         // 2 int a mu^2 (1 - mu)^6 dmu = a / 126.
         let mut fc_avg = self
@@ -570,18 +556,8 @@ impl MetallicRoughnessBsdf {
         if let Some(f) = film.as_ref().filter(|_| self.metallic() > 0.0) {
             fc_avg = f.conductor_avg;
         }
-        let fms_c = fc_avg.map(|f| multiscatter_fresnel(f, average.e));
-        // What the single-scattering lobe misses at wo, relative to what it reflects:
-        // (1 - E(mu_o)) / E(mu_o) (zero for a mirror, E = 1).
-        let missing = if albedo.e > 1e-3 {
-            ((1.0 - albedo.e) / albedo.e).max(0.0)
-        } else {
-            0.0
-        };
-        let boost_d =
-            SampledSpectrum::from_fn(|k| 1.0 + ms_over_single(fms_d[k], fd_avg[k]) * missing);
-        let boost_c =
-            SampledSpectrum::from_fn(|k| 1.0 + ms_over_single(fms_c[k], fc_avg[k]) * missing);
+        let boost_d = fd_avg.map(|f| multiscatter_boost(f, albedo.e, average.e));
+        let boost_c = fc_avg.map(|f| multiscatter_boost(f, albedo.e, average.e));
         Some(Layers {
             boost_d,
             boost_c,
@@ -652,8 +628,8 @@ impl MetallicRoughnessBsdf {
         let mut f = (dielectric * (1.0 - m) + conductor * m) * self.below_coat(wo, vdoth);
         if self.coat.is_present() {
             // Blender 3.x's additive coat has no multiple scattering (Cycles 3.x).
-            let multiscatter = self.energy_compensation && !self.coat.additive;
-            f += SampledSpectrum::splat(self.coat.eval(wo, wi, h, multiscatter));
+            let energy_conserving = self.energy_compensation && !self.coat.additive;
+            f += SampledSpectrum::splat(self.coat.eval(wo, wi, h, energy_conserving));
             pdf += p_coat * self.coat.pdf(wo, h);
         }
         if self.sheen.is_present() {
@@ -746,7 +722,8 @@ impl MetallicRoughnessBsdf {
                 // The smooth coat's albedo is its weighted Fresnel at its cosine with wo, and
                 // its mirror direction that about the coat's normal.
                 let cos_c = self.coat.cos(wo).clamp(0.0, 1.0);
-                let albedo = self.coat.weight() * self.coat.fresnel(cos_c);
+                let exact = self.energy_compensation && !self.coat.additive;
+                let albedo = self.coat.weight() * self.coat.fresnel(cos_c, exact);
                 return dirac(SampledSpectrum::splat(albedo), p_coat, wi);
             }
             (wi, LobeFlags::sample(false, false))
@@ -794,15 +771,12 @@ struct Layers {
     diffuse_o: SampledSpectrum,
 }
 
-/// F_ms / F_avg: the multiple-scattering Fresnel over the single-scattering one (Kulla & Conty
-/// 2017's F_ms with one F_avg cancelled, as Cycles' `microfacet_ggx_preserve_energy`: the lobe
-/// it multiplies already has one bounce of Fresnel); 1 for a white conductor.
-fn ms_over_single(fms: f32, f_avg: f32) -> f32 {
-    if f_avg > 1e-6 {
-        fms / f_avg
-    } else {
-        0.0
-    }
+/// The IOR whose normal-incidence reflectance is `f0` (in [0, 1)): `(1 + sqrt f0) / (1 - sqrt
+/// f0)`.
+#[inline]
+fn ior_from_f0(f0: f32) -> f32 {
+    let r = f0.clamp(0.0, 0.999).sqrt();
+    (1.0 + r) / (1.0 - r)
 }
 
 #[cfg(test)]
