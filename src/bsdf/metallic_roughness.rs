@@ -128,25 +128,6 @@ impl MetallicRoughnessBsdf {
         (self.specular_color * r0).map(|v| v.min(1.0)) * self.specular
     }
 
-    /// The dielectric layer's Fresnel as a Schlick curve (F0, F90), for its tabulated albedo. A
-    /// thin film's reflectance is not one: with a film the curve gets F90 = 1 (a dielectric's
-    /// Fresnel at grazing) and the F0 that gives it the film's hemispherical average (so the
-    /// base receives the right share of uniform light; `tests/bsdf_chi2.rs` bounds the rest).
-    fn layer_schlick_equivalent(&self) -> (SampledSpectrum, f32) {
-        let (f0, f90) = (self.dielectric_f0(), self.dielectric_f90());
-        match self.iridescence.filter(|i| i.weight > 0.0) {
-            Some(film) => {
-                let f90 = f90 + (1.0 - f90) * film.weight.min(1.0);
-                // average = f0 + (f90 - f0) / 21.
-                let f0 = self
-                    .fresnel_average(|mu| self.dielectric_fresnel(mu))
-                    .map(|a| ((21.0 * a - f90) / 20.0).clamp(0.0, 1.0));
-                (f0, f90)
-            }
-            None => (f0, f90),
-        }
-    }
-
     /// The albedo of the energy-conserving dielectric layer with GGX albedos `a` at `mu` and
     /// `boost` its lobe's multiple-scattering factor (`Layers::boost_d`): the single
     /// scattering `E F(mu_eff)` times `boost`, with F at the cosine `mu_eff` whose Schlick
@@ -364,9 +345,9 @@ impl MetallicRoughnessBsdf {
 
     /// Probabilities of sampling the sheen lobe (`sheen_probability`), then, among the layers
     /// below it, the coat lobe and the base's GGX lobe at `cos_o` (the cosine-weighted branch,
-    /// which samples the diffuse lobe, has the rest): each
-    /// lobe's estimated albedo over the total, with the Fresnel terms at the macro-surface
-    /// angle. A lobe that vanishes gets exactly 0.
+    /// which samples the diffuse lobe, has the rest): each lobe's estimated albedo over the
+    /// total, with the Fresnel terms at the macro-surface angle. A lobe that vanishes gets
+    /// exactly 0.
     fn all_lobe_probabilities(&self, wo: Vec3, layers: Option<&Layers>) -> (f32, f32, f32) {
         let cos_o = wo.z;
         let (w_coat, w_spec, w_cos) = self.lobe_weights(wo, layers);
@@ -494,16 +475,15 @@ impl MetallicRoughnessBsdf {
     /// of the Airy sum per wavelength (one, two over a metal), most of a filmed evaluation's
     /// cost.
     pub fn film_averages(&self) -> FilmAverages {
-        let (f0_d, f90_d) = self.layer_schlick_equivalent();
         // The film's curves are no Schlick curves: their hemispherical averages by quadrature.
+        let dielectric_avg = self.fresnel_average(|mu| self.dielectric_fresnel(mu));
         let conductor_avg = if self.metallic() > 0.0 {
             self.fresnel_average(|mu| self.filmed_conductor_fresnel(mu))
         } else {
             SampledSpectrum::ZERO
         };
         FilmAverages {
-            f0_d,
-            f90_d,
+            dielectric_avg,
             conductor_avg,
         }
     }
@@ -534,11 +514,9 @@ impl MetallicRoughnessBsdf {
             .iridescence
             .filter(|i| i.weight > 0.0)
             .map(|i| i.averages.unwrap_or_else(|| self.film_averages()));
-        // The dielectric layer's hemispherical Fresnel average and multiple-scattering Fresnel.
+        // The dielectric layer's hemispherical Fresnel average.
         let fd_avg = match &film {
-            Some(f) => f
-                .f0_d
-                .map(|f0| f0 + (f.f90_d - f0) * SCHLICK_WEIGHT_AVERAGE),
+            Some(f) => f.dielectric_avg,
             None => {
                 let s_avg = self.real_fresnel_weight_average();
                 self.dielectric_f0().map(|f| f + (1.0 - f) * s_avg)

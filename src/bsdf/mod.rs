@@ -245,12 +245,11 @@ pub struct Iridescence {
 }
 
 /// The terms of a filmed specular layer that do not depend on the directions
-/// (`MetallicRoughnessBsdf::film_averages`): the layer's Schlick equivalent (F0, F90) and the
-/// filmed conductor's hemispherical Fresnel average.
+/// (`MetallicRoughnessBsdf::film_averages`): the hemispherical averages of the filmed
+/// dielectric's and conductor's Fresnel.
 #[derive(Clone, Copy, Debug)]
 pub struct FilmAverages {
-    pub f0_d: SampledSpectrum,
-    pub f90_d: f32,
+    pub dielectric_avg: SampledSpectrum,
     pub conductor_avg: SampledSpectrum,
 }
 
