@@ -28,7 +28,7 @@ use super::energy::{
     dielectric_fresnel_average, effective_cosine, ggx_reflection_albedo, ggx_reflection_average,
     multiscatter_boost, ReflectionAlbedo, SCHLICK_WEIGHT_AVERAGE,
 };
-use super::fresnel::{fresnel_dielectric, reflect, schlick_weight};
+use super::fresnel::{fresnel_dielectric_entering, reflect, schlick_weight};
 use super::microfacet::TrowbridgeReitz;
 use crate::math::{safe_sqrt, sqr, Frame};
 use crate::spectrum::SampledSpectrum;
@@ -117,7 +117,7 @@ impl Coat {
     #[inline]
     pub(super) fn fresnel(&self, cos: f32, exact: bool) -> f32 {
         if exact {
-            fresnel_dielectric(cos.clamp(0.0, 1.0), self.ior.max(1.0))
+            fresnel_dielectric_entering(cos, self.ior.max(1.0))
         } else {
             let f0 = self.f0();
             f0 + (1.0 - f0) * schlick_weight(cos)

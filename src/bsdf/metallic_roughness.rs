@@ -75,7 +75,7 @@ use super::energy::{
     dielectric_fresnel_average, effective_cosine, ggx_reflection_albedo, ggx_reflection_average,
     multiscatter_boost, ReflectionAlbedo, SCHLICK_WEIGHT_AVERAGE,
 };
-use super::fresnel::{fresnel_dielectric, reflect, schlick_weight};
+use super::fresnel::{fresnel_dielectric, fresnel_dielectric_entering, reflect, schlick_weight};
 use super::microfacet::TrowbridgeReitz;
 use super::FilmAverages;
 use super::{BsdfSample, LobeFlags, MetallicRoughnessBsdf, SheenModel};
@@ -191,13 +191,27 @@ impl MetallicRoughnessBsdf {
         )
     }
 
-    /// The untinted F0 of the energy-conserving dielectric layer (the IOR's, times the specular
-    /// factor: Blender's Specular IOR Level x 2), below 1.
+    /// The energy-conserving dielectric layer's untinted F0 (the IOR's, times the specular
+    /// factor: Blender's Specular IOR Level x 2; below 1) and the IOR >= 1 of the Fresnel curve
+    /// through it (the material's own, or its inverse, at the default specular factor 1).
     #[inline]
-    fn untinted_f0(&self) -> f32 {
+    fn fresnel_curve(&self) -> (f32, f32) {
         let r0 = sqr((self.ior - 1.0) / (self.ior + 1.0));
-        let f0 = if r0.is_finite() { r0.min(1.0) } else { 0.0 } * self.specular;
-        f0.clamp(0.0, 0.999)
+        if !r0.is_finite() {
+            return (0.0, 1.0);
+        }
+        if self.specular == 1.0 && r0 < 0.999 {
+            return (
+                r0,
+                if self.ior >= 1.0 {
+                    self.ior
+                } else {
+                    1.0 / self.ior
+                },
+            );
+        }
+        let f0 = (r0.min(1.0) * self.specular).clamp(0.0, 0.999);
+        (f0, ior_from_f0(f0))
     }
 
     /// The energy-conserving dielectric's Fresnel weight s, F = F0 + (1 - F0) s: the real
@@ -208,21 +222,20 @@ impl MetallicRoughnessBsdf {
     /// light they take from the base match Cycles' at every angle.
     #[inline]
     fn real_fresnel_weight(&self, cos: f32) -> f32 {
-        let f0 = self.untinted_f0();
+        let (f0, eta) = self.fresnel_curve();
         if f0 <= 0.0 {
             return 0.0;
         }
-        let eta = ior_from_f0(f0);
-        ((fresnel_dielectric(cos.clamp(0.0, 1.0), eta) - f0) / (1.0 - f0)).clamp(0.0, 1.0)
+        ((fresnel_dielectric_entering(cos, eta) - f0) / (1.0 - f0)).clamp(0.0, 1.0)
     }
 
     /// The hemispherical average of `real_fresnel_weight`, 2 int s(mu) mu dmu.
     fn real_fresnel_weight_average(&self) -> f32 {
-        let f0 = self.untinted_f0();
+        let (f0, eta) = self.fresnel_curve();
         if f0 <= 0.0 {
             return 0.0;
         }
-        let f_avg = dielectric_fresnel_average(ior_from_f0(f0));
+        let f_avg = dielectric_fresnel_average(eta);
         ((f_avg - f0) / (1.0 - f0)).clamp(0.0, 1.0)
     }
 
@@ -400,7 +413,6 @@ impl MetallicRoughnessBsdf {
     /// Estimated albedos (coat, base GGX, cosine-weighted lobes) at `wo`.
     fn lobe_weights(&self, wo: Vec3, layers: Option<&Layers>) -> (f32, f32, f32) {
         let m = self.metallic();
-        let (fd, fc) = self.fresnels(wo.z);
         let coat = &self.coat;
         let (w_coat, below) = if coat.is_present() {
             let cos_c = coat.cos(wo).clamp(0.0, 1.0);
@@ -413,18 +425,34 @@ impl MetallicRoughnessBsdf {
         } else {
             (0.0, 1.0)
         };
-        let (boost_d, boost_c) = layers.map_or((SampledSpectrum::ONE, SampledSpectrum::ONE), |l| {
-            (l.boost_d, l.boost_c)
-        });
-        let w_spec = below * ((1.0 - m) * (fd * boost_d).average() + m * (fc * boost_c).average());
-        let w_cos = below
-            * match layers {
-                Some(l) => (1.0 - m) * (l.diffuse_o * self.base_color).average(),
-                // Burley's diffuse is undimmed (its albedo is about 1).
-                None if self.principled_v1 => (1.0 - m) * self.base_color.average(),
-                None => (1.0 - m) * ((SampledSpectrum::ONE - fd) * self.base_color).average(),
-            };
-        (w_coat, w_spec, w_cos)
+        let (w_spec, w_cos) = match layers {
+            // The dielectric layer's own albedo at wo (no second Fresnel evaluation).
+            Some(l) => {
+                let conductor = if m > 0.0 {
+                    (self.filmed_conductor_fresnel(wo.z) * l.boost_c).average()
+                } else {
+                    0.0
+                };
+                (
+                    (1.0 - m) * l.specular_o.average() + m * conductor,
+                    (1.0 - m) * (l.diffuse_o * self.base_color).average(),
+                )
+            }
+            None => {
+                let (fd, fc) = self.fresnels(wo.z);
+                let diffuse = if self.principled_v1 {
+                    // Burley's diffuse is undimmed (its albedo is about 1).
+                    self.base_color.average()
+                } else {
+                    ((SampledSpectrum::ONE - fd) * self.base_color).average()
+                };
+                (
+                    (1.0 - m) * fd.average() + m * fc.average(),
+                    (1.0 - m) * diffuse,
+                )
+            }
+        };
+        (w_coat, below * w_spec, below * w_cos)
     }
 
     /// The factor on the base below the coat (1 without a coat): what the coat lets through
@@ -536,12 +564,12 @@ impl MetallicRoughnessBsdf {
         }
         let boost_d = fd_avg.map(|f| multiscatter_boost(f, albedo.e, average.e));
         let boost_c = fc_avg.map(|f| multiscatter_boost(f, albedo.e, average.e));
+        let specular_o = self.layer_reflectance(albedo, boost_d);
         Some(Layers {
             boost_d,
             boost_c,
-            diffuse_o: self
-                .layer_reflectance(albedo, boost_d)
-                .map(|v| (1.0 - v).max(0.0)),
+            specular_o,
+            diffuse_o: specular_o.map(|v| (1.0 - v).max(0.0)),
         })
     }
 
@@ -745,6 +773,8 @@ struct Layers {
     /// `1 + (F_ms / F_avg) (1 - E(mu_o)) / E(mu_o)` (`MetallicRoughnessBsdf::layers`).
     boost_d: SampledSpectrum,
     boost_c: SampledSpectrum,
+    /// A_d(mu_o): the dielectric specular layer's albedo at `wo` (`layer_reflectance`).
+    specular_o: SampledSpectrum,
     /// 1 - A_d(mu_o): what the specular layer leaves to the diffuse base at `wo`.
     diffuse_o: SampledSpectrum,
 }
