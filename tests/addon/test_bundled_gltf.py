@@ -128,8 +128,9 @@ def test_bundled_emission_texture_rough_glass():
     here, evenly over the floor and in every channel (a grey checker gives 1.030 / 1.029 /
     1.027, so not spectral colour), and was already at 1.0296 before the Principled BSDF
     followed Cycles' layering and Fresnel curve (2026-12-04: 1.030); the scene without the
-    panel (the test above) is at 0.995. The cause is still open (emission through the
-    exporter's KHR_materials_emissive_strength is the candidate)."""
+    panel (the test above) is at 0.995. The cause is still open: a white panel gives 1.031 /
+    1.030 / 1.029 too (not the emission's colour uplift); emission through the exporter's
+    KHR_materials_emissive_strength, or its sidedness, is the next thing to check."""
     sc = build_scene()
     for name in ("Point", "Spot", "Sun", "GoldBall"):
         bpy.data.objects.remove(bpy.data.objects[name])
