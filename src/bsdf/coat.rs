@@ -140,6 +140,11 @@ impl Coat {
     /// (`energy::multiscatter_boost` with the exact Fresnel's hemispherical average).
     fn boost(&self, mu_o: f32) -> f32 {
         let (a, average) = self.albedos(mu_o);
+        self.boost_with(a, average)
+    }
+
+    /// `boost` from the lobe's albedos at `mu_o` and on average.
+    fn boost_with(&self, a: ReflectionAlbedo, average: ReflectionAlbedo) -> f32 {
         multiscatter_boost(dielectric_fresnel_average(self.ior), a.e, average.e)
     }
 
@@ -147,9 +152,8 @@ impl Coat {
     /// the lobe's effective cosine times E, times the multiple-scattering factor.
     pub fn albedo(&self, mu: f32) -> f32 {
         let (a, average) = self.albedos(mu);
-        let boost = multiscatter_boost(dielectric_fresnel_average(self.ior), a.e, average.e);
         let single = self.fresnel(effective_cosine(a), true) * a.e;
-        self.weight() * (single * boost).clamp(0.0, 1.0)
+        self.weight() * (single * self.boost_with(a, average)).clamp(0.0, 1.0)
     }
 
     /// What reaches the layer below and comes back, as a factor on it (energy-conserving
