@@ -3,14 +3,19 @@
 //! boundary handled by the caller (`super::WalkBoundary`: internal reflection by the dielectric
 //! BSDF, exits through a fixed lobe that gets next-event estimation).
 //!
-//! Distances are sampled with the sigma_t of one wavelength of the path, chosen uniformly once
-//! per walk (the hero-wavelength idea of Wilkie et al. 2014 applied to the whole walk), and the
-//! wavelengths are combined with the one-sample balance heuristic over complete walks: the
-//! weight of wavelength j is f_j(walk) / mean_i p_i(walk), where p_i is the density of the walk
-//! when distances follow wavelength i. Per-event MIS (a fresh choice at every event) is also
-//! unbiased, but its weights multiply over the hundreds of events of a high-albedo walk and the
-//! variance explodes; with whole-walk MIS every weight is at most N times the albedo product.
-//! Products are kept in log space (thousands of events would overflow f32 and f64).
+//! Distances are sampled with the sigma_t of one wavelength of the path, chosen afresh at every
+//! event with probability proportional to that wavelength's throughput times its single-scattering
+//! albedo, and the wavelengths are combined by the one-sample balance heuristic over that choice
+//! at every event: wavelength j's throughput is multiplied by f_j / sum_i P_i p_i, with p_i the
+//! flight density under wavelength i's extinction (Chiang, Kutz & Burley 2016, "Practical and
+//! Controllable Subsurface Scattering for Production Path Tracing", section 5.2; Cycles'
+//! `volume_sample_channel`). Choosing by throughput is what keeps per-event MIS stable: since
+//! P_j is proportional to beta_j alpha_j, a scattering event leaves every throughput at most
+//! sum_i beta_i alpha_i, so no wavelength's weight can run away over hundreds of events (with a
+//! uniform choice the weights multiply and explode), and the wavelengths a walk has nearly
+//! absorbed stop steering its flights. A choice fixed once per walk, combined over whole walks,
+//! is as unbiased but left a strongly coloured medium (jade: albedos 0.81 to 0.98 across the
+//! spectrum) with 1.24x the noise in the SSS Cornell box.
 //! Phase function: Henyey-Greenstein, sampled exactly (weight 1).
 
 use crate::geometry::{Geometry, Hit, Ray};
@@ -24,19 +29,11 @@ const MAX_SCATTER: u32 = 100_000;
 /// Scattering events before Russian roulette may end the walk.
 const RR_START: u32 = 16;
 
-/// log(mean_i exp(x_i)) over the first `n` entries.
-fn log_mean_exp(x: &[f64], n: usize) -> f64 {
-    let m = x[..n].iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    if m == f64::NEG_INFINITY {
-        return m;
-    }
-    (x[..n].iter().map(|v| (v - m).exp()).sum::<f64>() / n as f64).ln() + m
-}
-
 /// Walks from `ray` (starting inside the medium) until it reaches a surface. Returns the
 /// surface hit and the last ray segment (the caller shades the hit from inside), and multiplies
-/// `beta` by the walk's weight. `None` if the walk was absorbed, ended by Russian roulette, or
-/// escaped to infinity (an open mesh).
+/// `beta` by the walk's weight (only its first `n_active` wavelengths are live; the others
+/// become 0). `None` if the walk was absorbed, ended by Russian roulette, or escaped to
+/// infinity (an open mesh).
 #[allow(clippy::too_many_arguments)]
 pub fn walk(
     geometry: &Geometry,
@@ -50,79 +47,85 @@ pub fn walk(
 ) -> Option<(Hit, Ray)> {
     let sigma_t = sigma_a + sigma_s;
     let n = n_active.clamp(1, N_WAVELENGTHS);
-    let ch = ((sampler.next_1d() * n as f32) as usize).min(n - 1);
-    let st_c = sigma_t[ch] as f64;
-    // log of f_j / p_ch (path contribution relative to the sampling density) and of
-    // p_i / p_ch (density under wavelength i's sampling relative to the one used).
-    // Per-event constants (ln 0 = -inf is fine: that wavelength's weight becomes 0).
-    let ln_ss: [f64; N_WAVELENGTHS] = std::array::from_fn(|i| (sigma_s[i] as f64).ln());
-    let ln_st: [f64; N_WAVELENGTHS] = std::array::from_fn(|i| (sigma_t[i] as f64).ln());
-    let ln_st_c = st_c.ln();
-    let mut log_f = [0.0f64; N_WAVELENGTHS];
-    let mut log_p = [0.0f64; N_WAVELENGTHS];
-    let weight = |log_f: &[f64; N_WAVELENGTHS], log_p: &[f64; N_WAVELENGTHS]| {
-        let norm = log_mean_exp(log_p, n);
-        SampledSpectrum::from_fn(|j| {
-            if j < n {
-                (log_f[j] - norm).exp() as f32
-            } else {
-                0.0
-            }
-        })
-    };
+    let albedo = SampledSpectrum::from_fn(|i| {
+        if i < n && sigma_t[i] > 0.0 {
+            sigma_s[i] / sigma_t[i]
+        } else {
+            0.0
+        }
+    });
+    // Russian roulette compares the largest throughput with the walk's start.
+    let beta_start = beta.max_component();
     for event in 0..MAX_SCATTER {
+        // The wavelength whose extinction draws this flight: P_i ~ beta_i alpha_i.
+        let choice = SampledSpectrum::from_fn(|i| (beta[i] * albedo[i]).max(0.0));
+        let total = choice.sum();
+        if !(total > 0.0 && total.is_finite()) {
+            return None;
+        }
+        let choice = choice / total;
+        let mut u = sampler.next_1d();
+        let mut ch = n - 1;
+        for i in 0..n {
+            if u < choice[i] {
+                ch = i;
+                break;
+            }
+            u -= choice[i];
+        }
+        let st_c = sigma_t[ch];
         let u_t = sampler.next_1d();
         let t = if st_c > 0.0 {
-            (-(1.0 - u_t as f64).ln() / st_c) as f32
+            -(1.0 - u_t).ln() / st_c
         } else {
             f32::INFINITY
         };
-        match geometry.intersect(&ray, t) {
-            Some(hit) => {
-                // Reached the surface: transmittance over probability of flying that far.
-                let d = hit.t as f64;
-                for i in 0..n {
-                    let x = -(sigma_t[i] as f64 - st_c) * d;
-                    log_f[i] += x;
-                    log_p[i] += x;
-                }
-                let w = weight(&log_f, &log_p);
-                if !w.is_finite() {
-                    return None;
-                }
-                *beta *= w;
-                return Some((hit, ray));
+        let hit = geometry.intersect(&ray, t);
+        let d = match hit {
+            Some(h) => h.t,
+            None if t.is_finite() => t,
+            None => return None,
+        };
+        // Transmittances relative to the chosen wavelength's (the common factor cancels in
+        // f / p; bounded by e^(17) since the flight is at most ~17 of its mean free paths).
+        let rel = SampledSpectrum::from_fn(|i| (-(sigma_t[i] - st_c) * d).exp());
+        // f_j / sum_i P_i p_i: reaching the surface passes it with probability T_i(d), a
+        // scattering event at d has density sigma_t,i T_i(d) and contributes sigma_s,j T_j(d).
+        let (f, p) = if hit.is_some() {
+            (rel, rel)
+        } else {
+            (sigma_s * rel, sigma_t * rel)
+        };
+        let denominator = (choice * p).sum();
+        *beta = SampledSpectrum::from_fn(|j| {
+            if j < n {
+                beta[j] * f[j] / denominator
+            } else {
+                0.0
             }
-            None => {
-                if !t.is_finite() {
+        });
+        if !beta.is_finite() {
+            return None;
+        }
+        if let Some(hit) = hit {
+            return Some((hit, ray));
+        }
+        let u = sampler.next_2d();
+        let dir = sample_hg(ray.dir, g, u.x, u.y);
+        ray = Ray::new_at(ray.at(t), dir, ray.time);
+        // Russian roulette on the largest throughput against the walk's start (every 4th
+        // event: survivors are boosted back to it).
+        if event >= RR_START && event % 4 == 0 {
+            let w_max = beta.max_component() / beta_start;
+            if !(w_max > 0.0) {
+                return None;
+            }
+            if w_max < 1.0 {
+                let q = (1.0 - w_max).clamp(0.0, 0.95);
+                if sampler.next_1d() < q {
                     return None;
                 }
-                let td = t as f64;
-                for i in 0..n {
-                    let rel = -(sigma_t[i] as f64 - st_c) * td - ln_st_c;
-                    log_f[i] += ln_ss[i] + rel;
-                    log_p[i] += ln_st[i] + rel;
-                }
-                let u = sampler.next_2d();
-                let dir = sample_hg(ray.dir, g, u.x, u.y);
-                ray = Ray::new_at(ray.at(t), dir, ray.time);
-                // Russian roulette (checked every 4th event: the weight needs exp/ln).
-                if event >= RR_START && event % 4 == 0 {
-                    let w_max = weight(&log_f, &log_p).max_component();
-                    if !(w_max > 0.0) {
-                        return None;
-                    }
-                    if w_max < 1.0 {
-                        let q = (1.0 - w_max).clamp(0.0, 0.95);
-                        if sampler.next_1d() < q {
-                            return None;
-                        }
-                        let boost = -((1.0 - q) as f64).ln();
-                        for v in log_f.iter_mut().take(n) {
-                            *v += boost;
-                        }
-                    }
-                }
+                *beta = *beta / (1.0 - q);
             }
         }
     }

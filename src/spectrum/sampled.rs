@@ -43,8 +43,12 @@ impl SampledSpectrum {
         self.0.iter().copied().fold(f32::MAX, f32::min)
     }
     #[inline]
+    pub fn sum(&self) -> f32 {
+        self.0.iter().sum::<f32>()
+    }
+    #[inline]
     pub fn average(&self) -> f32 {
-        self.0.iter().sum::<f32>() / N_WAVELENGTHS as f32
+        self.sum() / N_WAVELENGTHS as f32
     }
     #[inline]
     pub fn is_finite(&self) -> bool {
