@@ -125,7 +125,7 @@ pub fn walk(
                 if sampler.next_1d() < q {
                     return None;
                 }
-                *beta = *beta / (1.0 - q);
+                *beta /= 1.0 - q;
             }
         }
     }
