@@ -1332,3 +1332,73 @@ fn clearcoat_and_iridescence_are_read() {
         assert!(e.contains(want), "{e}");
     }
 }
+
+/// 8-bit sRGB glTF textures are decoded before bilinear filtering by default (the glTF
+/// specification; Khronos' TextureLinearInterpolationTest), and filtered in their encoded values
+/// and decoded after with the sidecar's `render.texture_filtering: "cycles"` (what Cycles does,
+/// and what the Blender add-on asks for). Halfway between texels of 0.8 and 0.1 (encoded) the
+/// two differ by 44%; at a texel's centre they agree.
+#[test]
+fn srgb_textures_filter_as_gltf_by_default_and_as_cycles_on_request() {
+    use prism::shading::image::{Extension, Interpolation};
+    use prism::spectrum::rgb::srgb_to_linear;
+    let dir = test_dir("srgb_filtering");
+    let mut b = GltfBuilder::basic();
+    let png = png_bytes(2, 1, &[[204, 204, 204, 255], [26, 26, 26, 255]]);
+    let img = b.image_embedded(&png, "image/png");
+    let tex = b.texture(img, None);
+    let m = b.material(
+        json!({ "name": "T", "pbrMetallicRoughness": { "baseColorTexture": { "index": tex } } }),
+    );
+    let q = b.quad_mesh("T", Some(m));
+    b.root(json!({ "name": "T", "mesh": q }));
+    let path = b.write_gltf(&dir.join("t.gltf"));
+    let (hi, lo) = (204.0 / 255.0, 26.0 / 255.0);
+    let at = |s: &SceneDesc, u: f32| {
+        let t = &s.textures[0];
+        t.image
+            .sample(
+                Vec2::new(u, 0.5),
+                Interpolation::Linear,
+                [Extension::Extend; 2],
+            )
+            .x
+    };
+    let gltf = load(&path);
+    assert!(!gltf.textures[0].image.srgb_encoded);
+    let mid = 0.5 * (srgb_to_linear(hi) + srgb_to_linear(lo));
+    assert!(
+        (at(&gltf, 0.5) - mid).abs() < 1e-5,
+        "{} vs {mid}",
+        at(&gltf, 0.5)
+    );
+    std::fs::write(
+        dir.join("t.materials.json"),
+        r#"{ "version": 1, "render": { "texture_filtering": "cycles" } }"#,
+    )
+    .unwrap();
+    let cycles = load(&path);
+    assert!(cycles.textures[0].image.srgb_encoded);
+    let mid_encoded = srgb_to_linear(0.5 * (hi + lo));
+    assert!(
+        (at(&cycles, 0.5) - mid_encoded).abs() < 1e-5,
+        "{} vs {mid_encoded}",
+        at(&cycles, 0.5)
+    );
+    assert!(mid_encoded < 0.7 * mid);
+    // Texel centres (u = 1/4, 3/4) read the texel's decoded value either way.
+    for u in [0.25, 0.75] {
+        assert!((at(&gltf, u) - at(&cycles, u)).abs() < 1e-6);
+    }
+    // A misspelt value is a one-line error naming the key.
+    std::fs::write(
+        dir.join("t.materials.json"),
+        r#"{ "version": 1, "render": { "texture_filtering": "blender" } }"#,
+    )
+    .unwrap();
+    let e = input_error(prism::scene::load_scene(&path, None, None));
+    assert!(
+        e.contains("render.texture_filtering") && e.contains("gltf, cycles"),
+        "{e}"
+    );
+}

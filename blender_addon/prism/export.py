@@ -2560,7 +2560,12 @@ def render_size(scene):
 def render_settings(scene):
     """The material JSON "render" block from the scene's Prism settings."""
     w, h = render_size(scene)
-    out = {"width": w, "height": h}
+    # Blender's 8-bit sRGB images are filtered in their encoded values in Cycles (the glTF
+    # specification, the renderer's default for glTF files, decodes first): a magnified
+    # high-contrast texture differs by a few percent otherwise. (Float images, rare as base
+    # colours, are written as 8-bit sRGB PNG for a glTF texture slot and so filtered encoded
+    # too, where Cycles filters them in linear values.)
+    out = {"width": w, "height": h, "texture_filtering": "cycles"}
     p = getattr(scene, "prism", None)
     if p is not None:
         out.update(spp=int(p.samples), max_depth=int(p.max_depth), wavelengths=p.wavelengths.lower())

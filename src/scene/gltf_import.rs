@@ -2502,6 +2502,7 @@ impl<'d> Importer<'d> {
             None => {
                 let decoded = self.image(image)?;
                 let texels = to_linear_texels(decoded, space);
+                let from_srgb_bytes = space == ColorSpace::Srgb && decoded.eight_bit;
                 let (width, height) = (decoded.width, decoded.height);
                 let img_json = &self.doc.as_json().images[image];
                 let tname = img_json
@@ -2509,14 +2510,10 @@ impl<'d> Importer<'d> {
                     .clone()
                     .or_else(|| img_json.uri.clone().filter(|u| !u.starts_with("data:")))
                     .unwrap_or_else(|| format!("image {image}"));
-                self.scene.textures.push(TextureDesc::new(
-                    tname,
-                    width,
-                    height,
-                    texels,
-                    [key.2, key.3],
-                    bilinear,
-                ));
+                let mut desc =
+                    TextureDesc::new(tname, width, height, texels, [key.2, key.3], bilinear);
+                desc.from_srgb_bytes = from_srgb_bytes;
+                self.scene.textures.push(desc);
                 let i = self.scene.textures.len() - 1;
                 self.texture_cache.insert(key, i);
                 i

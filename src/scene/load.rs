@@ -145,6 +145,11 @@ fn load_scene_inner(
             cam.panorama = c.panorama;
         }
         scene.render = mf.render;
+        if scene.render.texture_filtering.as_deref() == Some("cycles") {
+            for texture in &mut scene.textures {
+                texture.filter_encoded_as_cycles();
+            }
+        }
     }
 
     if !has_light(&scene) {

@@ -90,7 +90,10 @@
 //!   and indirect light, `crate::film::SampleClamp`), `film_transparent` (true | false:
 //!   Blender's Film > Transparent, camera rays see no world and alpha is coverage), `crop`
 //!   ([x, y, width, height] in pixels from the top-left corner: render only that window, as
-//!   Blender's render border; checked against the image size by the renderer).
+//!   Blender's render border; checked against the image size by the renderer),
+//!   `texture_filtering` (`"gltf"`, the default: 8-bit sRGB glTF textures are decoded before
+//!   filtering, as the glTF specification asks | `"cycles"`: filtered in their encoded values
+//!   and decoded after, as Cycles does; the Blender add-on writes it).
 //!
 //! Validation is strict and every error is one line:
 //! `<file>: <json path, e.g. materials.Skin.subsurface.sigma_a[1]>: <what is wrong>`
@@ -141,6 +144,10 @@ pub const WAVELENGTH_MODES: &[&str] = &["hero", "single", "stratified"];
 use crate::film::filter::{FilterKind, MAX_FILTER_WIDTH};
 use crate::lights::LightSelection;
 use crate::sampler::SamplerKind;
+
+/// Accepted values of `render.texture_filtering`: how 8-bit sRGB glTF textures are filtered
+/// (`crate::scene::desc::TextureDesc::filter_encoded_as_cycles`).
+pub const TEXTURE_FILTERINGS: &[&str] = &["gltf", "cycles"];
 
 /// Accepted values of `render.wavelength_pdf`.
 pub const WAVELENGTH_PDFS: &[&str] = &["rgb", "visible", "uniform"];
@@ -1300,6 +1307,7 @@ impl Validator<'_> {
                 "clamp_indirect",
                 "film_transparent",
                 "crop",
+                "texture_filtering",
             ],
             path,
         )?;
@@ -1427,6 +1435,18 @@ impl Validator<'_> {
                         &path.key("light_sampler"),
                         LightSelection::NAMES,
                         "light sampler",
+                    )
+                    .map(str::to_string)
+                })
+                .transpose()?,
+            texture_filtering: m
+                .get("texture_filtering")
+                .map(|x| {
+                    self.string(
+                        x,
+                        &path.key("texture_filtering"),
+                        TEXTURE_FILTERINGS,
+                        "texture filtering",
                     )
                     .map(str::to_string)
                 })
