@@ -16,12 +16,14 @@
 //! absorbed stop steering its flights. A choice fixed once per walk, combined over whole walks,
 //! is as unbiased but left a strongly coloured medium (jade: albedos 0.81 to 0.98 across the
 //! spectrum) with 1.24x the noise in the SSS Cornell box.
-//! Phase function: Henyey-Greenstein, sampled exactly (weight 1).
+//! Directions follow the Henyey-Greenstein phase function, mixed with Dwivedi's guide towards
+//! the surface the walk entered (`walk`).
 
 use crate::geometry::{Geometry, Hit, Ray};
-use crate::media::phase::{sample_hg, sample_hg_cos};
+use crate::media::phase::{hg_phase, sample_hg, sample_hg_cos};
 use crate::sampler::Sampler;
 use crate::spectrum::{SampledSpectrum, N_WAVELENGTHS};
+use glam::Vec3;
 use std::f32::consts::TAU;
 
 /// Upper bound on scattering events of one walk (a safety net: Russian roulette ends walks).
@@ -34,6 +36,16 @@ const RR_START: u32 = 16;
 /// `beta` by the walk's weight (only its first `n_active` wavelengths are live; the others
 /// become 0). `None` if the walk was absorbed, ended by Russian roulette, or escaped to
 /// infinity (an open mesh).
+///
+/// `guide`: the outward normal of the surface where the walk entered. With it, events after
+/// the first flight draw their direction and distance either as above or, with probability
+/// `guided_fraction(g)`, from Dwivedi sampling towards that surface (Krivanek & d'Eon 2014,
+/// "A Zero-variance-based Sampling Scheme for Monte Carlo Subsurface Scattering"; the
+/// direction density of Meng, Hanika & Dachsbacher 2016, "Improving the Dwivedi Sampling
+/// Scheme", eq. 9-10), combined with the classical sampling by the balance heuristic (one
+/// sample MIS over both strategies and all wavelengths). Walks reach the surface again in
+/// fewer events: on the SSS Cornell box's jade, 0.84x the noise at +1.5% time (64 spp, 12
+/// pairs of renders). Cycles' random walk guides the same way.
 #[allow(clippy::too_many_arguments)]
 pub fn walk(
     geometry: &Geometry,
@@ -42,6 +54,7 @@ pub fn walk(
     sigma_s: SampledSpectrum,
     g: f32,
     n_active: usize,
+    guide: Option<Vec3>,
     sampler: &mut Sampler,
     beta: &mut SampledSpectrum,
 ) -> Option<(Hit, Ray)> {
@@ -54,8 +67,30 @@ pub fn walk(
             0.0
         }
     });
+    // Dwivedi's diffusion length nu (in mean free paths) of the most scattering wavelength:
+    // the slowest decaying one, which the guide must not over-steer (d'Eon & Krivanek 2020,
+    // "Zero-Variance Theory for Efficient Subsurface Scattering", eq. 67's fit of
+    // 1 = (alpha nu / 2) ln((nu + 1) / (nu - 1))).
+    let a_max = albedo.max_component().clamp(1e-3, 0.999_999);
+    let nu = 1.0
+        / (1.0 - a_max.powf(2.44294 - 0.0215813 * a_max + 0.578637 / a_max))
+            .max(1e-12)
+            .sqrt();
+    let guided_fraction = guided_fraction(g);
+    let n_out = guide.unwrap_or(Vec3::Z);
+    let guide = guide.is_some() && guided_fraction > 0.0 && nu > 1.0 + 1e-4 && nu.is_finite();
+    // ln((nu + 1) / (nu - 1)): the guided cosine density's normalisation.
+    let log_nu = if guide {
+        ((nu + 1.0) / (nu - 1.0)).ln()
+    } else {
+        1.0
+    };
     // Russian roulette compares the largest throughput with the walk's start.
     let beta_start = beta.max_component();
+    // HG density of the current direction given the previous one (after the first flight),
+    // and whether the guide drew it.
+    let mut phase_pdf = 0.0f32;
+    let mut guided_now = false;
     for event in 0..MAX_SCATTER {
         // The wavelength whose extinction draws this flight: P_i ~ beta_i alpha_i.
         let choice = SampledSpectrum::from_fn(|i| (beta[i] * albedo[i]).max(0.0));
@@ -73,10 +108,15 @@ pub fn walk(
             }
             u -= choice[i];
         }
-        let st_c = sigma_t[ch];
         let u_t = sampler.next_1d();
-        let t = if st_c > 0.0 {
-            -(1.0 - u_t).ln() / st_c
+        // After the first flight both strategies could have drawn this direction; a guided
+        // flight towards the surface (mu > 0) sees its extinction stretched by 1 - mu / nu.
+        let mixed = event > 0 && guide;
+        let mu = ray.dir.dot(n_out).clamp(-1.0, 1.0);
+        let stretch = 1.0 - mu / nu;
+        let sample_sigma = sigma_t[ch] * if mixed && guided_now { stretch } else { 1.0 };
+        let t = if sample_sigma > 0.0 {
+            -(1.0 - u_t).ln() / sample_sigma
         } else {
             f32::INFINITY
         };
@@ -86,17 +126,32 @@ pub fn walk(
             None if t.is_finite() => t,
             None => return None,
         };
-        // Transmittances relative to the chosen wavelength's (the common factor cancels in
-        // f / p; bounded by e^(17) since the flight is at most ~17 of its mean free paths).
-        let rel = SampledSpectrum::from_fn(|i| (-(sigma_t[i] - st_c) * d).exp());
-        // f_j / sum_i P_i p_i: reaching the surface passes it with probability T_i(d), a
-        // scattering event at d has density sigma_t,i T_i(d) and contributes sigma_s,j T_j(d).
-        let (f, p) = if hit.is_some() {
-            (rel, rel)
+        // Transmittances over d relative to the one sampled (the common factor cancels in
+        // f / p; bounded by e^17, as the flight is at most ~17 of the sampled mean free paths).
+        let rel =
+            |s: f32| SampledSpectrum::from_fn(|i| (-(sigma_t[i] * s - sample_sigma) * d).exp());
+        // f_j / sum of the strategies' densities: reaching the surface passes it with
+        // probability T(d), a scattering event at d has density sigma_t T(d) and contributes
+        // sigma_s,j T_j(d) (times the phase function, which the classical direction density
+        // cancels; the guided one enters as its ratio to it).
+        let classic = rel(1.0);
+        let (f, p_classic) = if hit.is_some() {
+            (classic, classic)
         } else {
-            (sigma_s * rel, sigma_t * rel)
+            (sigma_s * classic, sigma_t * classic)
         };
-        let denominator = (choice * p).sum();
+        let mut denominator = (choice * p_classic).sum();
+        if mixed {
+            let gd = rel(stretch);
+            let p_g = if hit.is_some() {
+                gd
+            } else {
+                sigma_t * stretch * gd
+            };
+            let q = 1.0 / (2.0 * std::f32::consts::PI * log_nu * (nu - mu));
+            denominator = (1.0 - guided_fraction) * denominator
+                + guided_fraction * (q / phase_pdf.max(1e-30)) * (choice * p_g).sum();
+        }
         *beta = SampledSpectrum::from_fn(|j| {
             if j < n {
                 beta[j] * f[j] / denominator
@@ -110,9 +165,22 @@ pub fn walk(
         if let Some(hit) = hit {
             return Some((hit, ray));
         }
-        let u = sampler.next_2d();
-        let dir = sample_hg(ray.dir, g, u.x, u.y);
-        ray = Ray::new_at(ray.at(t), dir, ray.time);
+        // The next direction: from the phase function, or Dwivedi's cosine density
+        // 1 / (2 pi ln((nu + 1) / (nu - 1)) (nu - mu)) about the outward normal, inverted.
+        let u2 = sampler.next_2d();
+        guided_now = guide && sampler.next_1d() < guided_fraction;
+        let new_dir = if guided_now {
+            let mu = (nu - (nu + 1.0) * (-u2.x * log_nu).exp()).clamp(-1.0, 1.0);
+            let sin = (1.0 - mu * mu).max(0.0).sqrt();
+            let phi = TAU * u2.y;
+            crate::math::Frame::from_normal(n_out)
+                .to_world(Vec3::new(sin * phi.cos(), sin * phi.sin(), mu))
+                .normalize()
+        } else {
+            sample_hg(ray.dir, g, u2.x, u2.y)
+        };
+        phase_pdf = hg_phase(ray.dir.dot(new_dir), g);
+        ray = Ray::new_at(ray.at(t), new_dir, ray.time);
         // Russian roulette on the largest throughput against the walk's start (every 4th
         // event: survivors are boosted back to it).
         if event >= RR_START && event % 4 == 0 {
@@ -130,6 +198,14 @@ pub fn walk(
         }
     }
     None
+}
+
+/// The probability of a guided event: Dwivedi's guide assumes isotropic scattering, so it
+/// takes half the events at g = 0 (measured on the SSS Cornell box's jade: 0.84x the noise;
+/// a quarter gave no gain) and fades out as the phase function grows anisotropic, where the
+/// phase function's own sampling matches the transport better.
+fn guided_fraction(g: f32) -> f32 {
+    0.5 * (1.0 - g.abs()).clamp(0.0, 1.0).powi(4)
 }
 
 /// Total diffuse reflectance of a random walk with a Lambertian boundary (every walk that

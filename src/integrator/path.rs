@@ -100,6 +100,8 @@ struct PathState<'a> {
     /// The random-walk subsurface medium the ray travels inside, if any (as at its entry
     /// point: a textured colour gives each entry its own coefficients).
     walk_medium: Option<SubsurfaceAt<'a>>,
+    /// The outward geometric normal where the random walk entered (its guide).
+    walk_entry_normal: Option<glam::Vec3>,
     guides: DenoiseGuides,
     guides_done: bool,
     /// Tint of the specular chain from the camera, for the albedo guide.
@@ -650,6 +652,7 @@ impl<'a> PathTracer<'a> {
             media: self.camera_media,
             eta_scale: 1.0,
             walk_medium: None,
+            walk_entry_normal: None,
             guides: DenoiseGuides::default(),
             guides_done: false,
             guide_tint: SampledSpectrum::ONE,
@@ -686,16 +689,18 @@ impl<'a> PathTracer<'a> {
                 Some(ss) => {
                     let (sigma_a, sigma_s) = ss.walk_coefficients(&st.alive);
                     let n = active_wavelengths(&st.alive);
-                    match random_walk::walk(
+                    let result = random_walk::walk(
                         geometry,
                         st.ray,
                         sigma_a,
                         sigma_s,
                         ss.g,
                         n,
+                        st.walk_entry_normal,
                         sampler,
                         &mut st.beta,
-                    ) {
+                    );
+                    match result {
                         Some((hit, last)) => {
                             st.ray = last;
                             Some(hit)
@@ -1351,6 +1356,11 @@ impl<'a> PathTracer<'a> {
                 Some(s) if entering && s.method == SubsurfaceMethod::RandomWalk => Some(s),
                 _ => None,
             };
+            if st.walk_medium.is_some() {
+                // Outward geometric normal at the entry (the ray leaves against it).
+                let ng = v.sp.ng;
+                st.walk_entry_normal = Some(if wi_world.dot(ng) < 0.0 { ng } else { -ng });
+            }
             if v.subsurface
                 .is_some_and(|s| s.boundary == WalkBoundary::Lambertian)
                 && st.walk_medium.is_some()

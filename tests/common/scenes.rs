@@ -220,6 +220,7 @@ pub fn slab_walk_exit(
             SampledSpectrum::splat(sigma_s),
             0.0,
             1,
+            Some(Vec3::Z), // guided towards the top face, as the renderer guides its walks
             sampler,
             &mut beta,
         )?;
