@@ -186,9 +186,20 @@ impl MetallicRoughnessBsdf {
             let rise = |f0: f32| f0 + (1.0 - f0) * fh;
             return (self.dielectric_f0().map(rise), self.base_color.map(rise));
         }
+        // A part without weight is not evaluated: most materials are all dielectric or all
+        // metal, and every caller weighs the parts by 1 - metallic and metallic.
+        let m = self.metallic();
         (
-            self.dielectric_fresnel(cos),
-            self.filmed_conductor_fresnel(cos),
+            if m < 1.0 {
+                self.dielectric_fresnel(cos)
+            } else {
+                SampledSpectrum::ZERO
+            },
+            if m > 0.0 {
+                self.filmed_conductor_fresnel(cos)
+            } else {
+                SampledSpectrum::ZERO
+            },
         )
     }
 
@@ -551,19 +562,23 @@ impl MetallicRoughnessBsdf {
             }
         };
 
-        // Hemispherical average of the conductor's Fresnel: Schlick's, minus the F82 term's
-        // 2 int a mu^2 (1 - mu)^6 dmu = a / 126.
-        let mut fc_avg = self
-            .base_color
-            .map(|b| b + (1.0 - b) * SCHLICK_WEIGHT_AVERAGE);
-        if let Some(a) = self.f82_tint_scale() {
-            fc_avg = (fc_avg - a * (1.0 / 126.0)).clamp_zero();
-        }
-        if let Some(f) = film.as_ref().filter(|_| self.metallic() > 0.0) {
-            fc_avg = f.conductor_avg;
-        }
         let boost_d = fd_avg.map(|f| multiscatter_boost(f, albedo.e, average.e));
-        let boost_c = fc_avg.map(|f| multiscatter_boost(f, albedo.e, average.e));
+        // The conductor's boost, if there is a metallic part. Hemispherical average of its
+        // Fresnel: Schlick's, minus the F82 term's 2 int a mu^2 (1 - mu)^6 dmu = a / 126.
+        let boost_c = if self.metallic() > 0.0 {
+            let mut fc_avg = self
+                .base_color
+                .map(|b| b + (1.0 - b) * SCHLICK_WEIGHT_AVERAGE);
+            if let Some(a) = self.f82_tint_scale() {
+                fc_avg = (fc_avg - a * (1.0 / 126.0)).clamp_zero();
+            }
+            if let Some(f) = film.as_ref() {
+                fc_avg = f.conductor_avg;
+            }
+            fc_avg.map(|f| multiscatter_boost(f, albedo.e, average.e))
+        } else {
+            SampledSpectrum::ONE
+        };
         let specular_o = self.layer_reflectance(albedo, boost_d);
         Some(Layers {
             boost_d,
