@@ -40,9 +40,28 @@ fn chandrasekhar_h1(alpha: f64) -> f64 {
     at(&h, 1.0)
 }
 
+/// A walk entering the slab at the origin straight down with throughput `beta` (isotropic,
+/// `n` live wavelengths, guided by `guide`): the height z where it leaves (0 for the top face)
+/// and its weight; None if it is absorbed. No Fresnel: every boundary hit leaves.
+#[allow(clippy::too_many_arguments)]
+fn walk_from_top(
+    geometry: &Geometry,
+    sigma_a: SampledSpectrum,
+    sigma_s: SampledSpectrum,
+    n: usize,
+    guide: Option<Vec3>,
+    mut beta: SampledSpectrum,
+    sampler: &mut Sampler,
+) -> Option<(f32, SampledSpectrum)> {
+    let ray = Ray::new(Vec3::new(0.0, 0.0, -1e-4), -Vec3::Z);
+    let (hit, last) = walk(
+        geometry, ray, sigma_a, sigma_s, 0.0, n, guide, sampler, &mut beta,
+    )?;
+    Some((last.at(hit.t).z, beta))
+}
+
 /// The weight per wavelength with which a walk entering the half-space at the origin straight
-/// down leaves through its top face (z = 0); None if it is absorbed or leaves elsewhere. No
-/// Fresnel: every boundary hit leaves.
+/// down leaves through its top face (z = 0); None if it is absorbed or leaves elsewhere.
 fn reflected(
     geometry: &Geometry,
     sigma_a: SampledSpectrum,
@@ -51,20 +70,9 @@ fn reflected(
     guide: Option<Vec3>,
     sampler: &mut Sampler,
 ) -> Option<SampledSpectrum> {
-    let origin = Vec3::new(0.0, 0.0, -1e-4);
-    let mut beta = SampledSpectrum::ONE;
-    let (hit, last) = walk(
-        geometry,
-        Ray::new(origin, -Vec3::Z),
-        sigma_a,
-        sigma_s,
-        0.0,
-        n,
-        guide,
-        sampler,
-        &mut beta,
-    )?;
-    (last.at(hit.t).z.abs() < 1e-2).then_some(beta)
+    let one = SampledSpectrum::ONE;
+    let (z, beta) = walk_from_top(geometry, sigma_a, sigma_s, n, guide, one, sampler)?;
+    (z.abs() < 1e-2).then_some(beta)
 }
 
 /// Mean and standard error per wavelength of the reflected weight over `walks` walks.
@@ -182,20 +190,10 @@ fn walks_in_a_coloured_medium_keep_the_pixel_sum_tight() {
             .into_par_iter()
             .map(|k| {
                 let mut sampler = Sampler::new(0, k as u64, 11);
-                let origin = Vec3::new(0.0, 0.0, -1e-4);
-                let mut beta = SampledSpectrum::from_fn(|i| entry[i]);
-                let s = match walk(
-                    &geometry,
-                    Ray::new(origin, -Vec3::Z),
-                    sigma_a,
-                    sigma_s,
-                    0.0,
-                    4,
-                    guide,
-                    &mut sampler,
-                    &mut beta,
-                ) {
-                    Some((hit, last)) if last.at(hit.t).z.abs() < 1e-2 => beta.sum() as f64,
+                let entry = SampledSpectrum::from_fn(|i| entry[i]);
+                let out = walk_from_top(&geometry, sigma_a, sigma_s, 4, guide, entry, &mut sampler);
+                let s = match out {
+                    Some((z, beta)) if z.abs() < 1e-2 => beta.sum() as f64,
                     _ => 0.0,
                 };
                 (s, s * s)
@@ -235,24 +233,14 @@ fn guided_walks_keep_the_light_through_a_thin_slab() {
             .into_par_iter()
             .map(|k| {
                 let mut sampler = Sampler::new(0, k as u64, 3);
-                let mut beta = SampledSpectrum::ONE;
-                let origin = Vec3::new(0.0, 0.0, -1e-4);
-                let ray = Ray::new(origin, -Vec3::Z);
-                let out = walk(
-                    &geometry,
-                    ray,
-                    sigma_a,
-                    sigma_s,
-                    0.0,
-                    1,
-                    guide,
-                    &mut sampler,
-                    &mut beta,
-                );
-                let w = beta[0] as f64;
-                match out.map(|(hit, last)| last.at(hit.t).z) {
-                    Some(z) if z.abs() < 1e-2 => [w, w * w, 0.0, 0.0],
-                    Some(z) if (z + depth).abs() < 1e-2 => [0.0, 0.0, w, w * w],
+                let one = SampledSpectrum::ONE;
+                match walk_from_top(&geometry, sigma_a, sigma_s, 1, guide, one, &mut sampler) {
+                    Some((z, beta)) if z.abs() < 1e-2 => {
+                        [beta[0] as f64, (beta[0] as f64).powi(2), 0.0, 0.0]
+                    }
+                    Some((z, beta)) if (z + depth).abs() < 1e-2 => {
+                        [0.0, 0.0, beta[0] as f64, (beta[0] as f64).powi(2)]
+                    }
                     _ => [0.0; 4],
                 }
             })

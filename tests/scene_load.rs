@@ -575,18 +575,23 @@ fn material_fields() {
 
 /// A missing picture is an optional asset: Blender's magenta and a warning naming the image and
 /// its path, not a failed render (as Cycles).
-#[test]
-fn missing_image_file_is_magenta_with_a_warning() {
-    let dir = test_dir("missing_image");
-    let mut b = GltfBuilder::basic();
-    let img = b.image_uri("textures/albedo%20map.png");
+/// Writes `b` with a quad "T" whose material's base colour is image `img`, to `path`.
+fn textured_quad(mut b: GltfBuilder, img: usize, path: &Path) -> std::path::PathBuf {
     let tex = b.texture(img, None);
     let m = b.material(
         json!({ "name": "T", "pbrMetallicRoughness": { "baseColorTexture": { "index": tex } } }),
     );
     let q = b.quad_mesh("T", Some(m));
     b.root(json!({ "name": "T", "mesh": q }));
-    let path = b.write_gltf(&dir.join("t.gltf"));
+    b.write_gltf(path)
+}
+
+#[test]
+fn missing_image_file_is_magenta_with_a_warning() {
+    let dir = test_dir("missing_image");
+    let mut b = GltfBuilder::basic();
+    let img = b.image_uri("textures/albedo%20map.png");
+    let path = textured_quad(b, img, &dir.join("t.gltf"));
     let s = load(&path);
     assert_eq!(s.textures.len(), 1);
     assert_eq!(
@@ -1346,13 +1351,7 @@ fn srgb_textures_filter_as_gltf_by_default_and_as_cycles_on_request() {
     let mut b = GltfBuilder::basic();
     let png = png_bytes(2, 1, &[[204, 204, 204, 255], [26, 26, 26, 255]]);
     let img = b.image_embedded(&png, "image/png");
-    let tex = b.texture(img, None);
-    let m = b.material(
-        json!({ "name": "T", "pbrMetallicRoughness": { "baseColorTexture": { "index": tex } } }),
-    );
-    let q = b.quad_mesh("T", Some(m));
-    b.root(json!({ "name": "T", "mesh": q }));
-    let path = b.write_gltf(&dir.join("t.gltf"));
+    let path = textured_quad(b, img, &dir.join("t.gltf"));
     let (hi, lo) = (204.0 / 255.0, 26.0 / 255.0);
     let at = |s: &SceneDesc, u: f32| {
         let t = &s.textures[0];
