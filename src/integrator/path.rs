@@ -689,7 +689,7 @@ impl<'a> PathTracer<'a> {
                 Some(ss) => {
                     let (sigma_a, sigma_s) = ss.walk_coefficients(&st.alive);
                     let n = active_wavelengths(&st.alive);
-                    let result = random_walk::walk(
+                    match random_walk::walk(
                         geometry,
                         st.ray,
                         sigma_a,
@@ -699,8 +699,7 @@ impl<'a> PathTracer<'a> {
                         st.walk_entry_normal,
                         sampler,
                         &mut st.beta,
-                    );
-                    match result {
+                    ) {
                         Some((hit, last)) => {
                             st.ray = last;
                             Some(hit)
