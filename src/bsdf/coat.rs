@@ -195,10 +195,12 @@ impl Coat {
             let distrib = self.distribution();
             let s = distrib.d(h) * distrib.g(wo, wi) / (4.0 * wo.z * wi.z);
             if s.is_finite() && s > 0.0 {
-                f += self.fresnel(wo.dot(h), energy_conserving) * s;
-                if energy_conserving {
-                    f *= self.boost(wo.z);
-                }
+                let boost = if energy_conserving {
+                    self.boost(wo.z)
+                } else {
+                    1.0
+                };
+                f = self.fresnel(wo.dot(h), energy_conserving) * s * boost;
             }
         }
         w * f

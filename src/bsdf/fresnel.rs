@@ -115,6 +115,7 @@ pub fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
 
 #[cfg(test)]
 mod tests {
+    use super::*;
 
     /// The entering-only Fresnel is the general one for eta >= 1 and cosines in [0, 1].
     #[test]
@@ -130,7 +131,6 @@ mod tests {
             }
         }
     }
-    use super::*;
 
     #[test]
     fn normal_incidence_and_brewster() {

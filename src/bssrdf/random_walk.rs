@@ -20,6 +20,8 @@
 //! the surface the walk entered (`walk`).
 
 use crate::geometry::{Geometry, Hit, Ray};
+use crate::math::sampling::spherical_direction;
+use crate::math::Frame;
 use crate::media::phase::{hg_phase, sample_hg, sample_hg_cos};
 use crate::sampler::Sampler;
 use crate::spectrum::{SampledSpectrum, N_WAVELENGTHS};
@@ -227,15 +229,17 @@ pub fn walk(
         let new_dir = if guided_now {
             let mu = (nu - (nu + 1.0) * (-u2.x * log_nu).exp()).clamp(-1.0, 1.0);
             let sin = (1.0 - mu * mu).max(0.0).sqrt();
-            let phi = TAU * u2.y;
             let axis = if backward_now { -n_out } else { n_out };
-            crate::math::Frame::from_normal(axis)
-                .to_world(Vec3::new(sin * phi.cos(), sin * phi.sin(), mu))
+            Frame::from_normal(axis)
+                .to_world(spherical_direction(sin, mu, TAU * u2.y))
                 .normalize()
         } else {
             sample_hg(ray.dir, g, u2.x, u2.y)
         };
-        phase_pdf = hg_phase(ray.dir.dot(new_dir), g);
+        // Only the guided events' MIS needs the phase function's density.
+        if guide {
+            phase_pdf = hg_phase(ray.dir.dot(new_dir), g);
+        }
         ray = Ray::new_at(position, new_dir, ray.time);
         // Russian roulette on the largest throughput against the walk's start (every 4th
         // event: survivors are boosted back to it).

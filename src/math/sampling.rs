@@ -54,12 +54,18 @@ pub fn uniform_hemisphere_pdf() -> f32 {
     INV_2PI
 }
 
+/// The unit vector at polar angle theta (given by its sine and cosine) from +z and azimuth
+/// `phi` from +x.
+#[inline]
+pub fn spherical_direction(sin_theta: f32, cos_theta: f32, phi: f32) -> Vec3 {
+    Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta)
+}
+
 /// Uniform direction inside a cone around +z with the given cosine of the half-angle.
 pub fn sample_uniform_cone(u: Vec2, cos_theta_max: f32) -> Vec3 {
     let cos_theta = (1.0 - u.x) + u.x * cos_theta_max;
     let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
-    Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta)
+    spherical_direction(sin_theta, cos_theta, 2.0 * PI * u.y)
 }
 
 #[inline]
@@ -74,8 +80,7 @@ pub fn sample_uniform_cone_one_minus_cos(u: Vec2, one_minus_cos_max: f32) -> Vec
     let one_minus = u.x * one_minus_cos_max;
     let cos_theta = 1.0 - one_minus;
     let sin_theta = (one_minus * (2.0 - one_minus)).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
-    Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta)
+    spherical_direction(sin_theta, cos_theta, 2.0 * PI * u.y)
 }
 
 /// Density of [`sample_uniform_cone_one_minus_cos`] (per steradian).

@@ -1,6 +1,7 @@
 //! The Henyey-Greenstein phase function (Henyey & Greenstein 1941), used by volumes and by the
 //! random-walk subsurface medium, and mixtures of it for overlapping volumes.
 
+use crate::math::sampling::spherical_direction;
 use crate::math::Frame;
 use glam::Vec3;
 use std::f32::consts::PI;
@@ -29,15 +30,8 @@ pub fn sample_hg_cos(g: f32, u: f32) -> f32 {
 pub fn sample_hg(dir: Vec3, g: f32, u1: f32, u2: f32) -> Vec3 {
     let cos_theta = sample_hg_cos(g, u1);
     let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-    let phi = 2.0 * PI * u2;
-    let frame = Frame::from_normal(dir);
-    frame
-        .to_world(Vec3::new(
-            sin_theta * phi.cos(),
-            sin_theta * phi.sin(),
-            cos_theta,
-        ))
-        .normalize()
+    let local = spherical_direction(sin_theta, cos_theta, 2.0 * PI * u2);
+    Frame::from_normal(dir).to_world(local).normalize()
 }
 
 /// Most volumes a point can be inside at once (`super::MediumStack`).
