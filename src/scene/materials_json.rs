@@ -1316,46 +1316,27 @@ impl Validator<'_> {
                 .map(|x| self.uint(x, &path.key(k), min))
                 .transpose()
         };
+        // A string from a fixed set of names.
+        let choice = |k: &str, allowed: &[&str], what: &str| -> R<Option<String>> {
+            m.get(k)
+                .map(|x| {
+                    self.string(x, &path.key(k), allowed, what)
+                        .map(str::to_string)
+                })
+                .transpose()
+        };
         Ok(RenderDefaults {
             spp: get("spp", 1)?,
             width: get("width", 1)?,
             height: get("height", 1)?,
             max_depth: get("max_depth", 0)?,
-            wavelengths: m
-                .get("wavelengths")
-                .map(|x| {
-                    self.string(
-                        x,
-                        &path.key("wavelengths"),
-                        WAVELENGTH_MODES,
-                        "wavelength mode",
-                    )
-                    .map(str::to_string)
-                })
-                .transpose()?,
-            wavelength_pdf: m
-                .get("wavelength_pdf")
-                .map(|x| {
-                    self.string(
-                        x,
-                        &path.key("wavelength_pdf"),
-                        WAVELENGTH_PDFS,
-                        "wavelength pdf",
-                    )
-                    .map(str::to_string)
-                })
-                .transpose()?,
+            wavelengths: choice("wavelengths", WAVELENGTH_MODES, "wavelength mode")?,
+            wavelength_pdf: choice("wavelength_pdf", WAVELENGTH_PDFS, "wavelength pdf")?,
             filter: m
                 .get("filter")
                 .map(|f| self.filter(f, &path.key("filter")))
                 .transpose()?,
-            sampler: m
-                .get("sampler")
-                .map(|x| {
-                    self.string(x, &path.key("sampler"), SamplerKind::NAMES, "sampler")
-                        .map(str::to_string)
-                })
-                .transpose()?,
+            sampler: choice("sampler", SamplerKind::NAMES, "sampler")?,
             noise_threshold: m
                 .get("noise_threshold")
                 .map(|x| self.number(x, &path.key("noise_threshold"), Range::NonNeg))
@@ -1365,30 +1346,12 @@ impl Validator<'_> {
                 .get("denoise")
                 .map(|x| self.boolean(x, &path.key("denoise")))
                 .transpose()?,
-            denoise_quality: m
-                .get("denoise_quality")
-                .map(|x| {
-                    self.string(
-                        x,
-                        &path.key("denoise_quality"),
-                        DenoiseQuality::NAMES,
-                        "denoise quality",
-                    )
-                    .map(str::to_string)
-                })
-                .transpose()?,
-            denoise_prefilter: m
-                .get("denoise_prefilter")
-                .map(|x| {
-                    self.string(
-                        x,
-                        &path.key("denoise_prefilter"),
-                        DenoisePrefilter::NAMES,
-                        "denoise prefilter",
-                    )
-                    .map(str::to_string)
-                })
-                .transpose()?,
+            denoise_quality: choice("denoise_quality", DenoiseQuality::NAMES, "denoise quality")?,
+            denoise_prefilter: choice(
+                "denoise_prefilter",
+                DenoisePrefilter::NAMES,
+                "denoise prefilter",
+            )?,
             clamp_direct: m
                 .get("clamp_direct")
                 .map(|x| self.number(x, &path.key("clamp_direct"), Range::NonNeg))
@@ -1427,30 +1390,12 @@ impl Validator<'_> {
                         .map(|v| v as f64)
                 })
                 .transpose()?,
-            light_sampler: m
-                .get("light_sampler")
-                .map(|x| {
-                    self.string(
-                        x,
-                        &path.key("light_sampler"),
-                        LightSelection::NAMES,
-                        "light sampler",
-                    )
-                    .map(str::to_string)
-                })
-                .transpose()?,
-            texture_filtering: m
-                .get("texture_filtering")
-                .map(|x| {
-                    self.string(
-                        x,
-                        &path.key("texture_filtering"),
-                        TEXTURE_FILTERINGS,
-                        "texture filtering",
-                    )
-                    .map(str::to_string)
-                })
-                .transpose()?,
+            light_sampler: choice("light_sampler", LightSelection::NAMES, "light sampler")?,
+            texture_filtering: choice(
+                "texture_filtering",
+                TEXTURE_FILTERINGS,
+                "texture filtering",
+            )?,
         })
     }
 
