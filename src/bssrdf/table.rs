@@ -24,10 +24,14 @@
 //! reduced coefficients (similarity theory, sigma_s' = sigma_s (1 - g)).
 
 use crate::bsdf::fresnel_dielectric;
-use crate::math::catmull_rom::{catmull_rom_weights, integrate_catmull_rom};
+use crate::math::catmull_rom::{
+    catmull_rom_weights, catmull_rom_weights_in, integrate_catmull_rom,
+};
 
 pub const N_ALBEDO: usize = 100;
 pub const N_RADIUS: usize = 64;
+/// Ratio of consecutive optical radii of the table (after 0 and 2.5e-3).
+const RADIUS_GROWTH: f32 = 1.2;
 /// Fraction of the profile's integral inside the probe radius r_max.
 pub const R_MAX_QUANTILE: f32 = 0.999;
 /// Quadrature points per depth integral (both the multiple- and the single-scattering term).
@@ -171,7 +175,7 @@ impl BssrdfTable {
         let mut radii = vec![0.0f32; N_RADIUS];
         radii[1] = 2.5e-3;
         for j in 2..N_RADIUS {
-            radii[j] = radii[j - 1] * 1.2;
+            radii[j] = radii[j - 1] * RADIUS_GROWTH;
         }
         let mut profile = vec![0.0f32; N_ALBEDO * N_RADIUS];
         let mut profile_cdf = vec![0.0f32; N_ALBEDO * N_RADIUS];
@@ -245,8 +249,7 @@ impl BssrdfTable {
         albedo_weights: Option<(isize, [f32; 4])>,
         r_optical: f32,
     ) -> (f32, f32) {
-        let (Some((oa, wa)), Some((or, wr))) =
-            (albedo_weights, catmull_rom_weights(&self.radii, r_optical))
+        let (Some((oa, wa)), Some((or, wr))) = (albedo_weights, self.radius_weights(r_optical))
         else {
             return (0.0, 0.0);
         };
@@ -271,6 +274,32 @@ impl BssrdfTable {
             value /= 2.0 * std::f32::consts::PI * r_optical;
         }
         (value.max(0.0), eff)
+    }
+
+    /// `catmull_rom_weights(&self.radii, r)`, with the segment found from the radii's
+    /// geometric growth (r_j = r_1 1.2^(j - 1)) instead of a binary search: every probe hit
+    /// evaluates the profile a dozen times (three axes by the path's wavelengths).
+    fn radius_weights(&self, r: f32) -> Option<(isize, [f32; 4])> {
+        let radii = &self.radii;
+        if !(r >= 0.0 && r <= radii[N_RADIUS - 1]) {
+            return None;
+        }
+        let guess = if r < radii[1] {
+            0
+        } else {
+            1 + ((r / radii[1]).ln() * (1.0 / RADIUS_GROWTH.ln())) as usize
+        };
+        // The segment containing r: the last node at or below r (the table's last segment
+        // for its last node), as the search finds it; the guess is off by at most one where
+        // rounding meets a node.
+        let mut i = guess.min(N_RADIUS - 2);
+        while i > 0 && radii[i] > r {
+            i -= 1;
+        }
+        while i + 2 < N_RADIUS && radii[i + 1] <= r {
+            i += 1;
+        }
+        Some(catmull_rom_weights_in(radii, r, i))
     }
 
     /// Samples an optical radius with density proportional to 2 pi r R(r) for albedo `rho`.
@@ -299,6 +328,30 @@ mod tests {
         let fit = -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta;
         let fdr = 2.0 * fresnel_moment_internal(eta, 1) as f32;
         assert!((fdr - fit).abs() < 0.01, "{fdr} vs {fit}");
+    }
+
+    #[test]
+    fn radius_weights_match_the_search() {
+        let t = BssrdfTable::new(1.33);
+        let r_last = t.radii[N_RADIUS - 1];
+        // Every node, its float neighbours (where rounding could mislead the closed form),
+        // points between the nodes and the ends; outside the table: None either way.
+        let mut radii = vec![0.0, -1e-9, r_last, r_last * 1.0001, f32::NAN, 1e-7];
+        for &r in &t.radii {
+            radii.extend([
+                r,
+                f32::from_bits(r.to_bits() + 1),
+                f32::from_bits(r.to_bits().max(1) - 1),
+            ]);
+        }
+        radii.extend((0..10_000).map(|k| r_last * (k as f32 / 10_000.0).powi(3)));
+        for r in radii {
+            assert_eq!(
+                t.radius_weights(r),
+                catmull_rom_weights(&t.radii, r),
+                "radius {r:e}"
+            );
+        }
     }
 
     #[test]

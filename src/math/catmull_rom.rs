@@ -23,7 +23,13 @@ pub fn catmull_rom_weights(nodes: &[f32], x: f32) -> Option<(isize, [f32; 4])> {
     if n < 2 || !(x >= nodes[0] && x <= nodes[n - 1]) {
         return None;
     }
-    let i = find_segment(nodes, x);
+    Some(catmull_rom_weights_in(nodes, x, find_segment(nodes, x)))
+}
+
+/// `catmull_rom_weights` for an `x` inside the nodes whose segment `i` the caller knows (a
+/// table with a closed-form node spacing finds it without the search).
+pub fn catmull_rom_weights_in(nodes: &[f32], x: f32, i: usize) -> (isize, [f32; 4]) {
+    let n = nodes.len();
     let (x1, x2) = (nodes[i], nodes[i + 1]);
     let width = x2 - x1;
     let t = if width > 0.0 { (x - x1) / width } else { 0.0 };
@@ -51,7 +57,7 @@ pub fn catmull_rom_weights(nodes: &[f32], x: f32) -> Option<(isize, [f32; 4])> {
         w[1] -= h11;
         w[2] += h11;
     }
-    Some((i as isize - 1, w))
+    (i as isize - 1, w)
 }
 
 /// Evaluates the spline through (nodes, values) at `x` (0 outside the nodes).
