@@ -456,6 +456,78 @@ impl SwLobe {
     }
 }
 
+/// The surfaces of `material` along the probe segment `ray.origin + t ray.dir`, t in
+/// (0, `length`), in order along it (at most `MAX_PROBE_HITS`), and their number. A hit less
+/// than a ray offset (`offset_ray_origin`) beyond the previous one is that surface again (the
+/// second triangle of an edge the probe crosses), as for a ray restarted past each hit.
+fn probe_hits(
+    geometry: &Geometry,
+    material: u32,
+    ray: Ray,
+    length: f32,
+) -> ([Option<SurfacePoint>; MAX_PROBE_HITS], usize) {
+    // Bounded: a grazing probe could otherwise crawl along a surface of another material.
+    const MAX_STEPS: usize = 4 * MAX_PROBE_HITS;
+    let mut hits = [None; MAX_PROBE_HITS];
+    let mut count = 0usize;
+    // All intersections from one traversal, sorted along the segment (one closest-hit query
+    // per surface traversed the BVH once per hit: probes cross 2-4 surfaces).
+    let mut found = [None; MAX_STEPS];
+    let mut n = 0usize;
+    geometry.for_each_hit(&ray, length, |hit| {
+        if let Some(slot) = found.get_mut(n) {
+            *slot = Some(hit);
+        }
+        n += 1;
+    });
+    if n > MAX_STEPS {
+        // More surfaces than steps (a probe along a fold): the first MAX_STEPS along the
+        // segment, by successive closest-hit queries.
+        let mut origin = ray.origin;
+        let mut remaining = length;
+        for _ in 0..MAX_STEPS {
+            if !(remaining > 0.0) || count == MAX_PROBE_HITS {
+                break;
+            }
+            let Some(hit) = geometry.intersect(&Ray::new_at(origin, ray.dir, ray.time), remaining)
+            else {
+                break;
+            };
+            let sp = geometry.surface_point(&hit);
+            if sp.material == material {
+                hits[count] = Some(sp);
+                count += 1;
+            }
+            let next = offset_ray_origin(sp.p, sp.ng, ray.dir);
+            remaining -= (next - origin).dot(ray.dir);
+            origin = next;
+        }
+        return (hits, count);
+    }
+    let found = &mut found[..n];
+    found.sort_unstable_by(|a, b| {
+        let t = |h: &Option<crate::geometry::Hit>| h.map_or(f32::INFINITY, |h| h.t);
+        t(a).total_cmp(&t(b))
+    });
+    // Where the segment resumes past the last surface (distance along it from the origin).
+    let mut resume = 0.0f32;
+    for hit in found.iter().flatten() {
+        if hit.t <= resume {
+            continue;
+        }
+        let sp = geometry.surface_point(hit);
+        resume = (offset_ray_origin(sp.p, sp.ng, ray.dir) - ray.origin).dot(ray.dir);
+        if sp.material == material {
+            hits[count] = Some(sp);
+            count += 1;
+            if count == MAX_PROBE_HITS {
+                break;
+            }
+        }
+    }
+    (hits, count)
+}
+
 /// The separable BSSRDF's spatial part for the path's wavelengths.
 #[derive(Clone, Copy, Debug)]
 pub struct SeparableBssrdf<'a> {
@@ -651,27 +723,7 @@ impl<'a> SeparableBssrdf<'a> {
             return None;
         }
         let base = po + r * (vx * phi.cos() + vy * phi.sin()) - vz * half;
-        // Every intersection along the segment base -> base + 2 half vz with this material.
-        let mut hits = [None; MAX_PROBE_HITS];
-        let mut count = 0usize;
-        let mut origin = base;
-        let mut remaining = 2.0 * half;
-        // Bounded: a grazing probe could otherwise crawl along a surface of another material.
-        let mut steps = 0;
-        while remaining > 0.0 && count < MAX_PROBE_HITS && steps < 4 * MAX_PROBE_HITS {
-            steps += 1;
-            let Some(hit) = geometry.intersect(&Ray::new_at(origin, vz, time), remaining) else {
-                break;
-            };
-            let sp = geometry.surface_point(&hit);
-            if sp.material == material {
-                hits[count] = Some(sp);
-                count += 1;
-            }
-            let next = offset_ray_origin(sp.p, sp.ng, vz);
-            remaining -= (next - origin).dot(vz);
-            origin = next;
-        }
+        let (hits, count) = probe_hits(geometry, material, Ray::new_at(base, vz, time), 2.0 * half);
         if count == 0 {
             return None;
         }

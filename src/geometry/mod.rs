@@ -440,6 +440,20 @@ impl Mesh {
         }
     }
 
+    /// Every hit along an object-space ray at shutter time `time`: (t, primitive, b1, b2).
+    fn for_each_hit(&self, ray: &BvhRay, time: f32, mut f: impl FnMut(f32, u32, f32, f32)) {
+        let origin = Vec3::from(ray.origin);
+        let dir = Vec3::from(ray.direction);
+        self.bvh().ray_traverse_anyhit(*ray, |r, id| {
+            let tri = self.triangle_at(id, time);
+            if let Some((t, b1, b2)) =
+                intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax)
+            {
+                f(t, id as u32, b1, b2);
+            }
+        });
+    }
+
     #[inline]
     fn occluded(&self, ray: &BvhRay, time: f32) -> bool {
         let origin = Vec3::from(ray.origin);
@@ -685,6 +699,21 @@ impl FlatLevel {
         }
     }
 
+    /// Every hit on the segment (0, t_max): (t, instance, primitive, b1, b2).
+    fn for_each_hit(&self, ray: &Ray, t_max: f32, mut f: impl FnMut(f32, u32, u32, f32, f32)) {
+        let (origin, dir) = (ray.origin, ray.dir);
+        self.bvh
+            .ray_traverse_anyhit(bvh_ray(origin, dir, t_max), |r, id| {
+                let tri = &self.tris[id];
+                if let Some((t, b1, b2)) =
+                    intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax)
+                {
+                    let (instance, prim) = self.owners[id];
+                    f(t, instance, prim, b1, b2);
+                }
+            });
+    }
+
     /// Whether a triangle of a shadow-casting instance lies on the segment (0, t_max).
     #[inline]
     fn occluded(&self, ray: &Ray, t_max: f32, instances: &[Instance]) -> bool {
@@ -876,6 +905,45 @@ impl Geometry {
             }
             t
         });
+    }
+
+    /// Calls `f` with every intersection with t in (0, t_max), in no particular order, in one
+    /// traversal of the BVHs (a closest-hit query per hit would traverse them once per hit).
+    pub fn for_each_hit(&self, ray: &Ray, t_max: f32, mut f: impl FnMut(Hit)) {
+        if self.is_empty() {
+            return;
+        }
+        let time = ray.time;
+        let mut found = |t, instance, prim, b1, b2| {
+            f(Hit {
+                t,
+                instance,
+                prim,
+                b1,
+                b2,
+                time,
+            })
+        };
+        if let Some(flat) = &self.flat {
+            flat.for_each_hit(ray, t_max, &mut found);
+        }
+        if self.tlas_order.is_empty() {
+            return;
+        }
+        self.tlas
+            .ray_traverse_anyhit(bvh_ray(ray.origin, ray.dir, t_max), |_, id| {
+                let inst_id = self.tlas_order[id];
+                let inst = &self.instances[inst_id as usize];
+                let to_object = inst.placement_at(time).world_to_object;
+                let local = bvh_ray(
+                    to_object.transform_point3(ray.origin),
+                    to_object.transform_vector3(ray.dir),
+                    t_max,
+                );
+                self.meshes[inst.mesh as usize].for_each_hit(&local, time, |t, prim, b1, b2| {
+                    found(t, inst_id, prim, b1, b2)
+                });
+            });
     }
 
     /// True if anything blocks the segment origin + t dir, t in (0, t_max).
