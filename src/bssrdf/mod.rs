@@ -8,8 +8,9 @@
 //!   Sp from a photon-beam-diffusion table (`table.rs`). The path tracer samples the rough
 //!   dielectric boundary at the entry point; a transmission sample triggers `sample_probe`,
 //!   which finds an exit point with probe rays (axis 0.5/0.25/0.25 along normal/tangents, a
-//!   segment of length 2 r_max, every hit on the same material, one chosen in proportion to
-//!   its estimate) and returns the sum of the hits' Sp / pdf, the pdf combining all three axes
+//!   segment of length 2 r_max, every hit on the same material from one BVH traversal
+//!   (`probe_hits`), one chosen in proportion to its estimate) and returns the sum of the
+//!   hits' Sp / pdf, the pdf combining all three axes
 //!   and all of the path's wavelengths (spectral MIS: one-sample balance heuristic over the
 //!   wavelength that drove the radius, chosen in proportion to its effective albedo).
 //!   The exit point then gets next-event estimation with the Sw lobe (`SwLobe`).
