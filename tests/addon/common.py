@@ -71,13 +71,20 @@ def simple_scene():
     return sc
 
 
+def prism_depth(bounces):
+    """Prism's max depth for Cycles' Max Bounces `bounces`: a path of B bounces has B + 1
+    vertices that see light (depth 1 = direct light only, as pbrt's maxdepth)."""
+    return bounces + 1
+
+
 def use_prism(sc, spp=16, threads=2):
     sc.render.engine = "PRISM"
     sc.prism.samples = spp
     # Fixed spp, as use_cycles (the parity tests compare equally sampled images).
     sc.prism.use_adaptive_sampling = False
     sc.prism.threads = threads
-    sc.prism.max_depth = 8
+    # use_cycles' default 8 bounces.
+    sc.prism.max_depth = prism_depth(8)
     # Unbiased noisy images, as use_cycles (denoising is tested on its own: test_denoise.py).
     if hasattr(sc.prism, "use_denoising"):
         sc.prism.use_denoising = False
@@ -166,8 +173,9 @@ def use_cycles(sc, spp, bounces=8, threads=2):
 
 
 def render_engine(sc, engine, spp, out_dir, name, bounces):
-    """Renders `sc` with "cycles" (`bounces` of every kind) or "prism" (max depth `bounces`)
-    into out_dir/<name>_<engine>.exr, prints the time; returns the (H, W, 3) pixels."""
+    """Renders `sc` with "cycles" (`bounces` of every kind) or "prism" (the same bounces: max
+    depth `prism_depth(bounces)`) into out_dir/<name>_<engine>.exr, prints the time; returns the
+    (H, W, 3) pixels."""
     return render_engine_rgba(sc, engine, spp, out_dir, name, bounces)[..., :3]
 
 
@@ -177,7 +185,7 @@ def render_engine_rgba(sc, engine, spp, out_dir, name, bounces):
         use_cycles(sc, spp, bounces=bounces)
     else:
         use_prism(sc, spp)
-        sc.prism.max_depth = bounces
+        sc.prism.max_depth = prism_depth(bounces)
     t0 = time.perf_counter()
     px = render_pixels(sc, os.path.join(out_dir, "%s_%s.exr" % (name, engine)))
     print("  %s %s: %.1f s" % (name, engine, time.perf_counter() - t0), flush=True)

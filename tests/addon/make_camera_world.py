@@ -39,7 +39,7 @@ else:
     spp, bounces = 64, 1
 C.use_cycles(sc, spp, bounces=bounces)
 C.use_prism(sc, spp)
-sc.prism.max_depth = bounces
+sc.prism.max_depth = C.prism_depth(bounces)
 vs = sc.view_settings
 vs.view_transform = "Standard"
 vs.look = "None"

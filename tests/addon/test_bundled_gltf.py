@@ -186,7 +186,7 @@ def test_addon_filters_8bit_textures_as_cycles():
     sc.cycles.filter_width = 1.5
     cycles = C.render_pixels(sc, os.path.join(OUT, "addon_checker_cycles.exr"))[..., :3]
     C.use_prism(sc, spp)
-    sc.prism.max_depth = 9  # Cycles' 8 bounces (use_cycles)
+    sc.prism.max_depth = C.prism_depth(8)  # use_cycles' 8 bounces
     sc.prism.filter_type = "BLACKMAN_HARRIS"
     sc.prism.filter_width = 1.5
     prism = C.render_pixels(sc, os.path.join(OUT, "addon_checker_prism.exr"))[..., :3]
