@@ -19,8 +19,15 @@ use crate::scene::camera::PixelFootprint;
 use crate::scene::Scene;
 use crate::spectrum::{RgbAlbedoSpectrum, SampledSpectrum, SampledWavelengths};
 
-/// Bounces after which Russian roulette may end a path.
-const RR_MIN_DEPTH: u32 = 3;
+/// Bounces after which Russian roulette may end a path: the first four vertices always
+/// continue (Mitsuba 3's default `rr_depth` is 5). Roulette multiplies the variance of what a
+/// path would still gather by 1 / p, and the paths it ends early are often the ones that carry
+/// the most variance: light reaching a diffuse surface through a glass object takes two
+/// refractions after the bounce that found it. Against roulette from the third vertex (64 spp,
+/// 2 threads, 3 pairs, noise x time): rough glass 1.19x better (bulk 1.23x), everyday bulk
+/// 1.09x, SSS Cornell box and many lights equal. From the seventh: rough glass another 5-7%,
+/// the SSS box 6% worse; never: rough glass 1.39x, the SSS box 0.76x (62% more time).
+const RR_MIN_DEPTH: u32 = 5;
 
 pub struct PathTracer<'a> {
     scene: &'a Scene,
