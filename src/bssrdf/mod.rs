@@ -10,9 +10,9 @@
 //!   which finds an exit point with probe rays (axis 0.5/0.25/0.25 along normal/tangents, a
 //!   segment of length 2 r_max, every hit on the same material from one BVH traversal
 //!   (`probe_hits`), one chosen in proportion to its estimate) and returns the sum of the
-//!   hits' Sp / pdf, the pdf combining all three axes
-//!   and all of the path's wavelengths (spectral MIS: one-sample balance heuristic over the
-//!   wavelength that drove the radius, chosen in proportion to its effective albedo).
+//!   hits' Sp / pdf, the pdf combining all three axes and all of the path's wavelengths
+//!   (spectral MIS: one-sample balance heuristic over the wavelength that drove the radius,
+//!   chosen in proportion to its effective albedo).
 //!   The exit point then gets next-event estimation with the Sw lobe (`SwLobe`).
 //! * `"random_walk"`: a volumetric random walk inside the closed mesh (`random_walk.rs`). Where
 //!   the walk reaches the boundary from inside, what the boundary does is `WalkBoundary`: in
@@ -472,8 +472,9 @@ fn probe_hits(
     let mut hits = [None; MAX_PROBE_HITS];
     let mut count = 0usize;
     // All intersections from one traversal, sorted along the segment (one closest-hit query
-    // per surface traversed the BVH once per hit: probes cross 2-4 surfaces).
-    let mut found = [None; MAX_STEPS];
+    // per surface traversed the BVH once per hit: probes cross 2-4 surfaces). The buffer holds
+    // as many as a probe keeps; more is rare and takes the slow path below.
+    let mut found = [None; MAX_PROBE_HITS];
     let mut n = 0usize;
     geometry.for_each_hit(&ray, length, |hit| {
         if let Some(slot) = found.get_mut(n) {
@@ -481,9 +482,9 @@ fn probe_hits(
         }
         n += 1;
     });
-    if n > MAX_STEPS {
-        // More surfaces than steps (a probe along a fold): the first MAX_STEPS along the
-        // segment, by successive closest-hit queries.
+    if n > found.len() {
+        // More surfaces than the buffer (a probe along a fold or through a detailed mesh):
+        // the first MAX_STEPS along the segment, by successive closest-hit queries.
         let mut origin = ray.origin;
         let mut remaining = length;
         for _ in 0..MAX_STEPS {
@@ -542,8 +543,8 @@ pub struct SeparableBssrdf<'a> {
     /// Catmull-Rom weights of each wavelength's albedo in the table.
     albedo_w: [Option<(isize, [f32; 4])>; N_WAVELENGTHS],
     /// Effective albedo per wavelength (`rho_eff`) and the probability that each drives the
-    /// radius (`channel_probability`): every probe hit's density needs all of them, so they
-    /// are computed once (they were a fifth of a table-method pixel's time).
+    /// radius (`channel_probability`): every probe hit's density needs all of them (16 table
+    /// look-ups per hit when they were recomputed there), so they are computed once.
     rho_eff: SampledSpectrum,
     channel_probability: [f32; N_WAVELENGTHS],
 }

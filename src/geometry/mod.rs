@@ -537,6 +537,18 @@ impl Instance {
         self
     }
 
+    /// The world-space ray `ray` (up to `t_max`) in this instance's object space at the ray's
+    /// shutter time, as the mesh's BVH takes it (t is the same parameter in both spaces).
+    #[inline]
+    fn object_ray(&self, ray: &Ray, t_max: f32) -> BvhRay {
+        let to_object = self.placement_at(ray.time).world_to_object;
+        bvh_ray(
+            to_object.transform_point3(ray.origin),
+            to_object.transform_vector3(ray.dir),
+            t_max,
+        )
+    }
+
     pub fn with_holdout(mut self, holdout: bool) -> Self {
         self.holdout = holdout;
         self
@@ -891,12 +903,7 @@ impl Geometry {
         self.tlas.ray_traverse(world, &mut rh, |r, id| {
             let inst_id = self.tlas_order[id];
             let inst = &self.instances[inst_id as usize];
-            let to_object = inst.placement_at(ray.time).world_to_object;
-            let local = bvh_ray(
-                to_object.transform_point3(ray.origin),
-                to_object.transform_vector3(ray.dir),
-                r.tmax,
-            );
+            let local = inst.object_ray(ray, r.tmax);
             let before = *best;
             best.instance = inst_id;
             let t = self.meshes[inst.mesh as usize].intersect(&local, ray.time, best);
@@ -934,12 +941,7 @@ impl Geometry {
             .ray_traverse_anyhit(bvh_ray(ray.origin, ray.dir, t_max), |_, id| {
                 let inst_id = self.tlas_order[id];
                 let inst = &self.instances[inst_id as usize];
-                let to_object = inst.placement_at(time).world_to_object;
-                let local = bvh_ray(
-                    to_object.transform_point3(ray.origin),
-                    to_object.transform_vector3(ray.dir),
-                    t_max,
-                );
+                let local = inst.object_ray(ray, t_max);
                 self.meshes[inst.mesh as usize].for_each_hit(&local, time, |t, prim, b1, b2| {
                     found(t, inst_id, prim, b1, b2)
                 });
@@ -965,12 +967,7 @@ impl Geometry {
             if !inst.casts_shadows {
                 return f32::INFINITY;
             }
-            let to_object = inst.placement_at(ray.time).world_to_object;
-            let local = bvh_ray(
-                to_object.transform_point3(ray.origin),
-                to_object.transform_vector3(ray.dir),
-                t_max,
-            );
+            let local = inst.object_ray(ray, t_max);
             if self.meshes[inst.mesh as usize].occluded(&local, ray.time) {
                 // any distance below t_max counts as a hit; 0.5 * t_max is not < t_max when
                 // t_max is infinite (directional and world lights)
