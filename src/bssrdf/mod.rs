@@ -457,8 +457,17 @@ impl SwLobe {
     }
 }
 
+/// A surface the probe crossed: the hit, its point and geometric normal (up to sign).
+#[derive(Clone, Copy, Debug)]
+struct ProbeHit {
+    hit: crate::geometry::Hit,
+    p: Vec3,
+    ng: Vec3,
+}
+
 /// The surfaces of `material` along the probe segment `ray.origin + t ray.dir`, t in
-/// (0, `length`), in order along it (at most `MAX_PROBE_HITS`), and their number. A hit less
+/// (0, `length`), in order along it (at most `MAX_PROBE_HITS`), and their number. Only the
+/// one the path continues from needs its whole `SurfacePoint`. A hit less
 /// than a ray offset (`offset_ray_origin`) beyond the previous one is that surface again (the
 /// second triangle of an edge the probe crosses), as for a ray restarted past each hit.
 fn probe_hits(
@@ -466,7 +475,7 @@ fn probe_hits(
     material: u32,
     ray: Ray,
     length: f32,
-) -> ([Option<SurfacePoint>; MAX_PROBE_HITS], usize) {
+) -> ([Option<ProbeHit>; MAX_PROBE_HITS], usize) {
     // Bounded: a grazing probe could otherwise crawl along a surface of another material.
     const MAX_STEPS: usize = 4 * MAX_PROBE_HITS;
     let mut hits = [None; MAX_PROBE_HITS];
@@ -495,12 +504,12 @@ fn probe_hits(
             else {
                 break;
             };
-            let sp = geometry.surface_point(&hit);
-            if sp.material == material {
-                hits[count] = Some(sp);
+            let (p, ng, hit_material) = geometry.hit_point(&hit);
+            if hit_material == material {
+                hits[count] = Some(ProbeHit { hit, p, ng });
                 count += 1;
             }
-            let next = offset_ray_origin(sp.p, sp.ng, ray.dir);
+            let next = offset_ray_origin(p, ng, ray.dir);
             remaining -= (next - origin).dot(ray.dir);
             origin = next;
         }
@@ -517,10 +526,10 @@ fn probe_hits(
         if hit.t <= resume {
             continue;
         }
-        let sp = geometry.surface_point(hit);
-        resume = (offset_ray_origin(sp.p, sp.ng, ray.dir) - ray.origin).dot(ray.dir);
-        if sp.material == material {
-            hits[count] = Some(sp);
+        let (p, ng, hit_material) = geometry.hit_point(hit);
+        resume = (offset_ray_origin(p, ng, ray.dir) - ray.origin).dot(ray.dir);
+        if hit_material == material {
+            hits[count] = Some(ProbeHit { hit: *hit, p, ng });
             count += 1;
             if count == MAX_PROBE_HITS {
                 break;
@@ -769,7 +778,7 @@ impl<'a> SeparableBssrdf<'a> {
             }
             acc += share;
         }
-        let point = hits.get(k).copied().flatten()?;
+        let point = geometry.surface_point(&hits.get(k).copied().flatten()?.hit);
         let weight = weights[k] * (total / shares[k]);
         weight.is_finite().then_some(ProbeSample { point, weight })
     }

@@ -1155,16 +1155,13 @@ impl Geometry {
         let mesh = &self.meshes[inst.mesh as usize];
         let [i0, i1, i2] = mesh.indices[prim as usize];
         let b0 = 1.0 - b1 - b2;
-        let [v0, v1, v2] = mesh.vertices_at(prim as usize, time);
-        let p_obj = v0 * b0 + v1 * b1 + v2 * b2;
-        let p = placement.object_to_world.transform_point3(p_obj);
-        let w0 = placement.object_to_world.transform_point3(v0);
-        let e1 = placement.object_to_world.transform_point3(v1) - w0;
-        let e2 = placement.object_to_world.transform_point3(v2) - w0;
-        let cross = e1.cross(e2);
-        let area = 0.5 * cross.length();
-        // The world-space cross product already accounts for mirroring transforms.
-        let ng = cross.normalize_or(Vec3::Z);
+        let TrianglePoint {
+            p,
+            ng,
+            e1,
+            e2,
+            area,
+        } = triangle_point(mesh, &placement, prim, b1, b2, time);
         let ns = match &mesh.normals {
             Some(n) => {
                 let normal = |v: u32| {
@@ -1219,6 +1216,24 @@ impl Geometry {
             area,
             time,
         }
+    }
+
+    /// Where `hit` is, its geometric normal (the triangle's winding, not yet turned to the
+    /// shading normal's side as `surface_point` turns it) and material: the part of
+    /// `surface_point` that a query choosing among many hits needs for each (the subsurface
+    /// probe), bit for bit the same `p` and normal up to sign.
+    pub fn hit_point(&self, hit: &Hit) -> (Vec3, Vec3, u32) {
+        let inst = &self.instances[hit.instance as usize];
+        let mesh = &self.meshes[inst.mesh as usize];
+        let at = triangle_point(
+            mesh,
+            &inst.placement_at(hit.time),
+            hit.prim,
+            hit.b1,
+            hit.b2,
+            hit.time,
+        );
+        (at.p, at.ng, mesh.material)
     }
 
     /// The tangent frame of a tangent-space normal map at `sp` (glTF 2.0 spec 3.7.2.1 and
@@ -1416,6 +1431,46 @@ pub fn offset_ray_origin(p: Vec3, ng: Vec3, dir: Vec3) -> Vec3 {
         p + ng * eps
     } else {
         p - ng * eps
+    }
+}
+
+/// A point of a triangle in world space (`triangle_point`).
+struct TrianglePoint {
+    p: Vec3,
+    /// Unit normal of the winding (e1 x e2).
+    ng: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    area: f32,
+}
+
+/// The world-space point at barycentrics (b1, b2) of triangle `prim` of `mesh` placed by
+/// `placement` at shutter time `time`, with the triangle's world edges, area and winding
+/// normal.
+#[inline]
+fn triangle_point(
+    mesh: &Mesh,
+    placement: &Placement,
+    prim: u32,
+    b1: f32,
+    b2: f32,
+    time: f32,
+) -> TrianglePoint {
+    let b0 = 1.0 - b1 - b2;
+    let [v0, v1, v2] = mesh.vertices_at(prim as usize, time);
+    let p_obj = v0 * b0 + v1 * b1 + v2 * b2;
+    let p = placement.object_to_world.transform_point3(p_obj);
+    let w0 = placement.object_to_world.transform_point3(v0);
+    let e1 = placement.object_to_world.transform_point3(v1) - w0;
+    let e2 = placement.object_to_world.transform_point3(v2) - w0;
+    let cross = e1.cross(e2);
+    TrianglePoint {
+        p,
+        // The world-space cross product already accounts for mirroring transforms.
+        ng: cross.normalize_or(Vec3::Z),
+        e1,
+        e2,
+        area: 0.5 * cross.length(),
     }
 }
 
