@@ -5,6 +5,7 @@
 pub mod bvh_cache;
 pub mod motion;
 pub mod shapes;
+mod traversal;
 mod triangle;
 pub mod wide_bvh;
 
@@ -409,14 +410,13 @@ impl Mesh {
     /// Closest hit along an object-space ray at shutter time `time`: (t, primitive, b1, b2).
     #[inline]
     fn intersect(&self, ray: &BvhRay, time: f32, best: &mut BlasHit) -> f32 {
-        let mut hit = obvhs::ray::RayHit::none();
         let origin = Vec3::from(ray.origin);
         let dir = Vec3::from(ray.direction);
         let mut local = BlasHit {
             t: ray.tmax,
             ..*best
         };
-        self.bvh().ray_traverse(*ray, &mut hit, |r, id| {
+        traversal::closest(self.bvh(), *ray, |r, id| {
             let tri = self.triangle_at(id, time);
             match intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax) {
                 Some((t, b1, b2)) => {
@@ -444,7 +444,7 @@ impl Mesh {
     fn for_each_hit(&self, ray: &BvhRay, time: f32, mut f: impl FnMut(f32, u32, f32, f32)) {
         let origin = Vec3::from(ray.origin);
         let dir = Vec3::from(ray.direction);
-        self.bvh().ray_traverse_anyhit(*ray, |r, id| {
+        traversal::every(self.bvh(), *ray, |r, id| {
             let tri = self.triangle_at(id, time);
             if let Some((t, b1, b2)) =
                 intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax)
@@ -458,7 +458,7 @@ impl Mesh {
     fn occluded(&self, ray: &BvhRay, time: f32) -> bool {
         let origin = Vec3::from(ray.origin);
         let dir = Vec3::from(ray.direction);
-        !self.bvh().ray_traverse_miss(*ray, |r, id| {
+        !traversal::misses(self.bvh(), *ray, |r, id| {
             let tri = self.triangle_at(id, time);
             intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax)
                 .map_or(f32::INFINITY, |h| h.0)
@@ -685,20 +685,18 @@ impl FlatLevel {
     /// Closest hit below `best.t`, written into `best`.
     #[inline]
     fn intersect(&self, ray: &Ray, best: &mut BlasHit) {
-        let mut hit = obvhs::ray::RayHit::none();
         let (origin, dir) = (ray.origin, ray.dir);
         let mut found = None;
-        self.bvh
-            .ray_traverse(bvh_ray(origin, dir, best.t), &mut hit, |r, id| {
-                let tri = &self.tris[id];
-                match intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax) {
-                    Some((t, b1, b2)) => {
-                        found = Some((id, t, b1, b2));
-                        t
-                    }
-                    None => f32::INFINITY,
+        traversal::closest(&self.bvh, bvh_ray(origin, dir, best.t), |r, id| {
+            let tri = &self.tris[id];
+            match intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax) {
+                Some((t, b1, b2)) => {
+                    found = Some((id, t, b1, b2));
+                    t
                 }
-            });
+                None => f32::INFINITY,
+            }
+        });
         if let Some((id, t, b1, b2)) = found {
             let (instance, prim) = self.owners[id];
             *best = BlasHit {
@@ -714,32 +712,29 @@ impl FlatLevel {
     /// Every hit on the segment (0, t_max): (t, instance, primitive, b1, b2).
     fn for_each_hit(&self, ray: &Ray, t_max: f32, mut f: impl FnMut(f32, u32, u32, f32, f32)) {
         let (origin, dir) = (ray.origin, ray.dir);
-        self.bvh
-            .ray_traverse_anyhit(bvh_ray(origin, dir, t_max), |r, id| {
-                let tri = &self.tris[id];
-                if let Some((t, b1, b2)) =
-                    intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax)
-                {
-                    let (instance, prim) = self.owners[id];
-                    f(t, instance, prim, b1, b2);
-                }
-            });
+        traversal::every(&self.bvh, bvh_ray(origin, dir, t_max), |r, id| {
+            let tri = &self.tris[id];
+            if let Some((t, b1, b2)) =
+                intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax)
+            {
+                let (instance, prim) = self.owners[id];
+                f(t, instance, prim, b1, b2);
+            }
+        });
     }
 
     /// Whether a triangle of a shadow-casting instance lies on the segment (0, t_max).
     #[inline]
     fn occluded(&self, ray: &Ray, t_max: f32, instances: &[Instance]) -> bool {
         let (origin, dir) = (ray.origin, ray.dir);
-        !self
-            .bvh
-            .ray_traverse_miss(bvh_ray(origin, dir, t_max), |r, id| {
-                if !instances[self.owners[id].0 as usize].casts_shadows {
-                    return f32::INFINITY;
-                }
-                let tri = &self.tris[id];
-                intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax)
-                    .map_or(f32::INFINITY, |h| h.0)
-            })
+        !traversal::misses(&self.bvh, bvh_ray(origin, dir, t_max), |r, id| {
+            if !instances[self.owners[id].0 as usize].casts_shadows {
+                return f32::INFINITY;
+            }
+            let tri = &self.tris[id];
+            intersect_triangle(origin, dir, tri.v0, tri.e1, tri.e2, r.tmax)
+                .map_or(f32::INFINITY, |h| h.0)
+        })
     }
 }
 
@@ -899,8 +894,7 @@ impl Geometry {
     /// Closest hit below `best.t` among the instances that share their mesh (the TLAS).
     fn intersect_shared(&self, ray: &Ray, best: &mut BlasHit) {
         let world = bvh_ray(ray.origin, ray.dir, best.t);
-        let mut rh = obvhs::ray::RayHit::none();
-        self.tlas.ray_traverse(world, &mut rh, |r, id| {
+        traversal::closest(&self.tlas, world, |r, id| {
             let inst_id = self.tlas_order[id];
             let inst = &self.instances[inst_id as usize];
             let local = inst.object_ray(ray, r.tmax);
@@ -937,15 +931,14 @@ impl Geometry {
         if self.tlas_order.is_empty() {
             return;
         }
-        self.tlas
-            .ray_traverse_anyhit(bvh_ray(ray.origin, ray.dir, t_max), |_, id| {
-                let inst_id = self.tlas_order[id];
-                let inst = &self.instances[inst_id as usize];
-                let local = inst.object_ray(ray, t_max);
-                self.meshes[inst.mesh as usize].for_each_hit(&local, time, |t, prim, b1, b2| {
-                    found(t, inst_id, prim, b1, b2)
-                });
+        traversal::every(&self.tlas, bvh_ray(ray.origin, ray.dir, t_max), |_, id| {
+            let inst_id = self.tlas_order[id];
+            let inst = &self.instances[inst_id as usize];
+            let local = inst.object_ray(ray, t_max);
+            self.meshes[inst.mesh as usize].for_each_hit(&local, time, |t, prim, b1, b2| {
+                found(t, inst_id, prim, b1, b2)
             });
+        });
     }
 
     /// True if anything blocks the segment origin + t dir, t in (0, t_max).
@@ -962,7 +955,7 @@ impl Geometry {
             return false;
         }
         let world = bvh_ray(ray.origin, ray.dir, t_max);
-        !self.tlas.ray_traverse_miss(world, |_, id| {
+        !traversal::misses(&self.tlas, world, |_, id| {
             let inst = &self.instances[self.tlas_order[id] as usize];
             if !inst.casts_shadows {
                 return f32::INFINITY;
