@@ -276,28 +276,31 @@ impl<'a> PathTracer<'a> {
         out
     }
 
-    /// Russian roulette after the path's `vertices`-th counted scattering event: continues with probability sqrt of the path's
-    /// film-counted throughput (`SpectralMis::max_weight`), as Cycles does with its
-    /// throughput: the square root terminates later than the throughput itself would. Measured
-    /// at 64 spp, 2 threads (bulk noise x time against the throughput itself): -13% on the SSS
-    /// Cornell box, -38% on spheres and a floor under a grey world. False: the path ends.
+    /// Russian roulette after a scattering event of the path in `st` (`counts`: the event
+    /// counts towards `RR_MIN_DEPTH`, see `PathState::roulette_vertices`): continues with
+    /// probability sqrt of the path's film-counted throughput (`SpectralMis::max_weight`), as
+    /// Cycles does with its throughput: the square root terminates later than the throughput
+    /// itself would. Measured at 64 spp, 2 threads (bulk noise x time against the throughput
+    /// itself): -13% on the SSS Cornell box, -38% on spheres and a floor under a grey world.
+    /// False: the path ends.
     #[inline]
     fn russian_roulette(
         &self,
-        vertices: u32,
-        beta: &mut SampledSpectrum,
-        mis: &SpectralMis,
-        eta_scale: f32,
+        st: &mut PathState<'a>,
+        counts: bool,
         sampler: &mut Sampler,
     ) -> bool {
-        if vertices >= RR_MIN_DEPTH {
-            let rr = (mis.max_weight(*beta) * eta_scale).sqrt();
+        if counts {
+            st.roulette_vertices += 1;
+        }
+        if st.roulette_vertices >= RR_MIN_DEPTH {
+            let rr = (st.mis.max_weight(st.beta) * st.eta_scale).sqrt();
             if rr < 1.0 {
                 let q = (1.0 - rr).clamp(0.0, 0.95);
                 if sampler.russian_roulette() < q {
                     return false;
                 }
-                *beta /= 1.0 - q;
+                st.beta /= 1.0 - q;
             }
         }
         true
@@ -930,14 +933,7 @@ impl<'a> PathTracer<'a> {
                 st.prev_denominator = st.mis.denominator();
                 st.prev_bsdf_density = st.mis.bsdf_density(SampledSpectrum::splat(pdf));
                 st.prev_ctx = ctx;
-                st.roulette_vertices += 1;
-                if !self.russian_roulette(
-                    st.roulette_vertices,
-                    &mut st.beta,
-                    &st.mis,
-                    st.eta_scale,
-                    sampler,
-                ) {
+                if !self.russian_roulette(st, true, sampler) {
                     break;
                 }
                 st.ray = Ray::new_at(p, wi, st.ray.time);
@@ -1437,16 +1433,7 @@ impl<'a> PathTracer<'a> {
             && !bs.flags.contains(LobeFlags::DIFFUSE)
             && !enters_subsurface
             && v.walk_exit.is_none();
-        if !passes_interface {
-            st.roulette_vertices += 1;
-        }
-        if !self.russian_roulette(
-            st.roulette_vertices,
-            &mut st.beta,
-            &st.mis,
-            st.eta_scale,
-            sampler,
-        ) {
+        if !self.russian_roulette(st, !passes_interface, sampler) {
             return false;
         }
         let (p, n, dir) = next;
