@@ -466,10 +466,10 @@ struct ProbeHit {
 }
 
 /// The surfaces of `material` along the probe segment `ray.origin + t ray.dir`, t in
-/// (0, `length`), in order along it (at most `MAX_PROBE_HITS`), and their number. Only the
-/// one the path continues from needs its whole `SurfacePoint`. A hit less
-/// than a ray offset (`offset_ray_origin`) beyond the previous one is that surface again (the
-/// second triangle of an edge the probe crosses), as for a ray restarted past each hit.
+/// (0, `length`), in order along it (at most `MAX_PROBE_HITS`), and their number (only the
+/// one the path continues from needs its whole `SurfacePoint`). A hit less than a ray offset
+/// (`offset_ray_origin`) beyond the previous one is that surface again (the second triangle of
+/// an edge the probe crosses), as for a ray restarted past each hit.
 fn probe_hits(
     geometry: &Geometry,
     material: u32,

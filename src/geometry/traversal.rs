@@ -9,8 +9,9 @@
 //!
 //! The arithmetic is the same as obvhs' (a multiply, then an add, in single precision; the
 //! same order of maxima and minima; the same epsilon): each box test, and therefore every hit
-//! and every image, is bit for bit what obvhs' traversal gives (`tests/geometry_rays.rs`
-//! compares both on random rays). Without AVX2 at compile time obvhs' own test is used.
+//! and every image, is bit for bit what obvhs' traversal gives (the test below compares the
+//! two node tests on random rays; `tests/geometry_rays.rs` the hits with brute force). Without
+//! AVX2 at compile time obvhs' own test is used.
 
 // `UVec2` is named by obvhs' `traverse!` macro where it expands.
 use glam::{UVec2, Vec3A};
@@ -101,14 +102,13 @@ unsafe fn child_box_hits_avx2(node: &CwBvhNode, ray: &Ray) -> u32 {
 }
 
 /// Closest hit: `intersect` gives the distance to primitive `id` (in the BVH's primitive
-/// order) below the ray's current `tmax`, or infinity; returns whether any was found
-/// (`CwBvh::ray_traverse`).
+/// order) below the ray's current `tmax`, or infinity, and keeps what it needs of the hit;
+/// the ray's `tmax` shrinks to each hit found (`CwBvh::ray_traverse`).
 #[inline]
-pub fn closest(bvh: &CwBvh, ray: Ray, mut intersect: impl FnMut(&Ray, usize) -> f32) -> bool {
+pub fn closest(bvh: &CwBvh, ray: Ray, mut intersect: impl FnMut(&Ray, usize) -> f32) {
     let mut traverse_ray = ray;
     let mut state = bvh.new_traversal(ray.direction);
     let mut node;
-    let mut found = false;
     obvhs::traverse!(
         bvh,
         node,
@@ -118,11 +118,9 @@ pub fn closest(bvh: &CwBvh, ray: Ray, mut intersect: impl FnMut(&Ray, usize) -> 
             let t = intersect(&traverse_ray, state.primitive_id as usize);
             if t < traverse_ray.tmax {
                 traverse_ray.tmax = t;
-                found = true;
             }
         }
     );
-    found
 }
 
 /// Calls `visit` with every primitive whose box the ray's segment meets

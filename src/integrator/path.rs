@@ -21,9 +21,9 @@ use crate::spectrum::{RgbAlbedoSpectrum, SampledSpectrum, SampledWavelengths};
 
 /// Scattering events after which Russian roulette may end a path: the first four always
 /// continue (Mitsuba 3's default `rr_depth` is 5), and refractions through glass do not count
-/// (`PathState::roulette_vertices`). Roulette multiplies the variance of what a
-/// path would still gather by 1 / p, and the paths it ends early are often the ones that carry
-/// the most variance: light reaching a diffuse surface through a glass object takes two
+/// (`PathState::roulette_vertices`). Roulette multiplies the variance of what a path would
+/// still gather by 1 / p, and the paths it ends early are often the ones that carry the most
+/// variance: light reaching a diffuse surface through a glass object takes two
 /// refractions after the bounce that found it. Against roulette from the third vertex (64 spp,
 /// 2 threads, 3 pairs, noise x time): rough glass 1.19x better (bulk 1.23x), everyday bulk
 /// 1.09x, SSS Cornell box and many lights equal. From the seventh: rough glass another 5-7%,
@@ -123,7 +123,8 @@ struct PathState<'a> {
     /// `PathSample::world_exact`.
     world_exact: Option<(SampledSpectrum, glam::Vec3)>,
     /// Scattering events so far that count towards Russian roulette's start
-    /// (`RR_MIN_DEPTH`): every one but a transmission through a non-diffuse interface.
+    /// (`RR_MIN_DEPTH`): every one but a transmission through a non-diffuse interface that
+    /// neither enters nor leaves a subsurface medium (see `scatter`).
     roulette_vertices: u32,
 }
 
