@@ -14,7 +14,7 @@
 //! AVX2 at compile time obvhs' own test is used.
 
 // `UVec2` is named by obvhs' `traverse!` macro where it expands.
-use glam::{UVec2, Vec3A};
+use glam::UVec2;
 use obvhs::cwbvh::{node::CwBvhNode, CwBvh};
 use obvhs::ray::Ray;
 
@@ -57,7 +57,7 @@ pub fn node_hits(node: &CwBvhNode, ray: &Ray, oct_inv4: u32) -> u32 {
 unsafe fn child_box_hits_avx2(node: &CwBvhNode, ray: &Ray) -> u32 {
     use std::arch::x86_64::*;
     let scale = node.compute_extent() * ray.inv_direction;
-    let offset = (Vec3A::from(node.p) - ray.origin) * ray.inv_direction;
+    let offset = (glam::Vec3A::from(node.p) - ray.origin) * ray.inv_direction;
     let planes = |bytes: &[u8; 8]| {
         _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(
             bytes.as_ptr() as *const __m128i
