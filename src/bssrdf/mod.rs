@@ -783,3 +783,68 @@ impl<'a> SeparableBssrdf<'a> {
         weight.is_finite().then_some(ProbeSample { point, weight })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Instance, Mesh};
+
+    /// Parallel 2 x 2 sheets at z = 0, 0.01, ..., 0.19, the even ones of material 0 and the
+    /// odd ones of material 1, each two triangles whose shared diagonal passes through the
+    /// z axis; and a second sheet of material 0 at z = 0.04 (a surface met twice at one
+    /// distance, as where a probe crosses an edge both triangles report).
+    fn stacked_sheets() -> Geometry {
+        let sheets = |material: u32, ks: &mut dyn Iterator<Item = u32>| {
+            let mut positions = Vec::new();
+            let mut indices = Vec::new();
+            for k in ks {
+                let z = 0.01 * k as f32;
+                let base = positions.len() as u32;
+                positions.extend([
+                    Vec3::new(-1.0, -1.0, z),
+                    Vec3::new(1.0, -1.0, z),
+                    Vec3::new(1.0, 1.0, z),
+                    Vec3::new(-1.0, 1.0, z),
+                ]);
+                indices.extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
+            }
+            Mesh::new(positions, None, None, indices, material)
+        };
+        Geometry::new(
+            vec![
+                sheets(0, &mut (0..20).step_by(2)),
+                sheets(1, &mut (1..20).step_by(2)),
+                sheets(0, &mut std::iter::once(4)),
+            ],
+            (0..3)
+                .map(|m| Instance::new(m, glam::Affine3A::IDENTITY))
+                .collect(),
+        )
+    }
+
+    /// The z of the probe's hits, in order.
+    fn probe_depths(geometry: &Geometry, origin: Vec3, length: f32) -> Vec<f32> {
+        let (hits, count) = probe_hits(geometry, 0, Ray::new(origin, Vec3::Z), length);
+        hits[..count].iter().map(|h| h.unwrap().p.z).collect()
+    }
+
+    /// Both ways of collecting a probe's hits (one traversal, up to `MAX_PROBE_HITS`
+    /// surfaces; successive closest-hit queries past that) keep only the probe's material,
+    /// in order along the probe, each surface once even where two hits coincide.
+    #[test]
+    fn probe_hits_are_the_materials_surfaces_in_order() {
+        let geometry = stacked_sheets();
+        let expect = |n: usize| (0..n).map(|k| 0.02 * k as f32).collect::<Vec<f32>>();
+        let close = |got: &[f32], want: &[f32]| {
+            got.len() == want.len() && got.iter().zip(want).all(|(g, w)| (g - w).abs() < 1e-5)
+        };
+        for origin in [Vec3::new(0.3, -0.2, -0.005), Vec3::new(0.0, 0.0, -0.005)] {
+            // 13 hits on the segment: one traversal; 6 surfaces of material 0.
+            let got = probe_depths(&geometry, origin, 0.12);
+            assert!(close(&got, &expect(6)), "from {origin}: {got:?}");
+            // 21 hits, more than the buffer: the successive queries; 10 of material 0.
+            let got = probe_depths(&geometry, origin, 0.2);
+            assert!(close(&got, &expect(10)), "from {origin}: {got:?}");
+        }
+    }
+}
