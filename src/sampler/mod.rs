@@ -214,6 +214,7 @@ impl PixelSampler {
             rev_index: self.base.wrapping_add(sample).reverse_bits(),
             seed: self.tile_seed,
             group_base: 0,
+            shuffled: (NO_GROUP, 0),
             independent: self.kind == SamplerKind::Independent,
             rng: None,
             stream: (self.pixel_index, sample as u64, self.seed),
@@ -262,6 +263,10 @@ pub struct Sampler {
     seed: u32,
     /// First group of the current bounce.
     group_base: u32,
+    /// The last group read and its shuffle of the index: a bounce reads its light and BSDF
+    /// groups twice each (light then material component, direction then roulette), and the
+    /// shuffle is the costlier half of a value.
+    shuffled: (u32, u32),
     independent: bool,
     /// The independent stream, created at its first use (most paths never need it).
     rng: Option<Pcg32>,
@@ -277,6 +282,7 @@ impl Sampler {
             rev_index: 0,
             seed: 0,
             group_base: 0,
+            shuffled: (NO_GROUP, 0),
             independent: true,
             rng: Some(Pcg32::new(pixel_index, sample_index, seed)),
             stream: (pixel_index, sample_index, seed),
@@ -309,7 +315,13 @@ impl Sampler {
             return std::array::from_fn(|_| self.stream().next_1d());
         }
         let salts = &GROUP_SALTS[group as usize];
-        let rev_index = sobol::shuffle_reversed(self.rev_index, self.seed ^ salts[0]);
+        let rev_index = if self.shuffled.0 == group {
+            self.shuffled.1
+        } else {
+            let r = sobol::shuffle_reversed(self.rev_index, self.seed ^ salts[0]);
+            self.shuffled = (group, r);
+            r
+        };
         std::array::from_fn(|k| {
             let d = first + k;
             to_unit_float(sobol::owen_sobol_reversed(
