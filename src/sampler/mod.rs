@@ -33,7 +33,7 @@
 //! | wavelength | hero wavelength: position within a quarter / which quarter | - | - |
 //! | per bounce `light` | point on the light | light choice | material component |
 //! | per bounce `bsdf` | BSDF direction | BSDF lobe | Russian roulette |
-//! | per bounce `probe` | BSSRDF disk point | projection axis | probe hit choice |
+//! | per bounce `probe` | BSSRDF disk point (angle, radius) | projection axis, then wavelength | probe hit choice |
 //! | per bounce `exit light` | point on the light | light choice | - |
 //! | per bounce `exit lobe` | exit direction | - | - |
 //!
@@ -390,7 +390,8 @@ impl Sampler {
         self.dims::<1>(self.bounce_group(BSDF), 3)[0]
     }
 
-    /// BSSRDF probe: (projection axis, disk point, probe hit choice).
+    /// BSSRDF probe: (projection axis and wavelength, disk point (angle, radius), probe hit
+    /// choice).
     pub fn subsurface_probe(&mut self) -> (f32, Vec2, f32) {
         let [a, b, c, d] = self.dims::<4>(self.bounce_group(PROBE), 0);
         (c, Vec2::new(a, b), d)
