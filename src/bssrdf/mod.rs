@@ -391,7 +391,7 @@ fn albedo_of_effective(table: &BssrdfTable, e: f32) -> f32 {
 }
 
 /// The profile table for a boundary IOR, built once per process and shared by every material
-/// with the same `eta` (a build takes ~50 ms).
+/// with the same `eta` (a build takes ~50 ms of CPU time, its rows in parallel).
 pub fn table_for_eta(eta: f32) -> Arc<BssrdfTable> {
     use std::collections::HashMap;
     use std::sync::{Mutex, OnceLock};
