@@ -14,8 +14,7 @@ const SPP: u32 = 64;
 
 /// Every 2D point of one path that the layout defines (camera, then bounces 0 and 5).
 fn points_2d(s: &mut Sampler) -> Vec<Vec2> {
-    let (filter, lens) = s.camera();
-    let mut out = vec![filter, lens];
+    let mut out = vec![s.pixel_filter(), s.lens()];
     for depth in [0, 5] {
         s.start_bounce(depth);
         out.push(s.light().0);
@@ -79,7 +78,7 @@ fn every_prefix_of_every_pixel_is_a_net_in_every_2d_group() {
     // Independent numbers are not nets (the test can fail).
     let image = ImageSampler::new(SamplerKind::Independent, SPP, 3);
     let pixel = image.pixel(4, 4, 16);
-    let pts: Vec<Vec2> = (0..16).map(|s| pixel.sample(s).camera().0).collect();
+    let pts: Vec<Vec2> = (0..16).map(|s| pixel.sample(s).pixel_filter()).collect();
     assert!(!is_net(&pts));
 }
 
@@ -89,7 +88,7 @@ fn a_prefix_of_a_larger_render_is_as_stratified() {
     // its first 64 samples are still a (0, 6, 2)-net.
     let image = ImageSampler::new(SamplerKind::Sobol, 100, 0);
     let pixel = image.pixel(9, 9, 64);
-    let pts: Vec<Vec2> = (0..64).map(|s| pixel.sample(s).camera().0).collect();
+    let pts: Vec<Vec2> = (0..64).map(|s| pixel.sample(s).pixel_filter()).collect();
     assert!(is_net(&pts));
 }
 

@@ -341,11 +341,16 @@ impl Sampler {
         }
     }
 
-    /// Pixel filter offset (in [0, 1)^2) and lens point.
-    pub fn camera(&mut self) -> (Vec2, Vec2) {
+    /// Pixel filter offset (in [0, 1)^2).
+    pub fn pixel_filter(&mut self) -> Vec2 {
         let [a, b] = self.dims::<2>(GROUP_CAMERA, 0);
+        Vec2::new(a, b)
+    }
+
+    /// Point on the lens (in [0, 1)^2). Its own group, so a pinhole camera need not draw it.
+    pub fn lens(&mut self) -> Vec2 {
         let [c, d] = self.dims::<2>(GROUP_LENS, 0);
-        (Vec2::new(a, b), Vec2::new(c, d))
+        Vec2::new(c, d)
     }
 
     /// The camera path's shutter time in [0, 1) (motion blur).

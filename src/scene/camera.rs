@@ -190,6 +190,11 @@ impl Camera {
         self
     }
 
+    /// Whether rays start from a lens (depth of field): a pinhole needs no lens sample.
+    pub fn has_lens(&self) -> bool {
+        self.lens_radius > 0.0
+    }
+
     /// Adds a thin lens of radius `aperture_radius` focused at `focus_distance` along the view
     /// axis (scene units). A radius of 0 (or a non-positive focus distance) keeps the pinhole.
     pub fn with_thin_lens(mut self, aperture_radius: f32, focus_distance: f32) -> Self {
