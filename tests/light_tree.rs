@@ -261,11 +261,14 @@ fn a_hit_light_has_the_density_that_sampled_it() {
                     Some(hit) if ls.distance.is_finite() => {
                         // Near a shared edge the ray may hit the neighbouring triangle, whose
                         // selection probability differs: compare the sampled one only.
-                        let same = matches!(
-                            chosen.map(|i| lights.light(i)),
-                            Some(Light::Triangle { instance, prim })
-                                if *instance == hit.instance && *prim == hit.prim
-                        );
+                        let same = match chosen.map(|i| lights.light(i)) {
+                            Some(Light::Triangle { instance, prim }) => {
+                                *instance == hit.instance && *prim == hit.prim
+                            }
+                            // Either triangle of a pair is the same light.
+                            Some(Light::TrianglePair { instance, .. }) => *instance == hit.instance,
+                            _ => false,
+                        };
                         if !same {
                             continue;
                         }
@@ -398,6 +401,9 @@ fn large_near_emitters_are_sampled_by_solid_angle() {
     };
     let scene = Scene::build(desc).expect("scene builds");
     let lights = &scene.lights;
+    // The panel's two triangles are one light, sampled over its whole solid angle.
+    assert_eq!(lights.len(), 1);
+    assert!(matches!(lights.light(0), Light::TrianglePair { .. }));
     let w = SampledWavelengths::sample_hero(0.3, Default::default());
     let mut rng = Pcg32::new(5, 6, 7);
     let receivers = [
