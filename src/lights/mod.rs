@@ -1101,10 +1101,9 @@ fn hi_of(v: &[Vec3; 3]) -> Vec3 {
     v[0].max(v[1]).max(v[2])
 }
 
-/// `longest2 > ratio2 distance^2` from `p` to the centroid.
-#[inline]
 /// The light sample towards the point `sp` of an emissive triangle, its density from
 /// `density(squared distance, |cos| at the light)`.
+#[inline]
 fn triangle_sample(
     geometry: &Geometry,
     materials: &[Material],
@@ -1152,6 +1151,8 @@ fn pair_extent(v: &[[Vec3; 3]; 2]) -> (Vec3, f32) {
     (0.5 * (lo + hi), longest2)
 }
 
+/// `longest2 > ratio2 distance^2` from `p` to the centroid.
+#[inline]
 fn longest2_passes((centroid, longest2): (Vec3, f32), p: Vec3, ratio2: f32) -> bool {
     longest2 > ratio2 * (centroid - p).length_squared()
 }
