@@ -482,3 +482,105 @@ fn large_near_emitters_are_sampled_by_solid_angle() {
         );
     }
 }
+
+#[test]
+fn a_pair_chooses_its_triangle_by_solid_angle_near_and_by_area_far() {
+    // A one-sided trapezoid facing down, split along its diagonal a-c into halves of area
+    // 0.5 (a b c) and 0.25 (a c d): one light. Its samples must land in each half in proportion
+    // to the half's area where the pair is sampled by area (far), and to the solid angle the
+    // half subtends where it is sampled by solid angle (near), with the density MIS uses.
+    let h = 1.0;
+    let (a, b, c, d) = (
+        Vec3::new(-0.5, h, -0.5),
+        Vec3::new(0.5, h, -0.5),
+        Vec3::new(0.25, h, 0.5),
+        Vec3::new(-0.25, h, 0.5),
+    );
+    let mut panel = quad_mesh("panel", Vec3::ZERO, Vec3::X, Vec3::Z, 0);
+    panel.positions = vec![a, b, c, d];
+    let desc = SceneDesc {
+        meshes: vec![panel],
+        instances: vec![InstanceDesc {
+            mesh: 0,
+            object_to_world: Mat4::IDENTITY,
+            name: "panel".into(),
+        }],
+        materials: vec![emissive_material("panel", Vec3::ONE, false)],
+        camera: Some(common::scenes::camera(0.0, 3.0)),
+        ..Default::default()
+    };
+    let scene = Scene::build(desc).expect("scene builds");
+    let lights = &scene.lights;
+    assert_eq!(lights.len(), 1);
+    assert!(matches!(lights.light(0), Light::TrianglePair { .. }));
+    let w = SampledWavelengths::sample_hero(0.3, Default::default());
+    let mut rng = Pcg32::new(8, 1, 2);
+    let solid_angle = |p: Vec3, t: [Vec3; 3]| {
+        let [x, y, z] = t.map(|v| (v - p).normalize());
+        prism::math::sampling::spherical_triangle_solid_angle(x, y, z)
+    };
+    // In the half a b c: on the same side of the diagonal a-c as b.
+    let in_abc = |q: Vec3| (c - a).cross(q - a).y * (c - a).cross(b - a).y > 0.0;
+    let far = Vec3::new(0.1, h - 3.0, 0.2);
+    let near = Vec3::new(-0.15, h - 0.08, 0.3);
+    let near_share = {
+        let (o0, o1) = (solid_angle(near, [a, b, c]), solid_angle(near, [a, c, d]));
+        o0 / (o0 + o1)
+    };
+    // The two expectations differ from each other and from an even split, so a wrong share
+    // in either mode fails.
+    assert!((near_share - 2.0 / 3.0).abs() > 0.1 && (near_share - 0.5).abs() > 0.1);
+    for (p, want) in [(far, 2.0 / 3.0), (near, near_share)] {
+        let ctx = ShadingContext {
+            p,
+            n: Some(Vec3::Y),
+            time: 0.5,
+        };
+        let count = 20_000;
+        let mut in_first = 0usize;
+        let mut hits = 0usize;
+        for _ in 0..count {
+            let u = Vec2::new(rng.next_1d(), rng.next_1d());
+            let Some(ls) = lights.sample(
+                &scene.geometry,
+                &scene.materials,
+                &ctx,
+                rng.next_1d(),
+                u,
+                &w,
+                LightSelection::Tree,
+            ) else {
+                continue;
+            };
+            let hit = scene
+                .geometry
+                .intersect(&Ray::new(p, ls.wi), f32::INFINITY)
+                .expect("the sample's direction meets the panel");
+            let sp = scene.geometry.surface_point(&hit);
+            hits += 1;
+            in_first += in_abc(sp.p) as usize;
+            let density = lights.triangle_pdf(
+                &scene.geometry,
+                &ctx,
+                hit.instance,
+                hit.prim,
+                sp.area,
+                hit.t,
+                sp.ng.dot(-ls.wi),
+                LightSelection::Tree,
+            );
+            assert!(
+                (density - ls.pdf).abs() <= 2e-3 * ls.pdf,
+                "at {p}: hit density {density} vs sampled {}",
+                ls.pdf
+            );
+        }
+        assert!(hits > count * 99 / 100, "at {p}: {hits} of {count} samples");
+        let share = in_first as f64 / hits as f64;
+        // Binomial standard deviation about 0.0034: 0.015 is over 4 of them.
+        assert!(
+            (share - want as f64).abs() < 0.015,
+            "at {p}: {share:.4} of the samples in the larger half, want {want:.4}"
+        );
+    }
+}
