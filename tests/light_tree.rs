@@ -364,23 +364,13 @@ fn the_tree_beats_power_selection_on_1000_emitters() {
 #[test]
 fn large_near_emitters_are_sampled_by_solid_angle() {
     let h = 0.05;
-    let desc = SceneDesc {
-        meshes: vec![quad_mesh(
-            "panel",
-            Vec3::new(0.0, h, 0.0),
-            Vec3::X * 0.5,
-            Vec3::Z * 0.5,
-            0,
-        )],
-        instances: vec![InstanceDesc {
-            mesh: 0,
-            object_to_world: Mat4::IDENTITY,
-            name: "panel".into(),
-        }],
-        materials: vec![emissive_material("panel", Vec3::ONE, false)],
-        camera: Some(common::scenes::camera(0.0, 3.0)),
-        ..Default::default()
-    };
+    let panel = quad_mesh(
+        "panel",
+        Vec3::new(0.0, h, 0.0),
+        Vec3::X * 0.5,
+        Vec3::Z * 0.5,
+        0,
+    );
     let corners = [
         Vec3::new(-0.5, h, -0.5),
         Vec3::new(0.5, h, -0.5),
@@ -399,7 +389,7 @@ fn large_near_emitters_are_sampled_by_solid_angle() {
             .sum::<f32>()
             .abs()
     };
-    let scene = Scene::build(desc).expect("scene builds");
+    let scene = panel_scene(panel);
     let lights = &scene.lights;
     // The panel's two triangles are one light, sampled over its whole solid angle.
     assert_eq!(lights.len(), 1);
@@ -424,41 +414,14 @@ fn large_near_emitters_are_sampled_by_solid_angle() {
         let (mut sum, mut sum2, mut area_sum, mut area_sum2) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
         for _ in 0..count {
             let u = Vec2::new(rng.next_1d(), rng.next_1d());
-            let Some(ls) = lights.sample(
-                &scene.geometry,
-                &scene.materials,
-                &ctx,
-                rng.next_1d(),
-                u,
-                &w,
-                LightSelection::Tree,
-            ) else {
+            let Some((wi, pdf, _)) = sample_meeting_the_emitter(&scene, &ctx, rng.next_1d(), u, &w)
+            else {
                 continue;
             };
-            let cos = n.dot(ls.wi).max(0.0);
-            let e = (cos / ls.pdf) as f64;
+            let cos = n.dot(wi).max(0.0);
+            let e = (cos / pdf) as f64;
             sum += e;
             sum2 += e * e;
-            let hit = scene
-                .geometry
-                .intersect(&Ray::new(p, ls.wi), f32::INFINITY)
-                .expect("the sample's direction meets the panel");
-            let sp = scene.geometry.surface_point(&hit);
-            let density = lights.triangle_pdf(
-                &scene.geometry,
-                &ctx,
-                hit.instance,
-                hit.prim,
-                sp.area,
-                hit.t,
-                sp.ng.dot(-ls.wi),
-                LightSelection::Tree,
-            );
-            assert!(
-                (density - ls.pdf).abs() <= 2e-3 * ls.pdf,
-                "at {p}: hit density {density} vs sampled {}",
-                ls.pdf
-            );
             // The same estimate with the square sampled uniformly by area.
             let q = Vec3::new(u.x - 0.5, h, u.y - 0.5);
             let d = q - p;
@@ -498,18 +461,7 @@ fn a_pair_chooses_its_triangle_by_solid_angle_near_and_by_area_far() {
     );
     let mut panel = quad_mesh("panel", Vec3::ZERO, Vec3::X, Vec3::Z, 0);
     panel.positions = vec![a, b, c, d];
-    let desc = SceneDesc {
-        meshes: vec![panel],
-        instances: vec![InstanceDesc {
-            mesh: 0,
-            object_to_world: Mat4::IDENTITY,
-            name: "panel".into(),
-        }],
-        materials: vec![emissive_material("panel", Vec3::ONE, false)],
-        camera: Some(common::scenes::camera(0.0, 3.0)),
-        ..Default::default()
-    };
-    let scene = Scene::build(desc).expect("scene builds");
+    let scene = panel_scene(panel);
     let lights = &scene.lights;
     assert_eq!(lights.len(), 1);
     assert!(matches!(lights.light(0), Light::TrianglePair { .. }));
@@ -541,39 +493,12 @@ fn a_pair_chooses_its_triangle_by_solid_angle_near_and_by_area_far() {
         let mut hits = 0usize;
         for _ in 0..count {
             let u = Vec2::new(rng.next_1d(), rng.next_1d());
-            let Some(ls) = lights.sample(
-                &scene.geometry,
-                &scene.materials,
-                &ctx,
-                rng.next_1d(),
-                u,
-                &w,
-                LightSelection::Tree,
-            ) else {
+            let Some((_, _, q)) = sample_meeting_the_emitter(&scene, &ctx, rng.next_1d(), u, &w)
+            else {
                 continue;
             };
-            let hit = scene
-                .geometry
-                .intersect(&Ray::new(p, ls.wi), f32::INFINITY)
-                .expect("the sample's direction meets the panel");
-            let sp = scene.geometry.surface_point(&hit);
             hits += 1;
-            in_first += in_abc(sp.p) as usize;
-            let density = lights.triangle_pdf(
-                &scene.geometry,
-                &ctx,
-                hit.instance,
-                hit.prim,
-                sp.area,
-                hit.t,
-                sp.ng.dot(-ls.wi),
-                LightSelection::Tree,
-            );
-            assert!(
-                (density - ls.pdf).abs() <= 2e-3 * ls.pdf,
-                "at {p}: hit density {density} vs sampled {}",
-                ls.pdf
-            );
+            in_first += in_abc(q) as usize;
         }
         assert!(hits > count * 99 / 100, "at {p}: {hits} of {count} samples");
         let share = in_first as f64 / hits as f64;
@@ -583,4 +508,64 @@ fn a_pair_chooses_its_triangle_by_solid_angle_near_and_by_area_far() {
             "at {p}: {share:.4} of the samples in the larger half, want {want:.4}"
         );
     }
+}
+
+/// A light sample from `ctx` in a scene whose one light is an emissive mesh: its direction,
+/// density and the point where the direction meets the emitter, after checking that the
+/// density MIS gives a BSDF ray hitting the emitter there (`triangle_pdf`) is the sampled one.
+fn sample_meeting_the_emitter(
+    scene: &Scene,
+    ctx: &ShadingContext,
+    u_select: f32,
+    u: Vec2,
+    w: &SampledWavelengths,
+) -> Option<(Vec3, f32, Vec3)> {
+    let lights = &scene.lights;
+    let ls = lights.sample(
+        &scene.geometry,
+        &scene.materials,
+        ctx,
+        u_select,
+        u,
+        w,
+        LightSelection::Tree,
+    )?;
+    let p = ctx.p;
+    let hit = scene
+        .geometry
+        .intersect(&Ray::new(p, ls.wi), f32::INFINITY)
+        .expect("the sample's direction meets the emitter");
+    let sp = scene.geometry.surface_point(&hit);
+    let density = lights.triangle_pdf(
+        &scene.geometry,
+        ctx,
+        hit.instance,
+        hit.prim,
+        sp.area,
+        hit.t,
+        sp.ng.dot(-ls.wi),
+        LightSelection::Tree,
+    );
+    assert!(
+        (density - ls.pdf).abs() <= 2e-3 * ls.pdf,
+        "at {p}: hit density {density} vs sampled {}",
+        ls.pdf
+    );
+    Some((ls.wi, ls.pdf, sp.p))
+}
+
+/// A scene of one emissive `panel` (radiance 1, one-sided) and a camera.
+fn panel_scene(panel: prism::scene::MeshDesc) -> Scene {
+    Scene::build(SceneDesc {
+        meshes: vec![panel],
+        instances: vec![InstanceDesc {
+            mesh: 0,
+            object_to_world: Mat4::IDENTITY,
+            name: "panel".into(),
+        }],
+        materials: vec![emissive_material("panel", Vec3::ONE, false)],
+        camera: Some(common::scenes::camera(0.0, 3.0)),
+        ..Default::default()
+    })
+    .expect("scene builds")
 }
