@@ -93,8 +93,9 @@ struct SceneArgs {
     #[arg(long, value_enum)]
     sampler: Option<SamplerArg>,
     /// How next-event estimation chooses a light: tree (a light tree: by each light's estimated
-    /// irradiance at the shading point) or power (by emitted power, for comparisons). Default:
-    /// the JSON's render.light_sampler, else tree
+    /// irradiance at the shading point, with the sun and the world sampled besides its
+    /// choice), tree-single (one light per shading point) or power (by emitted power); the last
+    /// two for comparisons. Default: the JSON's render.light_sampler, else tree
     #[arg(long, value_enum)]
     light_sampler: Option<LightSamplerArg>,
     /// Subsurface scattering keeps its full spatial spread after a diffuse bounce too (for
@@ -187,6 +188,7 @@ enum DenoisePrefilterArg {
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum LightSamplerArg {
     Tree,
+    TreeSingle,
     Power,
 }
 
@@ -491,6 +493,7 @@ fn load(args: &SceneArgs) -> Result<Loaded> {
         },
         light_selection: match args.light_sampler {
             Some(LightSamplerArg::Tree) => LightSelection::Tree,
+            Some(LightSamplerArg::TreeSingle) => LightSelection::TreeSingle,
             Some(LightSamplerArg::Power) => LightSelection::Power,
             None => defaults
                 .light_sampler

@@ -123,7 +123,7 @@ fn environment_sampling_matches_its_pdf_chi_square() {
     let mut failures = 0usize;
     for k in 0..SAMPLES {
         let u = Vec2::new(rng.next_f32(), rng.next_f32());
-        let Some(ls) = lights.sample(
+        let [Some(ls), ..] = lights.sample(
             &scene.geometry,
             &scene.materials,
             &ORIGIN,
@@ -220,7 +220,7 @@ fn environment_samples_concentrate_on_the_bright_spot() {
     let (mut near, n) = (0, 20_000);
     for _ in 0..n {
         let u = Vec2::new(rng.next_f32(), rng.next_f32());
-        if let Some(ls) = lights.sample(
+        if let [Some(ls), ..] = lights.sample(
             &scene.geometry,
             &scene.materials,
             &ORIGIN,

@@ -1,4 +1,5 @@
-//! Light selection: the light tree's choices follow its own pmf (chi-square), the density of a
+//! Light selection: the light tree's choices follow its own pmf (chi-square), also where the
+//! sampling splits into the tree's choice and every distant light, the density of a
 //! light that a BSDF ray hits equals the density with which light sampling produces that
 //! direction from the same shading point (so MIS weights sum to one), and on 1000 small
 //! emitters the tree beats power-proportional selection by a wide margin at equal spp.
@@ -162,7 +163,7 @@ fn light_choices_follow_the_pmf() {
     let mut failures = Vec::new();
     for ctx in contexts(6) {
         let pmf: Vec<f64> = (0..n_lights)
-            .map(|i| lights.pmf(&ctx, i, LightSelection::Tree) as f64)
+            .map(|i| lights.pmf(&ctx, i, LightSelection::TreeSingle) as f64)
             .collect();
         let total: f64 = pmf.iter().sum();
         assert!(total <= 1.0 + 1e-4, "pmf sums to {total} at {:?}", ctx.p);
@@ -172,7 +173,7 @@ fn light_choices_follow_the_pmf() {
         let mut counts = vec![0f64; n_lights + 1];
         let mut rng = Pcg32::new(5, 6, 7);
         for _ in 0..draws {
-            match lights.select(&ctx, rng.next_1d(), LightSelection::Tree) {
+            match lights.select(&ctx, rng.next_1d(), LightSelection::TreeSingle) {
                 Some((i, p)) => {
                     // The returned probability is the pmf.
                     let want = pmf[i];
@@ -203,6 +204,104 @@ fn light_choices_follow_the_pmf() {
 }
 
 #[test]
+fn split_sampling_takes_every_distant_light_and_the_tree_choice_follows_its_pmf() {
+    // With the sun and the sky besides the lamps, the default selection gives each distant
+    // light a sample of its own (probability 1) and chooses among the tree's lights with the
+    // single choice's probabilities renormalised to the tree; `pmf` says so for MIS.
+    let scene = Scene::build(many_emitters(60, true)).expect("scene builds");
+    let lights = &scene.lights;
+    let n_lights = lights.len();
+    let distant = |i: usize| {
+        matches!(
+            lights.light(i),
+            Light::Directional { .. } | Light::Environment
+        )
+    };
+    let mut split_contexts = 0;
+    for ctx in contexts(6) {
+        let single: Vec<f64> = (0..n_lights)
+            .map(|i| lights.pmf(&ctx, i, LightSelection::TreeSingle) as f64)
+            .collect();
+        let split: Vec<f64> = (0..n_lights)
+            .map(|i| lights.pmf(&ctx, i, LightSelection::Tree) as f64)
+            .collect();
+        let distant_share: f64 = (0..n_lights)
+            .filter(|&i| distant(i))
+            .map(|i| single[i])
+            .sum();
+        if !(distant_share > 0.0 && distant_share < 1.0) {
+            // Only one of the tree and the distant lights reaches the point: no split.
+            for i in 0..n_lights {
+                assert!(
+                    (split[i] - single[i]).abs() <= 1e-6,
+                    "light {i} at {:?}",
+                    ctx.p
+                );
+            }
+            continue;
+        }
+        split_contexts += 1;
+        for i in 0..n_lights {
+            let want = match distant(i) {
+                true if single[i] > 0.0 => 1.0,
+                true => 0.0,
+                false => single[i] / (1.0 - distant_share),
+            };
+            assert!(
+                (split[i] - want).abs() <= 1e-5 + 1e-4 * want,
+                "light {i} at {:?}: pmf {} vs {want}",
+                ctx.p,
+                split[i]
+            );
+        }
+        // The tree's choices follow that pmf (the last cell: no light chosen).
+        let draws = 100_000;
+        let mut counts = vec![0f64; n_lights + 1];
+        let mut rng = Pcg32::new(5, 6, 7);
+        for _ in 0..draws {
+            match lights.select(&ctx, rng.next_1d(), LightSelection::Tree) {
+                Some((i, p)) => {
+                    assert!(!distant(i), "the split choice returned distant light {i}");
+                    assert!((p as f64 - split[i]).abs() <= 1e-5 + 1e-4 * split[i]);
+                    counts[i] += 1.0;
+                }
+                None => counts[n_lights] += 1.0,
+            }
+        }
+        let local: Vec<usize> = (0..n_lights).filter(|&i| !distant(i)).collect();
+        let mut observed: Vec<f64> = local.iter().map(|&i| counts[i]).collect();
+        let mut expected: Vec<f64> = local.iter().map(|&i| split[i] * draws as f64).collect();
+        observed.push(counts[n_lights]);
+        expected.push((draws as f64 - expected.iter().sum::<f64>()).max(0.0));
+        let p = stats::chi2_test(&observed, &expected, 5.0).p_value;
+        assert!(p > 1e-4, "chi-square p = {p:.2e} at {:?}", ctx.p);
+        // Every light sample set holds each distant light that can light the point.
+        let w = SampledWavelengths::sample_hero(0.3, Default::default());
+        for _ in 0..200 {
+            let samples = lights.sample(
+                &scene.geometry,
+                &scene.materials,
+                &ctx,
+                rng.next_1d(),
+                Vec2::new(rng.next_1d(), rng.next_1d()),
+                &w,
+                LightSelection::Tree,
+            );
+            for i in (0..n_lights).filter(|&i| distant(i) && split[i] > 0.0) {
+                let taken = samples.iter().flatten().filter(|ls| ls.light == i).count();
+                // The map's sample fails where its texel is black (none here).
+                assert_eq!(
+                    taken, 1,
+                    "distant light {i} sampled {taken} times at {:?}",
+                    ctx.p
+                );
+            }
+        }
+    }
+    assert!(split_contexts >= 2, "{split_contexts} contexts split");
+}
+
+#[test]
 fn a_wrong_pmf_fails_the_chi_square() {
     // The test above can fail: the same draws against a flattened pmf are rejected.
     let scene = Scene::build(many_emitters(60, true)).expect("scene builds");
@@ -213,7 +312,7 @@ fn a_wrong_pmf_fails_the_chi_square() {
     let mut rng = Pcg32::new(1, 1, 1);
     let draws = 100_000;
     for _ in 0..draws {
-        if let Some((i, _)) = lights.select(&ctx, rng.next_1d(), LightSelection::Tree) {
+        if let Some((i, _)) = lights.select(&ctx, rng.next_1d(), LightSelection::TreeSingle) {
             counts[i] += 1.0;
         }
     }
@@ -232,88 +331,93 @@ fn a_hit_light_has_the_density_that_sampled_it() {
     let w = SampledWavelengths::sample_hero(0.3, Default::default());
     let mut rng = Pcg32::new(3, 1, 4);
     let mut checked = [0usize; 3];
-    for selection in [LightSelection::Tree, LightSelection::Power] {
+    let mut split = 0usize;
+    let selections = [
+        LightSelection::Tree,
+        LightSelection::TreeSingle,
+        LightSelection::Power,
+    ];
+    for selection in selections {
         for ctx in contexts(30) {
             for _ in 0..40 {
-                let u_select = rng.next_1d();
-                let chosen = lights.select(&ctx, u_select, selection).map(|(i, _)| i);
-                let Some(ls) = lights.sample(
+                let samples = lights.sample(
                     &scene.geometry,
                     &scene.materials,
                     &ctx,
-                    u_select,
+                    rng.next_1d(),
                     Vec2::new(rng.next_1d(), rng.next_1d()),
                     &w,
                     selection,
-                ) else {
-                    continue;
-                };
-                // Delta lights cannot be hit; at the map's poles its density (1 / sin theta)
-                // is too ill-conditioned in f32 to compare.
-                if ls.delta || ls.wi.y.abs() > 0.9999 {
-                    continue;
-                }
-                let origin = ctx.p + ls.wi * 1e-4;
-                let density = match scene
-                    .geometry
-                    .intersect(&Ray::new(origin, ls.wi), f32::INFINITY)
-                {
-                    Some(hit) if ls.distance.is_finite() => {
-                        // Near a shared edge the ray may hit the neighbouring triangle, whose
-                        // selection probability differs: compare the sampled one only.
-                        let same = match chosen.map(|i| lights.light(i)) {
-                            Some(Light::Triangle { instance, prim }) => {
-                                *instance == hit.instance && *prim == hit.prim
+                );
+                split += usize::from(samples.iter().flatten().count() > 1);
+                for ls in samples.into_iter().flatten() {
+                    let chosen = ls.light;
+                    // Delta lights cannot be hit; at the map's poles its density (1 / sin theta)
+                    // is too ill-conditioned in f32 to compare.
+                    if ls.delta || ls.wi.y.abs() > 0.9999 {
+                        continue;
+                    }
+                    let origin = ctx.p + ls.wi * 1e-4;
+                    let density = match scene
+                        .geometry
+                        .intersect(&Ray::new(origin, ls.wi), f32::INFINITY)
+                    {
+                        Some(hit) if ls.distance.is_finite() => {
+                            // Near a shared edge the ray may hit the neighbouring triangle, whose
+                            // selection probability differs: compare the sampled one only.
+                            let same = match lights.light(chosen) {
+                                Light::Triangle { instance, prim } => {
+                                    *instance == hit.instance && *prim == hit.prim
+                                }
+                                // Either triangle of a pair is the same light.
+                                Light::TrianglePair { instance, .. } => *instance == hit.instance,
+                                _ => false,
+                            };
+                            if !same {
+                                continue;
                             }
-                            // Either triangle of a pair is the same light.
-                            Some(Light::TrianglePair { instance, .. }) => *instance == hit.instance,
-                            _ => false,
-                        };
-                        if !same {
-                            continue;
+                            let sp = scene.geometry.surface_point(&hit);
+                            let cos = sp.ng.dot(-ls.wi);
+                            checked[0] += 1;
+                            lights.triangle_pdf(
+                                &scene.geometry,
+                                &ctx,
+                                hit.instance,
+                                hit.prim,
+                                sp.area,
+                                hit.t + 1e-4,
+                                cos,
+                                selection,
+                            )
                         }
-                        let sp = scene.geometry.surface_point(&hit);
-                        let cos = sp.ng.dot(-ls.wi);
-                        checked[0] += 1;
-                        lights.triangle_pdf(
-                            &scene.geometry,
-                            &ctx,
-                            hit.instance,
-                            hit.prim,
-                            sp.area,
-                            hit.t + 1e-4,
-                            cos,
-                            selection,
-                        )
-                    }
-                    Some(_) => continue, // an occluded sun or sky sample
-                    None => {
-                        // Each light at infinity is its own technique (the sun disc lies in
-                        // the sky): the one sampled must be among those seen, with the same
-                        // density.
-                        let chosen = chosen.expect("a light was sampled");
-                        let mut seen = false;
-                        lights.for_each_at_infinity(ls.wi, &w, |i, _| seen |= i == chosen);
-                        assert!(seen, "light {chosen} not seen along its own sample");
-                        let sky = matches!(lights.light(chosen), Light::Environment);
-                        checked[if sky { 1 } else { 2 }] += 1;
-                        lights.infinite_pdf(&ctx, chosen, ls.wi, selection)
-                    }
-                };
-                assert!(
+                        Some(_) => continue, // an occluded sun or sky sample
+                        None => {
+                            // Each light at infinity is its own technique (the sun disc lies in
+                            // the sky): the one sampled must be among those seen, with the same
+                            // density.
+                            let mut seen = false;
+                            lights.for_each_at_infinity(ls.wi, &w, |i, _| seen |= i == chosen);
+                            assert!(seen, "light {chosen} not seen along its own sample");
+                            let sky = matches!(lights.light(chosen), Light::Environment);
+                            checked[if sky { 1 } else { 2 }] += 1;
+                            lights.infinite_pdf(&ctx, chosen, ls.wi, selection)
+                        }
+                    };
+                    assert!(
                     (density - ls.pdf).abs() <= 2e-3 * ls.pdf,
                     "{selection:?} at {:?}: hit density {density} vs sampled {} (light {:?}, {:?})",
                     ctx.p,
                     ls.pdf,
-                    chosen.map(|i| lights.light(i)),
+                    lights.light(chosen),
                     ls.wi
                 );
-                let bsdf = rng.next_1d() * 2.0;
-                let (wl, wb) = (
-                    prism::math::power_heuristic(ls.pdf, bsdf),
-                    prism::math::power_heuristic(bsdf, density),
-                );
-                assert!((wl + wb - 1.0).abs() < 1e-3);
+                    let bsdf = rng.next_1d() * 2.0;
+                    let (wl, wb) = (
+                        prism::math::power_heuristic(ls.pdf, bsdf),
+                        prism::math::power_heuristic(bsdf, density),
+                    );
+                    assert!((wl + wb - 1.0).abs() < 1e-3);
+                }
             }
         }
     }
@@ -321,6 +425,8 @@ fn a_hit_light_has_the_density_that_sampled_it() {
         checked.iter().all(|&c| c > 20),
         "triangles, sky, sun checked: {checked:?}"
     );
+    // The default selection split the sampling at most points (the lamps, the sun, the sky).
+    assert!(split > 500, "{split} split next-event estimations");
 }
 
 #[test]
@@ -353,6 +459,57 @@ fn the_tree_beats_power_selection_on_1000_emitters() {
         power / tree
     );
     assert!(power >= 5.0 * tree, "tree {tree:.3e} vs power {power:.3e}");
+}
+
+#[test]
+fn splitting_the_distant_lights_keeps_the_image_and_lowers_its_noise() {
+    // The lamps, a spot, a sun and a sky over a floor, with the emitters' backs shading it:
+    // sampling the sun and the sky besides the tree's choice converges to the same image as
+    // one light per point, with less noise at equal samples.
+    let scene = Scene::build(many_emitters(40, true)).expect("scene builds");
+    let render = |selection, spp, seed| {
+        let settings = RenderSettings {
+            width: 40,
+            height: 40,
+            spp,
+            max_depth: 3,
+            seed,
+            light_selection: selection,
+            ..Default::default()
+        };
+        let (film, stats) = render_quiet(&scene, &settings);
+        assert_eq!(stats.discarded, 0);
+        film.to_rgba()
+    };
+    let image_mean = |img: &[[f32; 4]]| -> f64 {
+        img.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>() / img.len() as f64
+    };
+    let reference = render(LightSelection::Tree, 1024, 91);
+    let single_reference = render(LightSelection::TreeSingle, 1024, 92);
+    let (m_split, m_single) = (image_mean(&reference), image_mean(&single_reference));
+    println!("image mean: split {m_split:.5}, single {m_single:.5}");
+    assert!(
+        (m_split / m_single - 1.0).abs() < 0.01,
+        "{m_split} vs {m_single}"
+    );
+    let noise = |selection| -> f64 {
+        (1..=3)
+            .map(|s| rel_mse(&render(selection, 16, s), &reference))
+            .sum::<f64>()
+            / 3.0
+    };
+    let (split, single) = (
+        noise(LightSelection::Tree),
+        noise(LightSelection::TreeSingle),
+    );
+    println!(
+        "16 spp relMSE: split {split:.3e}, single {single:.3e}, ratio {:.2}",
+        single / split
+    );
+    assert!(
+        single >= 2.0 * split,
+        "split {split:.3e} vs single {single:.3e}"
+    );
 }
 
 /// A square emitter of side 1 just above shading points (0.05 away; the top of a Cornell box's
@@ -521,7 +678,7 @@ fn sample_meeting_the_emitter(
     w: &SampledWavelengths,
 ) -> Option<(Vec3, f32, Vec3)> {
     let lights = &scene.lights;
-    let ls = lights.sample(
+    let [ls, ..] = lights.sample(
         &scene.geometry,
         &scene.materials,
         ctx,
@@ -529,7 +686,8 @@ fn sample_meeting_the_emitter(
         u,
         w,
         LightSelection::Tree,
-    )?;
+    );
+    let ls = ls?;
     let p = ctx.p;
     let hit = scene
         .geometry

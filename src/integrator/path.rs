@@ -495,40 +495,46 @@ impl<'a> PathTracer<'a> {
         scatter: impl Fn(glam::Vec3) -> Option<(f32, f32, glam::Vec3)>,
     ) -> SampledSpectrum {
         let scene = self.scene;
-        let Some(ls) = scene.lights.sample(
-            &scene.geometry,
-            &scene.materials,
-            ctx,
-            u_light,
-            u_light2,
-            w,
-            self.selection,
-        ) else {
-            return SampledSpectrum::ZERO;
-        };
-        if seen_by.is_some_and(|fl| !ls.visibility.sees(fl)) {
-            return SampledSpectrum::ZERO;
+        let mut total = SampledSpectrum::ZERO;
+        for ls in scene
+            .lights
+            .sample(
+                &scene.geometry,
+                &scene.materials,
+                ctx,
+                u_light,
+                u_light2,
+                w,
+                self.selection,
+            )
+            .into_iter()
+            .flatten()
+        {
+            if seen_by.is_some_and(|fl| !ls.visibility.sees(fl)) {
+                continue;
+            }
+            let Some((f, pdf, origin)) = scatter(ls.wi) else {
+                continue;
+            };
+            *rays += 1;
+            let shadow = self.transmittance(
+                Ray::new_at(origin, ls.wi, ctx.time),
+                ls.distance,
+                media,
+                w,
+                sampler,
+            );
+            if shadow.is_black() {
+                continue;
+            }
+            let weight = if ls.delta {
+                1.0
+            } else {
+                mis.light_weight(ls.pdf, SampledSpectrum::splat(pdf))
+            };
+            total += ls.li * shadow * (f * weight / (ls.pdf * mis.denominator()));
         }
-        let Some((f, pdf, origin)) = scatter(ls.wi) else {
-            return SampledSpectrum::ZERO;
-        };
-        *rays += 1;
-        let shadow = self.transmittance(
-            Ray::new_at(origin, ls.wi, ctx.time),
-            ls.distance,
-            media,
-            w,
-            sampler,
-        );
-        if shadow.is_black() {
-            return SampledSpectrum::ZERO;
-        }
-        let weight = if ls.delta {
-            1.0
-        } else {
-            mis.light_weight(ls.pdf, SampledSpectrum::splat(pdf))
-        };
-        ls.li * shadow * (f * weight / (ls.pdf * mis.denominator()))
+        total
     }
 
     /// The field of the heterogeneous volume `e` at the world point `p`: its density and
@@ -1160,15 +1166,19 @@ impl<'a> PathTracer<'a> {
             };
             let (u_light2, u_light) = sampler.light();
             if !bsdf.is_specular() && walk_exit.is_none() {
-                if let Some(ls) = lights.sample(
-                    geometry,
-                    &scene.materials,
-                    &ctx,
-                    u_light,
-                    u_light2,
-                    &st.alive,
-                    selection,
-                ) {
+                for ls in lights
+                    .sample(
+                        geometry,
+                        &scene.materials,
+                        &ctx,
+                        u_light,
+                        u_light2,
+                        &st.alive,
+                        selection,
+                    )
+                    .into_iter()
+                    .flatten()
+                {
                     let wi = frame.to_local(ls.wi);
                     // A dispersive BSDF costs one evaluation per wavelength, often more than
                     // the shadow ray that makes it moot (light seen through glass is mostly

@@ -555,7 +555,8 @@ pub struct RenderDefaults {
     pub filter: Option<(String, f32)>,
     /// `render.sampler`: "sobol" or "independent" (validated by the sidecar parser).
     pub sampler: Option<String>,
-    /// `render.light_sampler`: "tree" or "power" (validated by the sidecar parser).
+    /// `render.light_sampler`: "tree", "tree-single" or "power" (validated by the sidecar
+    /// parser).
     pub light_sampler: Option<String>,
     /// `render.noise_threshold` (>= 0; 0 = no adaptive sampling), `render.min_samples`
     /// (0 = automatic) and `render.time_limit` (seconds, 0 = none).

@@ -80,7 +80,8 @@
 //!   `wavelengths` (`"hero"` | `"single"` | `"stratified"`), `wavelength_pdf` (`"visible"` |
 //!   `"uniform"`), `sampler` (`"sobol"`, the default: Owen-scrambled Sobol with blue-noise
 //!   pixel ordering | `"independent"`: independent random numbers, for comparisons),
-//!   `light_sampler` (`"tree"`, the default: a light tree | `"power"`: by emitted power),
+//!   `light_sampler` (`"tree"`, the default: a light tree, the distant lights sampled besides
+//!   its choice | `"tree-single"`: one light per shading point | `"power"`: by emitted power),
 //!   `noise_threshold` (>= 0: adaptive sampling's noise threshold, Cycles' convention, 0 = off),
 //!   `min_samples` (integer >= 0, 0 = automatic), `time_limit` (seconds >= 0, 0 = none),
 //!   `denoise` (true | false: OIDN denoising of the final image, `crate::film::denoise`),
