@@ -58,6 +58,7 @@ fn bench_bsdf(c: &mut Criterion) {
                 coat: prism::bsdf::Coat::NONE,
                 sheen: prism::bsdf::Sheen::NONE,
                 iridescence: None,
+                view: None,
             }),
             false,
         ),

@@ -64,6 +64,7 @@ fn metallic_roughness(base: SampledSpectrum, metallic: f32, roughness: f32, spec
         coat: prism::bsdf::Coat::NONE,
         sheen: prism::bsdf::Sheen::NONE,
         iridescence: None,
+        view: None,
     })
 }
 
@@ -217,7 +218,9 @@ fn relative_eq(a: f32, b: f32, tol: f32) -> bool {
 
 /// What is being tested: a BSDF's `sample` against its `pdf` for a fixed `wo`, or the GGX
 /// visible-normal sampler against `d_visible` (anisotropic alphas, not reachable via `Bsdf`).
+/// (A test's few values: the size difference does not matter.)
 #[derive(Clone, Copy, Debug)]
+#[allow(clippy::large_enum_variant)]
 enum Target {
     Bsdf(Bsdf),
     Vndf(TrowbridgeReitz),
@@ -1135,6 +1138,7 @@ fn metallic_roughness_energy_is_bounded() {
                     coat: prism::bsdf::Coat::NONE,
                     sheen: prism::bsdf::Sheen::NONE,
                     iridescence: None,
+                    view: None,
                 });
                 for c in [0.1f32, 0.3, 0.6, 1.0] {
                     let (e, _) = albedo(&b, wo_at(c), 200_000, 23, false);

@@ -588,17 +588,41 @@ impl MetallicRoughnessBsdf {
         })
     }
 
+    /// The BSDF with its `wo`-only terms computed for `wo` (`view`); no-op below the surface.
+    pub fn at_view(self, wo: Vec3) -> Self {
+        let view = (wo.z > 0.0).then(|| self.compute_view_terms(wo));
+        Self { view, ..self }
+    }
+
+    fn compute_view_terms(&self, wo: Vec3) -> ViewTerms {
+        let layers = self.layers(wo.z);
+        ViewTerms {
+            wo,
+            layers,
+            probabilities: self.all_lobe_probabilities(wo, layers.as_ref()),
+        }
+    }
+
+    /// The `wo`-only terms: the stored ones when they are for this `wo`.
+    #[inline]
+    fn view_terms(&self, wo: Vec3) -> ViewTerms {
+        match self.view {
+            Some(v) if v.wo == wo => v,
+            _ => self.compute_view_terms(wo),
+        }
+    }
+
     /// f(wo, wi) and the mixture pdf of `wi`, shared by `eval`, `pdf` and `sample`.
     pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (SampledSpectrum, f32) {
         if !(wo.z > 0.0 && wi.z > 0.0) {
             return (SampledSpectrum::ZERO, 0.0);
         }
-        let layers = self.layers(wo.z);
-        self.eval_pdf_with(wo, wi, layers.as_ref())
+        self.eval_pdf_with(wo, wi, &self.view_terms(wo))
     }
 
     /// `eval_pdf` with the `wo`-only terms already computed (`sample` shares them).
-    fn eval_pdf_with(&self, wo: Vec3, wi: Vec3, layers: Option<&Layers>) -> (SampledSpectrum, f32) {
+    fn eval_pdf_with(&self, wo: Vec3, wi: Vec3, view: &ViewTerms) -> (SampledSpectrum, f32) {
+        let layers = view.layers.as_ref();
         if !(wo.z > 0.0 && wi.z > 0.0) {
             return (SampledSpectrum::ZERO, 0.0);
         }
@@ -611,7 +635,7 @@ impl MetallicRoughnessBsdf {
         let smooth = distrib.effectively_smooth();
         let vdoth = wo.dot(h).clamp(0.0, 1.0);
         let (fd, fc) = self.fresnels(vdoth);
-        let (p_sheen, p_coat, p_spec) = self.all_lobe_probabilities(wo, layers);
+        let (p_sheen, p_coat, p_spec) = view.probabilities;
         let mut pdf = (1.0 - p_coat - p_spec).max(0.0) * cosine_hemisphere_pdf(wi.z);
         let (mut dielectric, mut conductor) = match layers {
             Some(l) => (
@@ -672,7 +696,7 @@ impl MetallicRoughnessBsdf {
         if !(wo.z > 0.0 && wi.z > 0.0) {
             return SampledSpectrum::ZERO;
         }
-        let share = match self.layers(wo.z) {
+        let share = match self.view_terms(wo).layers {
             Some(l) => l.diffuse_o,
             None if self.principled_v1 => SampledSpectrum::splat(self.disney_diffuse(wo, wi)),
             None => {
@@ -702,14 +726,14 @@ impl MetallicRoughnessBsdf {
             return None;
         }
         let distrib = self.distribution();
-        let layers = self.layers(wo.z);
-        let (p_sheen, p_coat, p_spec) = self.all_lobe_probabilities(wo, layers.as_ref());
+        let view = self.view_terms(wo);
+        let (p_sheen, p_coat, p_spec) = view.probabilities;
         let mirror = Vec3::new(-wo.x, -wo.y, wo.z);
         // The sheen on top first; the layers below share the rest of `uc`.
         let below_sheen = self.sheen.below(wo.z, wo.z);
         if uc < p_sheen {
             let wi = self.sheen.sample(wo, u);
-            let (f, pdf) = self.eval_pdf_with(wo, wi, layers.as_ref());
+            let (f, pdf) = self.eval_pdf_with(wo, wi, &view);
             return (pdf > 0.0 && wi.z > 0.0).then_some(BsdfSample {
                 wi,
                 f,
@@ -767,7 +791,7 @@ impl MetallicRoughnessBsdf {
         if !(wi.z > 0.0) {
             return None;
         }
-        let (f, pdf) = self.eval_pdf_with(wo, wi, layers.as_ref());
+        let (f, pdf) = self.eval_pdf_with(wo, wi, &view);
         if !(pdf > 0.0) {
             return None;
         }
@@ -783,6 +807,7 @@ impl MetallicRoughnessBsdf {
 }
 
 /// The energy-compensation terms of one evaluation that depend on `wo` only.
+#[derive(Clone, Copy, Debug)]
 struct Layers {
     /// The dielectric and conductor GGX lobes' factors with their multiple scattering,
     /// `1 + (F_ms / F_avg) (1 - E(mu_o)) / E(mu_o)` (`MetallicRoughnessBsdf::layers`).
@@ -792,6 +817,15 @@ struct Layers {
     specular_o: SampledSpectrum,
     /// 1 - A_d(mu_o): what the specular layer leaves to the diffuse base at `wo`.
     diffuse_o: SampledSpectrum,
+}
+
+/// What `eval` and `sample` compute from `wo` alone (the layers' energy terms and the lobe
+/// probabilities), kept with the BSDF for one view direction (`MetallicRoughnessBsdf::view`).
+#[derive(Clone, Copy, Debug)]
+pub struct ViewTerms {
+    wo: Vec3,
+    layers: Option<Layers>,
+    probabilities: (f32, f32, f32),
 }
 
 /// The IOR whose normal-incidence reflectance is `f0` (in [0, 1)): `(1 + sqrt f0) / (1 - sqrt
@@ -823,6 +857,7 @@ mod tests {
             coat: Coat::NONE,
             sheen: Sheen::NONE,
             iridescence: None,
+            view: None,
         };
         assert_eq!(b.dielectric_f0(), SampledSpectrum::ONE);
         let (fd, _) = b.fresnels(0.7);
@@ -834,6 +869,49 @@ mod tests {
                 b.layers(0.7).as_ref()
             ),
             (0.0, 0.0, 1.0)
+        );
+    }
+
+    /// The view terms stored by `at_view` change nothing: evaluations and samples from that
+    /// `wo` equal the ones computing them afresh, and another `wo` (whose terms differ) is
+    /// evaluated with its own.
+    #[test]
+    fn stored_view_terms_give_the_same_values() {
+        let b = MetallicRoughnessBsdf {
+            base_color: SampledSpectrum([0.8, 0.3, 0.1, 0.5]),
+            metallic: 0.3,
+            alpha: 0.2,
+            specular: 0.7,
+            specular_color: SampledSpectrum::ONE,
+            ior: 1.45,
+            energy_compensation: true,
+            principled_v1: false,
+            coat: Coat::NONE,
+            sheen: Sheen::NONE,
+            iridescence: None,
+            view: None,
+        };
+        let wo = Vec3::new(0.3, -0.2, 0.9).normalize();
+        let other = Vec3::new(-0.7, 0.1, 0.25).normalize();
+        let seen = b.at_view(wo);
+        assert!(seen.view.is_some());
+        for k in 0..50 {
+            let u = Vec2::new((k as f32 + 0.5) / 50.0, ((k * 7) % 50) as f32 / 50.0);
+            let wi = Vec3::new(u.x - 0.5, u.y - 0.5, 0.6).normalize();
+            for w in [wo, other] {
+                assert_eq!(seen.eval_pdf(w, wi), b.eval_pdf(w, wi));
+                assert_eq!(seen.diffuse_part(w, wi), b.diffuse_part(w, wi));
+                let (s0, s1) = (seen.sample(w, u.y, u), b.sample(w, u.y, u));
+                assert_eq!(
+                    s0.map(|s| (s.wi, s.f, s.pdf)),
+                    s1.map(|s| (s.wi, s.f, s.pdf))
+                );
+            }
+        }
+        // The terms do differ between the two views (the check above is not vacuous).
+        assert_ne!(
+            b.compute_view_terms(wo).probabilities,
+            b.compute_view_terms(other).probabilities
         );
     }
 
@@ -855,6 +933,7 @@ mod tests {
             coat: Coat::NONE,
             sheen: Sheen::NONE,
             iridescence: None,
+            view: None,
         };
         let schlick = |c: f32| base.map(|f| f + (1.0 - f) * schlick_weight(c));
         let (_, fc) = b.fresnels(1.0 / 7.0);

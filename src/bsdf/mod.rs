@@ -19,6 +19,7 @@ pub mod thin_film;
 
 pub use coat::Coat;
 pub use fresnel::{fresnel_dielectric, fresnel_schlick, refract};
+pub use metallic_roughness::ViewTerms;
 pub use microfacet::TrowbridgeReitz;
 pub use sheen::{Sheen, SheenModel};
 pub use thin_film::ThinFilm;
@@ -208,6 +209,10 @@ pub struct MetallicRoughnessBsdf {
     pub sheen: Sheen,
     /// A thin film on the dielectric specular layer (`thin_film.rs`; metals ignore it).
     pub iridescence: Option<Iridescence>,
+    /// The terms that depend on the view direction alone, for one `wo` (`Bsdf::at_view`):
+    /// a shading point evaluates its BSDF once per light sample and samples it once, all
+    /// from the same `wo`. None: computed per evaluation. Set last, after every parameter.
+    pub view: Option<ViewTerms>,
 }
 
 /// Dielectric interface: smooth (alpha < 1e-3, or eta == 1: exact Fresnel, specular reflection
@@ -423,6 +428,16 @@ impl Bsdf {
         match self {
             Bsdf::Dielectric(d) => d.hero_value(wo, wi),
             _ => self.eval(wo, wi)[0],
+        }
+    }
+
+    /// The same BSDF with its view-dependent terms computed once for `wo` (see
+    /// `MetallicRoughnessBsdf::view`); evaluations and samples from another `wo` ignore them.
+    /// Must come after the last change of the BSDF's parameters.
+    pub fn at_view(self, wo: Vec3) -> Bsdf {
+        match self {
+            Bsdf::MetallicRoughness(b) => Bsdf::MetallicRoughness(b.at_view(wo)),
+            other => other,
         }
     }
 

@@ -1125,6 +1125,8 @@ impl<'a> PathTracer<'a> {
             } else {
                 wo
             };
+            // Every evaluation and sample below is from this `wo`: its terms once.
+            let bsdf = bsdf.at_view(wo);
             // The diffuse part of a normal-mapped surface is masked near the smooth normal's
             // horizon (Conty Estevez et al. 2019), as Cycles does for its diffuse closures: f
             // loses (1 - G(wi)) of its diffuse part, for light and BSDF samples alike.

@@ -678,6 +678,7 @@ impl Material {
                 coat,
                 sheen,
                 iridescence,
+                view: None,
             }
             .with_film_averages(),
         )
