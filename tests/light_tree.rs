@@ -299,6 +299,32 @@ fn split_sampling_takes_every_distant_light_and_the_tree_choice_follows_its_pmf(
         }
     }
     assert!(split_contexts >= 2, "{split_contexts} contexts split");
+
+    // Above the emitters (which face down), with the point and spot lights gone, only the sun
+    // and the sky reach the point: they split, the tree is not sampled, and an emitter a BSDF
+    // ray might still hit has probability 0 (not 0 / 0).
+    let mut desc = many_emitters(10, true);
+    desc.lights
+        .retain(|l| matches!(l.kind, PunctualKind::Directional));
+    let scene = Scene::build(desc).expect("scene builds");
+    let lights = &scene.lights;
+    let above = ShadingContext {
+        p: Vec3::new(0.0, 5.0, 0.0),
+        n: Some(Vec3::Y),
+        time: 0.5,
+    };
+    let mut distant_pmfs = Vec::new();
+    for i in 0..lights.len() {
+        let p = lights.pmf(&above, i, LightSelection::Tree);
+        match matches!(
+            lights.light(i),
+            Light::Directional { .. } | Light::Environment
+        ) {
+            true => distant_pmfs.push(p),
+            false => assert_eq!(p, 0.0, "emitter {i} at a point it cannot light"),
+        }
+    }
+    assert_eq!(distant_pmfs, vec![1.0, 1.0]);
 }
 
 #[test]

@@ -721,6 +721,8 @@ impl Lights {
                 }
             }
             Some(_) => match &self.tree {
+                // Split where only distant lights reach the point: the tree is not sampled.
+                Some(_) if split && !(local > 0.0) => 0.0,
                 Some(tree) => {
                     let (c, p) = tree.pmf_below(index as u32, ctx);
                     cut[c] / if split { local } else { total } * p
