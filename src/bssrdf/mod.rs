@@ -563,6 +563,11 @@ pub struct SeparableBssrdf<'a> {
 pub struct ProbeSample {
     pub point: SurfacePoint,
     pub weight: SampledSpectrum,
+    /// Every exit point the probe found and its own estimate Sr / pdf (the chosen `point`
+    /// among them, at `chosen`): `weight` is the sum of these estimates carried by one of
+    /// them, so next-event estimation may instead visit each with its own.
+    pub hits: [Option<(crate::geometry::Hit, SampledSpectrum)>; MAX_PROBE_HITS],
+    pub chosen: usize,
 }
 
 impl<'a> SeparableBssrdf<'a> {
@@ -784,7 +789,18 @@ impl<'a> SeparableBssrdf<'a> {
         }
         let point = geometry.surface_point(&hits.get(k).copied().flatten()?.hit);
         let weight = weights[k] * (total / shares[k]);
-        weight.is_finite().then_some(ProbeSample { point, weight })
+        let mut all = [None; MAX_PROBE_HITS];
+        for i in 0..count {
+            if shares[i] > 0.0 {
+                all[i] = hits[i].map(|h| (h.hit, weights[i]));
+            }
+        }
+        weight.is_finite().then_some(ProbeSample {
+            point,
+            weight,
+            hits: all,
+            chosen: k,
+        })
     }
 }
 
@@ -831,6 +847,44 @@ mod tests {
     /// one wavelength and the normal axis, the exit point does not depend on `u_axis`, its
     /// distance grows with y and its angle is 2 pi x. (Fails if the radius is drawn from the
     /// rescaled axis number, as it once was.)
+    #[test]
+    fn a_probe_reports_every_exit_with_its_own_estimate() {
+        // Through the stacked sheets a normal probe finds several surfaces of material 0: each
+        // is reported with its estimate, the chosen one among them, and the carried weight is
+        // their sum (as the wavelengths' mean, the share the choice is made by).
+        let geometry = stacked_sheets();
+        let table = BssrdfTable::new(1.33);
+        let bssrdf = SeparableBssrdf::new(
+            &table,
+            SampledSpectrum([0.5, 1.0, 2.0, 4.0]),
+            SampledSpectrum::splat(5.0),
+            N_WAVELENGTHS,
+        );
+        let frame = Frame::from_normal(Vec3::Z);
+        let po = Vec3::new(0.1, 0.05, 0.08);
+        let mut several = 0;
+        for k in 0..64 {
+            let u_disk = Vec2::new((k as f32 * 0.618).fract(), (k as f32 + 0.5) / 64.0);
+            let u_hit = (k as f32 * 0.371).fract();
+            let Some(s) = bssrdf.sample_probe(&geometry, 0, po, 0.0, &frame, 0.1, u_disk, u_hit)
+            else {
+                continue;
+            };
+            let found: Vec<_> = s.hits.iter().flatten().collect();
+            several += usize::from(found.len() > 1);
+            let (hit, w) = s.hits[s.chosen].expect("the chosen exit is among the hits");
+            assert_eq!(geometry.surface_point(&hit).p, s.point.p);
+            assert!(w.0.iter().all(|v| v.is_finite() && *v >= 0.0));
+            let sum: f32 = found.iter().map(|(_, w)| w.average()).sum();
+            let carried = s.weight.average();
+            assert!(
+                (carried - sum).abs() <= 1e-4 * sum.max(1e-6),
+                "carried {carried} vs sum {sum}"
+            );
+        }
+        assert!(several > 10, "{several} probes with several exits");
+    }
+
     #[test]
     fn exit_point_on_a_plane_follows_the_disk_point() {
         let plane = Geometry::new(
