@@ -203,6 +203,25 @@ fn light_choices_follow_the_pmf() {
     assert!(failures.iter().all(|&f| f < 0.02), "{failures:?}");
 }
 
+/// One next-event estimation's light samples at `ctx` from `rng`'s numbers.
+fn random_light_samples(
+    scene: &Scene,
+    ctx: &ShadingContext,
+    rng: &mut Pcg32,
+    w: &SampledWavelengths,
+    selection: LightSelection,
+) -> [Option<prism::lights::LightSample>; 1 + prism::lights::MAX_SPLIT_DISTANT] {
+    scene.lights.sample(
+        &scene.geometry,
+        &scene.materials,
+        ctx,
+        rng.next_1d(),
+        Vec2::new(rng.next_1d(), rng.next_1d()),
+        w,
+        selection,
+    )
+}
+
 #[test]
 fn split_sampling_takes_every_distant_light_and_the_tree_choice_follows_its_pmf() {
     // With the sun and the sky besides the lamps, the default selection gives each distant
@@ -278,15 +297,7 @@ fn split_sampling_takes_every_distant_light_and_the_tree_choice_follows_its_pmf(
         // Every light sample set holds each distant light that can light the point.
         let w = SampledWavelengths::sample_hero(0.3, Default::default());
         for _ in 0..200 {
-            let samples = lights.sample(
-                &scene.geometry,
-                &scene.materials,
-                &ctx,
-                rng.next_1d(),
-                Vec2::new(rng.next_1d(), rng.next_1d()),
-                &w,
-                LightSelection::Tree,
-            );
+            let samples = random_light_samples(&scene, &ctx, &mut rng, &w, LightSelection::Tree);
             for i in (0..n_lights).filter(|&i| distant(i) && split[i] > 0.0) {
                 let taken = samples.iter().flatten().filter(|ls| ls.light == i).count();
                 // The map's sample fails where its texel is black (none here).
@@ -366,15 +377,7 @@ fn a_hit_light_has_the_density_that_sampled_it() {
     for selection in selections {
         for ctx in contexts(30) {
             for _ in 0..40 {
-                let samples = lights.sample(
-                    &scene.geometry,
-                    &scene.materials,
-                    &ctx,
-                    rng.next_1d(),
-                    Vec2::new(rng.next_1d(), rng.next_1d()),
-                    &w,
-                    selection,
-                );
+                let samples = random_light_samples(&scene, &ctx, &mut rng, &w, selection);
                 split += usize::from(samples.iter().flatten().count() > 1);
                 for ls in samples.into_iter().flatten() {
                     let chosen = ls.light;
@@ -455,23 +458,34 @@ fn a_hit_light_has_the_density_that_sampled_it() {
     assert!(split > 500, "{split} split next-event estimations");
 }
 
+/// A `size` x `size` render of `scene` with paths of at most `max_depth` bounces (no
+/// non-finite sample allowed), as RGBA.
+fn render_square(
+    scene: &Scene,
+    size: u32,
+    max_depth: u32,
+    selection: LightSelection,
+    spp: u32,
+    seed: u64,
+) -> Vec<[f32; 4]> {
+    let settings = RenderSettings {
+        width: size,
+        height: size,
+        spp,
+        max_depth,
+        seed,
+        light_selection: selection,
+        ..Default::default()
+    };
+    let (film, stats) = render_quiet(scene, &settings);
+    assert_eq!(stats.discarded, 0);
+    film.to_rgba()
+}
+
 #[test]
 fn the_tree_beats_power_selection_on_1000_emitters() {
     let scene = Scene::build(many_emitters(1000, false)).expect("scene builds");
-    let render = |selection, spp, seed| {
-        let settings = RenderSettings {
-            width: 48,
-            height: 48,
-            spp,
-            max_depth: 1,
-            seed,
-            light_selection: selection,
-            ..Default::default()
-        };
-        let (film, stats) = render_quiet(&scene, &settings);
-        assert_eq!(stats.discarded, 0);
-        film.to_rgba()
-    };
+    let render = |selection, spp, seed| render_square(&scene, 48, 1, selection, spp, seed);
     let reference = render(LightSelection::Tree, 1024, 77);
     let mean = |selection| -> f64 {
         (1..=2)
@@ -493,20 +507,7 @@ fn splitting_the_distant_lights_keeps_the_image_and_lowers_its_noise() {
     // sampling the sun and the sky besides the tree's choice converges to the same image as
     // one light per point, with less noise at equal samples.
     let scene = Scene::build(many_emitters(40, true)).expect("scene builds");
-    let render = |selection, spp, seed| {
-        let settings = RenderSettings {
-            width: 40,
-            height: 40,
-            spp,
-            max_depth: 3,
-            seed,
-            light_selection: selection,
-            ..Default::default()
-        };
-        let (film, stats) = render_quiet(&scene, &settings);
-        assert_eq!(stats.discarded, 0);
-        film.to_rgba()
-    };
+    let render = |selection, spp, seed| render_square(&scene, 40, 3, selection, spp, seed);
     let image_mean = |img: &[[f32; 4]]| -> f64 {
         img.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>() / img.len() as f64
     };
