@@ -1394,14 +1394,14 @@ impl<'a> PathTracer<'a> {
             let mut pi = probe.point;
             let exit_material = &scene.materials[pi.material as usize];
             exit_material.apply_normal_map(geometry, &scene.textures, &mut pi, None);
-            exit = Some((pi.p, pi.ng, exit_frame(&pi), ss.exit_lobe()));
+            let lobe = ss.exit_lobe();
+            exit = Some((pi.p, pi.ng, exit_frame(&pi), lobe));
             // Next-event estimation at every exit point the probe found, each with its own
             // estimate (their sum is the probe's estimate); the path goes on from the chosen
             // one with the sum. Choosing one exit for the light as well made the light's
             // estimate swing between the lit and the dark side of thin parts (a probe through
             // an ear finds both): marble monkey of the SSS Cornell box -9% noise, no more time.
             let u = sampler.exit_light();
-            let lobe = ss.exit_lobe();
             for (i, found) in probe.hits.iter().enumerate() {
                 let Some((hit, w)) = *found else { continue };
                 let pe = if i == probe.chosen {

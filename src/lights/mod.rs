@@ -212,6 +212,19 @@ struct FirstChoice {
     /// Next-event estimation samples the tree and every distant light separately here (see
     /// the module documentation): more than one of them has a non-zero importance.
     split: bool,
+    /// The first `MAX_SPLIT_DISTANT` distant lights' importances (the rest are recomputed).
+    distant: [f32; MAX_SPLIT_DISTANT],
+}
+
+impl FirstChoice {
+    /// Importance of distant light `slot` (`Lights::distant_importance`).
+    #[inline]
+    fn distant_weight(&self, lights: &Lights, slot: usize, ctx: &ShadingContext) -> f32 {
+        match self.distant.get(slot) {
+            Some(&w) => w,
+            None => lights.distant_importance(slot, ctx),
+        }
+    }
 }
 
 pub struct Lights {
@@ -630,9 +643,13 @@ impl Lights {
             .map_or(0, |t| t.cut_importances(ctx, &mut cut));
         let local: f32 = cut[..k].iter().sum();
         let mut distant = 0.0;
+        let mut weights = [0.0; MAX_SPLIT_DISTANT];
         let mut groups = usize::from(local > 0.0);
         for s in 0..self.distant.len() {
             let w = self.distant_importance(s, ctx);
+            if let Some(slot) = weights.get_mut(s) {
+                *slot = w;
+            }
             distant += w;
             groups += usize::from(w > 0.0);
         }
@@ -643,6 +660,7 @@ impl Lights {
             local,
             total,
             split: split && groups > 1 && self.distant.len() <= MAX_SPLIT_DISTANT,
+            distant: weights,
         })
     }
 
@@ -687,7 +705,7 @@ impl Lights {
         let mut acc = local;
         let last = self.distant.len().checked_sub(1)?;
         for s in 0..self.distant.len() {
-            let w = self.distant_importance(s, ctx);
+            let w = fc.distant_weight(self, s, ctx);
             if w > 0.0 && (target < acc + w || s == last) {
                 return Some((self.distant[s].0 as usize, w / total));
             }
@@ -968,9 +986,9 @@ impl Lights {
         if let Some((index, p_select)) = chosen.filter(|&(_, p)| p > 0.0) {
             out[0] = self.sample_light(geometry, materials, ctx, index, p_select, u, w);
         }
-        if first.is_some_and(|fc| fc.split) {
+        if let Some(fc) = first.filter(|fc| fc.split) {
             for (slot, o) in out[1..].iter_mut().enumerate().take(self.distant.len()) {
-                if self.distant_importance(slot, ctx) > 0.0 {
+                if fc.distant[slot] > 0.0 {
                     let index = self.distant[slot].0 as usize;
                     *o = self.sample_light(geometry, materials, ctx, index, 1.0, u, w);
                 }
@@ -1008,12 +1026,18 @@ impl Lights {
                     }
                 };
                 let sp = geometry.surface_point_at(*instance, *prim, b1, b2, ctx.time);
-                triangle_sample(geometry, materials, ctx, &sp, w, |dist2, cos_light| {
-                    match solid_angle {
+                triangle_sample(
+                    geometry,
+                    materials,
+                    ctx,
+                    index,
+                    &sp,
+                    w,
+                    |dist2, cos_light| match solid_angle {
                         Some(omega) => p_select / omega,
                         None => p_select * dist2 / (cos_light * sp.area),
-                    }
-                })
+                    },
+                )
             }
             Light::TrianglePair { instance, areas } => {
                 // The triangle in proportion to its share of the pair's solid angle (or
@@ -1040,6 +1064,7 @@ impl Lights {
                     geometry,
                     materials,
                     ctx,
+                    index,
                     &sp,
                     w,
                     |dist2, cos_light| match seen {
@@ -1176,7 +1201,6 @@ impl Lights {
             },
         }?;
         sample.visibility = self.visibility[index];
-        sample.light = index;
         Some(sample)
     }
 }
@@ -1202,13 +1226,14 @@ fn hi_of(v: &[Vec3; 3]) -> Vec3 {
     v[0].max(v[1]).max(v[2])
 }
 
-/// The light sample towards the point `sp` of an emissive triangle, its density from
-/// `density(squared distance, |cos| at the light)`.
+/// The light sample towards the point `sp` of emissive light `index` (a triangle or a pair),
+/// its density from `density(squared distance, |cos| at the light)`.
 #[inline]
 fn triangle_sample(
     geometry: &Geometry,
     materials: &[Material],
     ctx: &ShadingContext,
+    index: usize,
     sp: &crate::geometry::SurfacePoint,
     w: &SampledWavelengths,
     density: impl FnOnce(f32, f32) -> f32,
@@ -1234,8 +1259,7 @@ fn triangle_sample(
         pdf: density(dist2, cos_light.abs()),
         delta: false,
         visibility: RayVisibility::ALL,
-        // Set by `sample_light`.
-        light: usize::MAX,
+        light: index,
     })
 }
 

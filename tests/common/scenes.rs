@@ -250,9 +250,8 @@ pub fn render_mean(
     max_depth: u32,
     seed: u64,
 ) -> (Vec3, Vec<[f32; 4]>) {
-    use prism::render::{render_quiet, RenderSettings};
     let scene = prism::scene::Scene::build(desc).expect("scene builds");
-    let settings = RenderSettings {
+    let settings = prism::render::RenderSettings {
         width: size,
         height: size,
         spp,
@@ -260,15 +259,27 @@ pub fn render_mean(
         seed,
         ..Default::default()
     };
-    let (film, stats) = render_quiet(&scene, &settings);
+    let rgba = render_rgba(&scene, &settings);
+    (mean_rgb(&rgba), rgba)
+}
+
+/// Renders a built `scene` (on the current rayon pool), asserts no sample was discarded as
+/// non-finite, and returns its pixels.
+pub fn render_rgba(
+    scene: &prism::scene::Scene,
+    settings: &prism::render::RenderSettings,
+) -> Vec<[f32; 4]> {
+    let (film, stats) = prism::render::render_quiet(scene, settings);
     assert_eq!(stats.discarded, 0, "non-finite samples");
-    let rgba = film.to_rgba();
-    let mean = rgba
-        .iter()
+    film.to_rgba()
+}
+
+/// Mean RGB of an image's pixels.
+pub fn mean_rgb(rgba: &[[f32; 4]]) -> Vec3 {
+    rgba.iter()
         .map(|p| Vec3::new(p[0], p[1], p[2]))
         .sum::<Vec3>()
-        / rgba.len() as f32;
-    (mean, rgba)
+        / rgba.len() as f32
 }
 
 /// One instance of each mesh in turn, in place (identity transform), named `names[i]`.
