@@ -917,18 +917,23 @@ impl Lights {
         if let Light::TrianglePair { areas, .. } = self.lights[base as usize] {
             let index = base as usize;
             let p_select = self.pmf(ctx, index, selection);
-            return match self.pair_seen_from(geometry, index, instance, ctx) {
-                Some([t0, t1]) => p_select / (t0.solid_angle + t1.solid_angle),
-                None => p_select * dist * dist / (cos_light.abs() * (areas[0] + areas[1])),
-            };
+            let solid_angle = self
+                .pair_seen_from(geometry, index, instance, ctx)
+                .map(|[t0, t1]| t0.solid_angle + t1.solid_angle);
+            return emitter_density(
+                p_select,
+                solid_angle,
+                areas[0] + areas[1],
+                dist * dist,
+                cos_light,
+            );
         }
         let index = (base + prim) as usize;
         let p_select = self.pmf(ctx, index, selection);
         let world = || geometry.world_triangle(instance, prim, ctx.time);
-        match SphericalTriangle::seen_from(ctx.p, self.triangle_extent[index], world) {
-            Some(tri) => p_select / tri.solid_angle,
-            None => p_select * dist * dist / (cos_light.abs() * area),
-        }
+        let solid_angle = SphericalTriangle::seen_from(ctx.p, self.triangle_extent[index], world)
+            .map(|tri| tri.solid_angle);
+        emitter_density(p_select, solid_angle, area, dist * dist, cos_light)
     }
 
     /// The two spherical triangles of pair light `index` seen from `ctx`, when the pair is
@@ -1026,18 +1031,9 @@ impl Lights {
                     }
                 };
                 let sp = geometry.surface_point_at(*instance, *prim, b1, b2, ctx.time);
-                triangle_sample(
-                    geometry,
-                    materials,
-                    ctx,
-                    index,
-                    &sp,
-                    w,
-                    |dist2, cos_light| match solid_angle {
-                        Some(omega) => p_select / omega,
-                        None => p_select * dist2 / (cos_light * sp.area),
-                    },
-                )
+                triangle_sample(geometry, materials, ctx, index, &sp, w, |dist2, cos| {
+                    emitter_density(p_select, solid_angle, sp.area, dist2, cos)
+                })
             }
             Light::TrianglePair { instance, areas } => {
                 // The triangle in proportion to its share of the pair's solid angle (or
@@ -1060,18 +1056,10 @@ impl Lights {
                 };
                 let sp = geometry.surface_point_at(*instance, prim as u32, b1, b2, ctx.time);
                 let total = shares[0] + shares[1];
-                triangle_sample(
-                    geometry,
-                    materials,
-                    ctx,
-                    index,
-                    &sp,
-                    w,
-                    |dist2, cos_light| match seen {
-                        Some(_) => p_select / total,
-                        None => p_select * dist2 / (cos_light * total),
-                    },
-                )
+                triangle_sample(geometry, materials, ctx, index, &sp, w, |dist2, cos| {
+                    let solid_angle = seen.map(|_| total);
+                    emitter_density(p_select, solid_angle, total, dist2, cos)
+                })
             }
             Light::Point {
                 round: Some(round),
@@ -1224,6 +1212,24 @@ fn luminance_of(s: &RgbIlluminantSpectrum) -> f32 {
 /// Component-wise maximum of a triangle's vertices.
 fn hi_of(v: &[Vec3; 3]) -> Vec3 {
     v[0].max(v[1]).max(v[2])
+}
+
+/// Solid-angle density of a point on an emitter chosen with probability `p_select` and then
+/// uniformly over its `solid_angle` (sr, where it is sampled so) or else over its `area`,
+/// seen at squared distance `dist2` and cosine `cos_light` at the emitter: the one formula
+/// light sampling and MIS (`Lights::triangle_pdf`) share.
+#[inline]
+fn emitter_density(
+    p_select: f32,
+    solid_angle: Option<f32>,
+    area: f32,
+    dist2: f32,
+    cos_light: f32,
+) -> f32 {
+    match solid_angle {
+        Some(omega) => p_select / omega,
+        None => p_select * dist2 / (cos_light.abs() * area),
+    }
 }
 
 /// The light sample towards the point `sp` of emissive light `index` (a triangle or a pair),
