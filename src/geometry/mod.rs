@@ -1088,12 +1088,10 @@ impl Geometry {
         let inst = &self.instances[sp.instance as usize];
         let mesh = &self.meshes[inst.mesh as usize];
         let placement = inst.placement_at(sp.time);
-        let [v0, v1, v2] = mesh
-            .vertices_at(sp.prim as usize, sp.time)
-            .map(|v| placement.object_to_world.transform_point3(v));
+        let (_, e1, e2) = world_edges(mesh, &placement, sp.prim, sp.time);
+        let (e1, e2) = (Vec3::from(e1), Vec3::from(e2));
         // Barycentric steps (db1, db2) with db1 E1 + db2 E2 = the offset (its projection on
         // the plane): the normal equations of the two edges.
-        let (e1, e2) = (v1 - v0, v2 - v0);
         let (g11, g12, g22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
         let det = g11 * g22 - g12 * g12;
         let offset = |d: Vec3| -> SurfacePoint {
@@ -1129,8 +1127,9 @@ impl Geometry {
         let inst = &self.instances[instance as usize];
         let placement = inst.placement_at(time);
         let mesh = &self.meshes[inst.mesh as usize];
-        mesh.vertices_at(prim as usize, time)
-            .map(|v| placement.object_to_world.transform_point3(v))
+        // The vertices `surface_point_at` reaches at barycentrics (0, 0), (1, 0) and (0, 1).
+        let (w0, e1, e2) = world_edges(mesh, &placement, prim, time);
+        [w0, w0 + e1, w0 + e2].map(Vec3::from)
     }
 
     /// World-space surface data at barycentrics (b1, b2) of a triangle of an instance placed
@@ -1157,13 +1156,16 @@ impl Geometry {
         } = triangle_point(mesh, &placement, prim, b1, b2, time);
         let ns = match &mesh.normals {
             Some(n) => {
-                let normal = |v: u32| {
-                    mesh.deformation
-                        .as_ref()
-                        .and_then(|d| d.normal(v as usize, time))
-                        .unwrap_or(n[v as usize])
+                let corners = [i0, i1, i2].map(|v| v as usize);
+                // A deforming mesh's normals at `time` if it has keyed normals (one test, not
+                // one per corner).
+                let [n0, n1, n2] = match mesh.deformation.as_deref() {
+                    Some(d) if d.normals.is_some() => {
+                        corners.map(|v| d.normal(v, time).unwrap_or(n[v]))
+                    }
+                    _ => corners.map(|v| n[v]),
                 };
-                let n_obj = normal(i0) * b0 + normal(i1) * b1 + normal(i2) * b2;
+                let n_obj = n0 * b0 + n1 * b1 + n2 * b2;
                 let n = (placement.normal_to_world * n_obj).normalize_or(ng);
                 if n.is_finite() {
                     n
@@ -1278,10 +1280,8 @@ impl Geometry {
                 }
             }
         }
-        let [v0, v1, v2] = mesh.vertices_at(sp.prim as usize, sp.time);
-        let w0 = placement.object_to_world.transform_point3(v0);
-        let e1 = placement.object_to_world.transform_point3(v1) - w0;
-        let e2 = placement.object_to_world.transform_point3(v2) - w0;
+        let (_, e1, e2) = world_edges(mesh, &placement, sp.prim, sp.time);
+        let (e1, e2) = (Vec3::from(e1), Vec3::from(e2));
         let (d1, d2) = match &mesh.uvs {
             Some(uvs) => {
                 let t0 = uvs[i0 as usize];
@@ -1437,6 +1437,22 @@ struct TrianglePoint {
     area: f32,
 }
 
+/// World-space vertex 0 and edges (v1 - v0, v2 - v0) of triangle `prim` of `mesh` placed by
+/// `placement` at shutter time `time`. From the object-space vertex and edges the intersection
+/// test uses (stored for a rigid mesh), the edges transformed as vectors: one point transform
+/// instead of three, on every hit and light sample, and the edges carry no rounding of
+/// v0 + e1 - v0.
+#[inline]
+fn world_edges(mesh: &Mesh, placement: &Placement, prim: u32, time: f32) -> (Vec3A, Vec3A, Vec3A) {
+    let t = mesh.triangle_at(prim as usize, time);
+    let m = &placement.object_to_world;
+    (
+        m.transform_point3a(t.v0.into()),
+        m.transform_vector3a(t.e1.into()),
+        m.transform_vector3a(t.e2.into()),
+    )
+}
+
 /// The world-space point at barycentrics (b1, b2) of triangle `prim` of `mesh` placed by
 /// `placement` at shutter time `time`, with the triangle's world edges, area and winding
 /// normal.
@@ -1449,21 +1465,26 @@ fn triangle_point(
     b2: f32,
     time: f32,
 ) -> TrianglePoint {
-    let b0 = 1.0 - b1 - b2;
-    let [v0, v1, v2] = mesh.vertices_at(prim as usize, time);
-    let p_obj = v0 * b0 + v1 * b1 + v2 * b2;
-    let p = placement.object_to_world.transform_point3(p_obj);
-    let w0 = placement.object_to_world.transform_point3(v0);
-    let e1 = placement.object_to_world.transform_point3(v1) - w0;
-    let e2 = placement.object_to_world.transform_point3(v2) - w0;
+    // p = w0 + b1 e1 + b2 e2 is the same affine combination as the transformed barycentric
+    // point, without a fourth transform.
+    let (w0, e1, e2) = world_edges(mesh, placement, prim, time);
+    let p = w0 + e1 * b1 + e2 * b2;
+    // The world-space cross product already accounts for mirroring transforms. One length
+    // serves both the normal and the area.
     let cross = e1.cross(e2);
+    let len = cross.length();
+    let inv = len.recip();
+    let ng = if inv.is_finite() && inv > 0.0 {
+        cross * inv
+    } else {
+        Vec3A::Z
+    };
     TrianglePoint {
-        p,
-        // The world-space cross product already accounts for mirroring transforms.
-        ng: cross.normalize_or(Vec3::Z),
-        e1,
-        e2,
-        area: 0.5 * cross.length(),
+        p: p.into(),
+        ng: ng.into(),
+        e1: e1.into(),
+        e2: e2.into(),
+        area: 0.5 * len,
     }
 }
 
