@@ -65,6 +65,14 @@ fn sin_from_cos(c: f32) -> f32 {
     (1.0 - c * c).max(0.0).sqrt()
 }
 
+/// See `LightBounds::fixed`.
+#[derive(Clone, Copy, Debug)]
+struct FixedTerms {
+    centroid: Vec3,
+    radius2: f32,
+    sin_o: f32,
+}
+
 impl LightBounds {
     pub fn centroid(&self) -> Vec3 {
         0.5 * (self.lo + self.hi)
@@ -137,13 +145,28 @@ impl LightBounds {
     /// widens both angles by the half-angle theta_b of their bounding sphere). Zero only if no
     /// light inside can send light to the point's receiving side.
     pub fn importance(&self, ctx: &ShadingContext) -> f32 {
+        self.importance_with(&self.fixed(), ctx)
+    }
+
+    /// The parts of `importance` that depend on the bounds alone.
+    fn fixed(&self) -> FixedTerms {
+        FixedTerms {
+            centroid: self.centroid(),
+            radius2: 0.25 * (self.hi - self.lo).length_squared(),
+            sin_o: sin_from_cos(self.cos_theta_o),
+        }
+    }
+
+    /// `importance` with `fixed` = `self.fixed()` (stored per tree node: the same values, so
+    /// the same importance to the bit, without recomputing them at every shading point).
+    #[inline]
+    fn importance_with(&self, fixed: &FixedTerms, ctx: &ShadingContext) -> f32 {
         if self.phi <= 0.0 {
             return 0.0;
         }
-        let pc = self.centroid();
-        let to_point = ctx.p - pc;
+        let to_point = ctx.p - fixed.centroid;
         let d2_true = to_point.length_squared();
-        let radius2 = 0.25 * (self.hi - self.lo).length_squared();
+        let radius2 = fixed.radius2;
         // Inside the bounding sphere the distance is unknown: use its radius (and a floor for
         // point lights) so the estimate stays finite.
         let d2 = d2_true.max(radius2).max(1e-8);
@@ -161,7 +184,7 @@ impl LightBounds {
         // Emission side: theta' = max(0, theta_w - theta_o - theta_b).
         let cos_w = self.axis.dot(wi);
         let sin_w = sin_from_cos(cos_w);
-        let sin_o = sin_from_cos(self.cos_theta_o);
+        let sin_o = fixed.sin_o;
         let cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, self.cos_theta_o);
         let sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, self.cos_theta_o);
         let cos_p = if cos_b <= -1.0 {
@@ -223,6 +246,8 @@ fn cone_union(a: Vec3, cos_a: f32, b: Vec3, cos_b: f32) -> (Vec3, f32) {
 #[derive(Clone, Copy, Debug)]
 struct Node {
     bounds: LightBounds,
+    /// `bounds.fixed()`.
+    fixed: FixedTerms,
     /// Leaf: the light's index (in the caller's numbering). Interior: the second child.
     index: u32,
     leaf: bool,
@@ -234,6 +259,13 @@ struct Node {
 struct Trail {
     bits: u64,
     cut: u8,
+}
+
+impl Node {
+    #[inline]
+    fn importance(&self, ctx: &ShadingContext) -> f32 {
+        self.bounds.importance_with(&self.fixed, ctx)
+    }
 }
 
 pub struct LightTree {
@@ -288,6 +320,7 @@ impl LightTree {
         if items.len() == 1 {
             self.nodes.push(Node {
                 bounds,
+                fixed: bounds.fixed(),
                 index: items[0].0,
                 leaf: true,
             });
@@ -295,6 +328,7 @@ impl LightTree {
         }
         self.nodes.push(Node {
             bounds,
+            fixed: bounds.fixed(),
             index: 0,
             leaf: false,
         });
@@ -329,7 +363,7 @@ impl LightTree {
     /// Importances of the top cut's nodes at `ctx` (what the caller's first choice uses).
     pub fn cut_importances(&self, ctx: &ShadingContext, out: &mut [f32; 8]) -> usize {
         for (o, &node) in out.iter_mut().zip(&self.cut) {
-            *o = self.nodes[node as usize].bounds.importance(ctx);
+            *o = self.nodes[node as usize].importance(ctx);
         }
         self.cut.len()
     }
@@ -345,8 +379,8 @@ impl LightTree {
                 return (pmf > 0.0).then_some((n.index, pmf));
             }
             let (c0, c1) = (node + 1, n.index as usize);
-            let i0 = self.nodes[c0].bounds.importance(ctx);
-            let i1 = self.nodes[c1].bounds.importance(ctx);
+            let i0 = self.nodes[c0].importance(ctx);
+            let i1 = self.nodes[c1].importance(ctx);
             if !(i0 + i1 > 0.0) {
                 return None;
             }
@@ -382,8 +416,8 @@ impl LightTree {
                 };
             }
             let (c0, c1) = (node + 1, n.index as usize);
-            let i0 = self.nodes[c0].bounds.importance(ctx);
-            let i1 = self.nodes[c1].bounds.importance(ctx);
+            let i0 = self.nodes[c0].importance(ctx);
+            let i1 = self.nodes[c1].importance(ctx);
             if !(i0 + i1 > 0.0) {
                 return (0, 0.0);
             }

@@ -309,10 +309,14 @@ impl Sampler {
 
     /// Dimensions `D` of `group` starting at `first`: the group's shuffle of the sample's index
     /// and each dimension's value scramble, seeded by the tile's seed and per-group salts.
-    #[inline]
+    /// Always inlined, and plain loops rather than `array::from_fn`: every caller passes
+    /// constants, so each public method gets a straight-line body with its dimensions and
+    /// table rows folded in (the closure of `from_fn` was left as an out-of-line call per
+    /// value).
+    #[inline(always)]
     fn dims<const D: usize>(&mut self, group: u32, first: usize) -> [f32; D] {
         if self.independent || group == NO_GROUP {
-            return std::array::from_fn(|_| self.stream().next_1d());
+            return self.stream_dims();
         }
         let salts = &GROUP_SALTS[group as usize];
         let rev_index = if self.shuffled.0 == group {
@@ -322,14 +326,28 @@ impl Sampler {
             self.shuffled = (group, r);
             r
         };
-        std::array::from_fn(|k| {
+        let mut out = [0.0; D];
+        for (k, o) in out.iter_mut().enumerate() {
             let d = first + k;
-            to_unit_float(sobol::owen_sobol_reversed(
+            *o = to_unit_float(sobol::owen_sobol_reversed(
                 rev_index,
                 d,
                 self.seed ^ salts[d + 1],
-            ))
-        })
+            ));
+        }
+        out
+    }
+
+    /// `D` values of the independent stream, in order (kept out of line: the rare path of
+    /// `dims`).
+    #[inline(never)]
+    fn stream_dims<const D: usize>(&mut self) -> [f32; D] {
+        let stream = self.stream();
+        let mut out = [0.0; D];
+        for o in &mut out {
+            *o = stream.next_1d();
+        }
+        out
     }
 
     #[inline]

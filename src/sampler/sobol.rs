@@ -80,7 +80,7 @@ static TABLES: [[[u32; 256]; 4]; 3] = byte_tables(false);
 static REVERSED_TABLES: [[[u32; 256]; 4]; 3] = byte_tables(true);
 
 /// `sobol(reverse(rev_index), dim).reverse_bits()`, without the reversals.
-#[inline]
+#[inline(always)]
 fn sobol_reversed(rev_index: u32, dim: usize) -> u32 {
     if dim == 0 {
         // Dimension 0 is the reversed index itself.
@@ -95,13 +95,13 @@ fn sobol_reversed(rev_index: u32, dim: usize) -> u32 {
 
 /// The nested uniform scramble of an index, in bit-reversed space:
 /// `nested_uniform_scramble(reverse(r), seed) == reverse(shuffle_reversed(r, seed))`.
-#[inline]
+#[inline(always)]
 pub fn shuffle_reversed(rev_index: u32, seed: u32) -> u32 {
     laine_karras_permutation(rev_index, seed)
 }
 
 /// `owen_sobol(reverse(rev_index), dim, seed)` from the reversed (shuffled) index.
-#[inline]
+#[inline(always)]
 pub fn owen_sobol_reversed(rev_index: u32, dim: usize, seed: u32) -> u32 {
     laine_karras_permutation(sobol_reversed(rev_index, dim), seed).reverse_bits()
 }
@@ -128,7 +128,7 @@ pub fn sobol(index: u32, dim: usize) -> u32 {
 /// (|r| = 0.043 between two groups' third dimensions over 16k samples, 5.5 sigma), so the seed
 /// also enters through a multiplication and a second addition between the rounds (as later
 /// improvements of the hash do), which removes it at the cost of two more operations.
-#[inline]
+#[inline(always)]
 fn laine_karras_permutation(mut x: u32, seed: u32) -> u32 {
     x = x.wrapping_add(seed);
     x ^= x.wrapping_mul(0x6c50_b47c);
