@@ -842,11 +842,6 @@ mod tests {
         )
     }
 
-    /// The exit point's place on the probe disk comes from `u_disk` alone, angle from x and
-    /// radius from y, so the sampler's stratified pair stratifies the disk: on a plane, with
-    /// one wavelength and the normal axis, the exit point does not depend on `u_axis`, its
-    /// distance grows with y and its angle is 2 pi x. (Fails if the radius is drawn from the
-    /// rescaled axis number, as it once was.)
     #[test]
     fn a_probe_reports_every_exit_with_its_own_estimate() {
         // Through the stacked sheets a normal probe finds several surfaces of material 0: each
@@ -885,6 +880,11 @@ mod tests {
         assert!(several > 10, "{several} probes with several exits");
     }
 
+    /// The exit point's place on the probe disk comes from `u_disk` alone, angle from x and
+    /// radius from y, so the sampler's stratified pair stratifies the disk: on a plane, with
+    /// one wavelength and the normal axis, the exit point does not depend on `u_axis`, its
+    /// distance grows with y and its angle is 2 pi x. (Fails if the radius is drawn from the
+    /// rescaled axis number, as it once was.)
     #[test]
     fn exit_point_on_a_plane_follows_the_disk_point() {
         let plane = Geometry::new(

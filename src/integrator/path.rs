@@ -1395,7 +1395,8 @@ impl<'a> PathTracer<'a> {
             let exit_material = &scene.materials[pi.material as usize];
             exit_material.apply_normal_map(geometry, &scene.textures, &mut pi, None);
             let lobe = ss.exit_lobe();
-            exit = Some((pi.p, pi.ng, exit_frame(&pi), lobe));
+            let frame_pi = exit_frame(&pi);
+            exit = Some((pi.p, pi.ng, frame_pi, lobe));
             // Next-event estimation at every exit point the probe found, each with its own
             // estimate (their sum is the probe's estimate); the path goes on from the chosen
             // one with the sum. Choosing one exit for the light as well made the light's
@@ -1404,27 +1405,17 @@ impl<'a> PathTracer<'a> {
             let u = sampler.exit_light();
             for (i, found) in probe.hits.iter().enumerate() {
                 let Some((hit, w)) = *found else { continue };
-                let pe = if i == probe.chosen {
-                    None
+                // The chosen exit's point and frame are the path's own (above).
+                let (p, ng, frame) = if i == probe.chosen {
+                    (pi.p, pi.ng, frame_pi)
                 } else {
                     let mut pe = geometry.surface_point(&hit);
                     let m = &scene.materials[pe.material as usize];
                     m.apply_normal_map(geometry, &scene.textures, &mut pe, None);
-                    Some(pe)
+                    (pe.p, pe.ng, exit_frame(&pe))
                 };
-                let pe = pe.as_ref().unwrap_or(&pi);
                 let beta = beta_entry * w;
-                self.exit_direct(
-                    st,
-                    depth,
-                    beta,
-                    pe.p,
-                    pe.ng,
-                    exit_frame(pe),
-                    lobe,
-                    u,
-                    sampler,
-                );
+                self.exit_direct(st, depth, beta, p, ng, frame, lobe, u, sampler);
             }
             exit_lit = true;
         } else if let (true, Some(ss)) = (bs.is_transmission(), v.walk_exit) {
