@@ -754,3 +754,76 @@ fn panel_scene(panel: prism::scene::MeshDesc) -> Scene {
     })
     .expect("scene builds")
 }
+
+#[test]
+fn a_single_light_is_chosen_with_probability_one_and_gives_nothing_where_it_cannot_light() {
+    // One light object and no world: the first choice skips the tree's importance (it would
+    // only say whether the point can be lit). Where the one-sided panel can light the point,
+    // it is chosen with probability 1 and sampled with the density MIS uses; behind it, or
+    // where it is below the point's horizon, its samples must come back empty (no shadow ray,
+    // no light), as when the importance said so.
+    let h = 1.0;
+    let mut panel = quad_mesh("panel", Vec3::ZERO, Vec3::X, Vec3::Z, 0);
+    panel.positions = vec![
+        Vec3::new(-0.5, h, -0.5),
+        Vec3::new(0.5, h, -0.5),
+        Vec3::new(0.5, h, 0.5),
+        Vec3::new(-0.5, h, 0.5),
+    ];
+    let scene = panel_scene(panel);
+    let lights = &scene.lights;
+    assert_eq!(lights.len(), 1);
+    let w = SampledWavelengths::sample_hero(0.3, Default::default());
+    let mut rng = Pcg32::new(3, 1, 4);
+    let below = ShadingContext {
+        p: Vec3::new(0.2, h - 0.7, 0.1),
+        n: Some(Vec3::Y),
+        time: 0.5,
+    };
+    assert_eq!(lights.pmf(&below, 0, LightSelection::Tree), 1.0);
+    let (index, p) = lights
+        .select(&below, 0.37, LightSelection::Tree)
+        .expect("the panel lights the point below it");
+    assert_eq!((index, p), (0, 1.0));
+    for _ in 0..200 {
+        let u = Vec2::new(rng.next_1d(), rng.next_1d());
+        sample_meeting_the_emitter(&scene, &below, rng.next_1d(), u, &w)
+            .expect("a sample of the panel from below");
+    }
+    // Behind the panel (it faces down), and below it with the normal facing away from it.
+    let behind = ShadingContext {
+        p: Vec3::new(0.1, h + 0.5, 0.0),
+        n: Some(Vec3::Y),
+        time: 0.5,
+    };
+    let facing_away = ShadingContext {
+        n: Some(-Vec3::Y),
+        ..below
+    };
+    for _ in 0..200 {
+        let [ls, ..] = lights.sample(
+            &scene.geometry,
+            &scene.materials,
+            &behind,
+            rng.next_1d(),
+            Vec2::new(rng.next_1d(), rng.next_1d()),
+            &w,
+            LightSelection::Tree,
+        );
+        assert!(ls.is_none(), "a light sample from behind the panel: {ls:?}");
+        // Facing away, the panel's sample (the light does not look at the point's normal) lies
+        // below the point's horizon, where the BSDF gives it nothing before any shadow ray.
+        let [ls, ..] = lights.sample(
+            &scene.geometry,
+            &scene.materials,
+            &facing_away,
+            rng.next_1d(),
+            Vec2::new(rng.next_1d(), rng.next_1d()),
+            &w,
+            LightSelection::Tree,
+        );
+        if let Some(ls) = ls {
+            assert!(ls.wi.dot(-Vec3::Y) < 0.0, "towards {:?}", ls.wi);
+        }
+    }
+}
