@@ -741,7 +741,11 @@ fn sample_meeting_the_emitter(
 
 /// A scene of one emissive `panel` (radiance 1, one-sided) and a camera.
 fn panel_scene(panel: prism::scene::MeshDesc) -> Scene {
-    Scene::build(SceneDesc {
+    Scene::build(panel_desc(panel)).expect("scene builds")
+}
+
+fn panel_desc(panel: prism::scene::MeshDesc) -> SceneDesc {
+    SceneDesc {
         meshes: vec![panel],
         instances: vec![InstanceDesc {
             mesh: 0,
@@ -751,17 +755,17 @@ fn panel_scene(panel: prism::scene::MeshDesc) -> Scene {
         materials: vec![emissive_material("panel", Vec3::ONE, false)],
         camera: Some(common::scenes::camera(0.0, 3.0)),
         ..Default::default()
-    })
-    .expect("scene builds")
+    }
 }
 
 #[test]
 fn a_single_light_is_chosen_with_probability_one_and_gives_nothing_where_it_cannot_light() {
-    // One light object and no world: the first choice skips the tree's importance (it would
-    // only say whether the point can be lit). Where the one-sided panel can light the point,
-    // it is chosen with probability 1 and sampled with the density MIS uses; behind it, or
-    // where it is below the point's horizon, its samples must come back empty (no shadow ray,
-    // no light), as when the importance said so.
+    // One light object, alone or with a sun (whose next-event sample is split off): the first
+    // choice skips the tree's importance (it would only say whether the point can be lit).
+    // Where the one-sided panel can light the point, it is chosen with probability 1 and
+    // sampled with the density MIS uses; behind it, or where it is below the point's horizon,
+    // its samples must come back empty (no shadow ray, no light), as when the importance said
+    // so; the sun keeps its own sample with probability 1.
     let h = 1.0;
     let mut panel = quad_mesh("panel", Vec3::ZERO, Vec3::X, Vec3::Z, 0);
     panel.positions = vec![
@@ -770,9 +774,29 @@ fn a_single_light_is_chosen_with_probability_one_and_gives_nothing_where_it_cann
         Vec3::new(0.5, h, 0.5),
         Vec3::new(-0.5, h, 0.5),
     ];
-    let scene = panel_scene(panel);
+    for with_sun in [false, true] {
+        let mut desc = panel_desc(panel.clone());
+        if with_sun {
+            desc.lights = vec![PunctualLightDesc {
+                name: "sun".into(),
+                kind: PunctualKind::Directional,
+                color: Vec3::ONE,
+                intensity: 2.0,
+                direction: Vec3::new(0.2, -1.0, 0.1).normalize(),
+                ..Default::default()
+            }];
+        }
+        let scene = Scene::build(desc).expect("scene builds");
+        check_single_light(&scene, h, with_sun);
+    }
+}
+
+fn check_single_light(scene: &Scene, h: f32, with_sun: bool) {
     let lights = &scene.lights;
-    assert_eq!(lights.len(), 1);
+    assert_eq!(lights.len(), 1 + with_sun as usize);
+    let panel = (0..lights.len())
+        .find(|&i| matches!(lights.light(i), Light::TrianglePair { .. }))
+        .expect("the panel is one light");
     let w = SampledWavelengths::sample_hero(0.3, Default::default());
     let mut rng = Pcg32::new(3, 1, 4);
     let below = ShadingContext {
@@ -780,15 +804,28 @@ fn a_single_light_is_chosen_with_probability_one_and_gives_nothing_where_it_cann
         n: Some(Vec3::Y),
         time: 0.5,
     };
-    assert_eq!(lights.pmf(&below, 0, LightSelection::Tree), 1.0);
+    assert_eq!(lights.pmf(&below, panel, LightSelection::Tree), 1.0);
+    if with_sun {
+        let sun = 1 - panel;
+        assert_eq!(lights.pmf(&below, sun, LightSelection::Tree), 1.0);
+    }
     let (index, p) = lights
         .select(&below, 0.37, LightSelection::Tree)
         .expect("the panel lights the point below it");
-    assert_eq!((index, p), (0, 1.0));
+    assert_eq!((index, p), (panel, 1.0));
     for _ in 0..200 {
         let u = Vec2::new(rng.next_1d(), rng.next_1d());
-        sample_meeting_the_emitter(&scene, &below, rng.next_1d(), u, &w)
-            .expect("a sample of the panel from below");
+        let samples = random_light_samples_at(scene, &below, rng.next_1d(), u, &w);
+        let from_panel = samples
+            .iter()
+            .flatten()
+            .filter(|ls| ls.light == panel)
+            .count();
+        assert_eq!(from_panel, 1, "one sample of the panel from below");
+        if !with_sun {
+            sample_meeting_the_emitter(scene, &below, rng.next_1d(), u, &w)
+                .expect("a sample of the panel from below");
+        }
     }
     // Behind the panel (it faces down), and below it with the normal facing away from it.
     let behind = ShadingContext {
@@ -801,29 +838,39 @@ fn a_single_light_is_chosen_with_probability_one_and_gives_nothing_where_it_cann
         ..below
     };
     for _ in 0..200 {
-        let [ls, ..] = lights.sample(
-            &scene.geometry,
-            &scene.materials,
-            &behind,
-            rng.next_1d(),
-            Vec2::new(rng.next_1d(), rng.next_1d()),
-            &w,
-            LightSelection::Tree,
+        let u = Vec2::new(rng.next_1d(), rng.next_1d());
+        let samples = random_light_samples_at(scene, &behind, rng.next_1d(), u, &w);
+        assert!(
+            samples.iter().flatten().all(|ls| ls.light != panel),
+            "a light sample of the panel from behind it"
         );
-        assert!(ls.is_none(), "a light sample from behind the panel: {ls:?}");
         // Facing away, the panel's sample (the light does not look at the point's normal) lies
         // below the point's horizon, where the BSDF gives it nothing before any shadow ray.
-        let [ls, ..] = lights.sample(
-            &scene.geometry,
-            &scene.materials,
-            &facing_away,
-            rng.next_1d(),
-            Vec2::new(rng.next_1d(), rng.next_1d()),
-            &w,
-            LightSelection::Tree,
-        );
-        if let Some(ls) = ls {
+        let samples = random_light_samples_at(scene, &facing_away, rng.next_1d(), u, &w);
+        for ls in samples.iter().flatten().filter(|ls| ls.light == panel) {
             assert!(ls.wi.dot(-Vec3::Y) < 0.0, "towards {:?}", ls.wi);
         }
     }
+}
+
+/// The light samples of one next-event estimation at `ctx` (tree selection, split).
+fn random_light_samples_at(
+    scene: &Scene,
+    ctx: &ShadingContext,
+    u_select: f32,
+    u: Vec2,
+    w: &SampledWavelengths,
+) -> Vec<Option<prism::lights::LightSample>> {
+    scene
+        .lights
+        .sample(
+            &scene.geometry,
+            &scene.materials,
+            ctx,
+            u_select,
+            u,
+            w,
+            LightSelection::Tree,
+        )
+        .to_vec()
 }

@@ -638,13 +638,18 @@ impl Lights {
     fn first_choice(&self, ctx: &ShadingContext, split: bool) -> Option<FirstChoice> {
         let mut cut = [0f32; 8];
         let k = match &self.tree {
-            // One node on the top cut and no distant light (a scene lit by one light object,
-            // the commonest case): the node is chosen with probability 1 whatever its
-            // importance, which only tells whether the point can be lit at all. Where it
-            // cannot, the light's sample finds so itself (a back-facing emitter or a
-            // direction below the surface gives no shadow ray), so the importance (cones,
-            // bounds, an arccosine: ~3% of the SSS Cornell box's time) is not computed.
-            Some(t) if t.cut_len() == 1 && self.distant.is_empty() => {
+            // One node on the top cut (a scene lit by one light object, with or without a
+            // world and suns): where next-event estimation splits off the distant lights, or
+            // there are none, the node is chosen with probability 1 whatever its importance,
+            // which only tells whether the point can be lit at all. Where it cannot, the
+            // light's sample finds so itself (a back-facing emitter or a direction below the
+            // surface gives no shadow ray), so the importance (cones, bounds, an arccosine:
+            // ~3% of the SSS Cornell box's time) is not computed.
+            Some(t)
+                if t.cut_len() == 1
+                    && (self.distant.is_empty()
+                        || (split && self.distant.len() <= MAX_SPLIT_DISTANT)) =>
+            {
                 cut[0] = 1.0;
                 1
             }
