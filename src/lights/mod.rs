@@ -252,6 +252,9 @@ pub struct Lights {
     /// decide whether it is sampled by solid angle (`SphericalTriangle::seen_from`) without
     /// loading its vertices on every light sample; None for other lights and moving emitters.
     triangle_extent: Vec<Option<(Vec3, f32)>>,
+    /// The one light of a scene lit by a single bounded light and nothing else: the tree's
+    /// choice is then certain, and next-event estimation samples it directly.
+    only: Option<usize>,
 }
 
 use crate::spectrum::rgb::luminance;
@@ -568,10 +571,13 @@ impl Lights {
             visibility[index] = v;
         }
         triangle_extent.resize(lights.len(), None);
+        let tree = LightTree::build(&bounds);
+        let only = (lights.len() == 1 && distant.is_empty() && tree.is_some()).then_some(0);
         Lights {
             triangle_extent,
             power: DiscreteDistribution::new(&power),
-            tree: LightTree::build(&bounds),
+            tree,
+            only,
             lights,
             distant,
             distant_slot,
@@ -692,6 +698,9 @@ impl Lights {
             let (index, p, _) = self.power.sample(u);
             return (p > 0.0).then_some((index, p));
         }
+        if let Some(only) = self.only {
+            return Some((only, 1.0));
+        }
         let split = selection == LightSelection::Tree;
         self.select_from(&self.first_choice(ctx, split)?, ctx, u)
     }
@@ -733,6 +742,9 @@ impl Lights {
     pub fn pmf(&self, ctx: &ShadingContext, index: usize, selection: LightSelection) -> f32 {
         if selection == LightSelection::Power {
             return self.power.pmf(index);
+        }
+        if let Some(only) = self.only {
+            return if index == only { 1.0 } else { 0.0 };
         }
         let Some(FirstChoice {
             cut,
@@ -988,6 +1000,13 @@ impl Lights {
     ) -> [Option<LightSample>; 1 + MAX_SPLIT_DISTANT] {
         let mut out = [None; 1 + MAX_SPLIT_DISTANT];
         if self.lights.is_empty() {
+            return out;
+        }
+        if let (Some(only), LightSelection::Tree | LightSelection::TreeSingle) =
+            (self.only, selection)
+        {
+            // What the tree's certain choice gives, without building the choice.
+            out[0] = self.sample_light(geometry, materials, ctx, only, 1.0, u, w);
             return out;
         }
         let first = match selection {
