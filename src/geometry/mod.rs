@@ -1132,6 +1132,14 @@ impl Geometry {
         [w0, w0 + e1, w0 + e2].map(Vec3::from)
     }
 
+    /// The world-space corner and edges of a triangle of an instance placed at shutter time
+    /// `time`: `surface_point_at` reaches w0 + b1 e1 + b2 e2 (same arithmetic).
+    pub fn world_edges_at(&self, instance: u32, prim: u32, time: f32) -> (Vec3A, Vec3A, Vec3A) {
+        let inst = &self.instances[instance as usize];
+        let placement = inst.placement_at(time);
+        world_edges(&self.meshes[inst.mesh as usize], &placement, prim, time)
+    }
+
     /// World-space surface data at barycentrics (b1, b2) of a triangle of an instance placed
     /// at shutter time `time`.
     pub fn surface_point_at(

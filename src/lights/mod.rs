@@ -34,13 +34,13 @@ pub mod round;
 pub mod spread;
 pub mod tree;
 
-use crate::geometry::Geometry;
+use crate::geometry::{Geometry, SurfacePoint};
 use crate::math::{sampling, DiscreteDistribution, Frame, PI};
 use crate::scene::desc::{PunctualKind, PunctualLightDesc, RayVisibility};
 use crate::scene::material::Material;
 use crate::spectrum::{RgbIlluminantSpectrum, SampledSpectrum, SampledWavelengths};
 use envmap::EnvironmentMap;
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec3A};
 pub use round::RoundEmitter;
 pub use tree::{LightBounds, LightTree, ShadingContext};
 
@@ -80,6 +80,20 @@ impl LightSelection {
     }
 }
 
+/// A triangle of a pair light in world space (a pair never moves), so that its light samples
+/// need no surface point: the corner and edges `surface_point_at` uses (a point is
+/// w0 + b1 e1 + b2 e2, the same arithmetic), its normal on its shading normal's side and its
+/// area.
+#[derive(Clone, Debug)]
+pub struct PairTriangle {
+    w0: Vec3A,
+    e1: Vec3A,
+    e2: Vec3A,
+    ng: Vec3,
+    area: f32,
+    material: u32,
+}
+
 #[derive(Clone, Debug)]
 pub enum Light {
     /// One emissive triangle of a placed mesh.
@@ -91,7 +105,11 @@ pub enum Light {
     /// samples a rectangle) and to their `areas` elsewhere (uniformly over its area). The
     /// light tree then weighs one emitter instead of two: 8-11% less CPU time on scenes lit
     /// by such lights (bench/README.md).
-    TrianglePair { instance: u32, areas: [f32; 2] },
+    TrianglePair {
+        instance: u32,
+        areas: [f32; 2],
+        triangles: Box<[PairTriangle; 2]>,
+    },
     /// A point of radiant intensity `intensity`, or with `round` a disc or sphere of that
     /// intensity (Blender's Radius).
     Point {
@@ -347,9 +365,21 @@ impl Lights {
                 if sp[0].ng.dot(sp[1].ng) > 0.9999 && sp[0].area > 0.0 && sp[1].area > 0.0 {
                     let areas = [sp[0].area, sp[1].area];
                     let area = areas[0] + areas[1];
+                    let triangles = Box::new([0, 1].map(|prim| {
+                        let (w0, e1, e2) = geometry.world_edges_at(ii as u32, prim, 0.5);
+                        PairTriangle {
+                            w0,
+                            e1,
+                            e2,
+                            ng: sp[prim as usize].ng,
+                            area: sp[prim as usize].area,
+                            material: mesh.material,
+                        }
+                    }));
                     lights.push(Light::TrianglePair {
                         instance: ii as u32,
                         areas,
+                        triangles,
                     });
                     let (lo, hi) = pair_box(&v);
                     triangle_extent.resize(lights.len() - 1, None);
@@ -1069,7 +1099,11 @@ impl Lights {
                     emitter_density(p_select, solid_angle, sp.area, dist2, cos)
                 })
             }
-            Light::TrianglePair { instance, areas } => {
+            Light::TrianglePair {
+                instance,
+                areas,
+                triangles,
+            } => {
                 // The triangle in proportion to its share of the pair's solid angle (or
                 // area), then a point on it with u.x rescaled to that share.
                 let seen = self.pair_seen_from(geometry, index, *instance, ctx);
@@ -1088,7 +1122,24 @@ impl Lights {
                     Some(tris) => tris[prim].sample(u)?,
                     None => sampling::sample_uniform_triangle(u),
                 };
-                let sp = geometry.surface_point_at(*instance, prim as u32, b1, b2, ctx.time);
+                // The point `surface_point_at` gives, without its shading normal and texture
+                // coordinates (a pair has no shading graph to read them).
+                let t = &triangles[prim];
+                let sp = SurfacePoint {
+                    p: (t.w0 + t.e1 * b1 + t.e2 * b2).into(),
+                    ng: t.ng,
+                    ns: t.ng,
+                    ns_smooth: t.ng,
+                    dpdu: Vec3::ZERO,
+                    uv: Vec2::ZERO,
+                    material: t.material,
+                    instance: *instance,
+                    prim: prim as u32,
+                    b1,
+                    b2,
+                    area: t.area,
+                    time: ctx.time,
+                };
                 let total = shares[0] + shares[1];
                 triangle_sample(geometry, materials, ctx, index, &sp, w, |dist2, cos| {
                     let solid_angle = seen.map(|_| total);
@@ -1274,7 +1325,7 @@ fn triangle_sample(
     materials: &[Material],
     ctx: &ShadingContext,
     index: usize,
-    sp: &crate::geometry::SurfacePoint,
+    sp: &SurfacePoint,
     w: &SampledWavelengths,
     density: impl FnOnce(f32, f32) -> f32,
 ) -> Option<LightSample> {
