@@ -94,6 +94,13 @@ pub struct PairTriangle {
     material: u32,
 }
 
+impl PairTriangle {
+    /// Its corners, as `Geometry::world_triangle` gives them.
+    fn vertices(&self) -> [Vec3; 3] {
+        [self.w0, self.w0 + self.e1, self.w0 + self.e2].map(Vec3::from)
+    }
+}
+
 #[derive(Clone, Debug)]
 pub enum Light {
     /// One emissive triangle of a placed mesh.
@@ -971,11 +978,14 @@ impl Lights {
         if base == u32::MAX || cos_light.abs() < 1e-7 || area <= 0.0 {
             return 0.0;
         }
-        if let Light::TrianglePair { areas, .. } = self.lights[base as usize] {
+        if let Light::TrianglePair {
+            areas, triangles, ..
+        } = &self.lights[base as usize]
+        {
             let index = base as usize;
             let p_select = self.pmf(ctx, index, selection);
             let solid_angle = self
-                .pair_seen_from(geometry, index, instance, ctx)
+                .pair_seen_from(index, triangles, ctx.p)
                 .map(|[t0, t1]| t0.solid_angle + t1.solid_angle);
             return emitter_density(
                 p_select,
@@ -999,18 +1009,13 @@ impl Lights {
     /// decision in `sample` and `triangle_pdf` keeps MIS exact.
     fn pair_seen_from(
         &self,
-        geometry: &Geometry,
         index: usize,
-        instance: u32,
-        ctx: &ShadingContext,
+        triangles: &[PairTriangle; 2],
+        p: Vec3,
     ) -> Option<[SphericalTriangle; 2]> {
         let extent = self.triangle_extent[index];
-        let t0 = SphericalTriangle::seen_from(ctx.p, extent, || {
-            geometry.world_triangle(instance, 0, ctx.time)
-        })?;
-        let t1 = SphericalTriangle::seen_from(ctx.p, extent, || {
-            geometry.world_triangle(instance, 1, ctx.time)
-        })?;
+        let t0 = SphericalTriangle::seen_from(p, extent, || triangles[0].vertices())?;
+        let t1 = SphericalTriangle::seen_from(p, extent, || triangles[1].vertices())?;
         Some([t0, t1])
     }
 
@@ -1106,7 +1111,7 @@ impl Lights {
             } => {
                 // The triangle in proportion to its share of the pair's solid angle (or
                 // area), then a point on it with u.x rescaled to that share.
-                let seen = self.pair_seen_from(geometry, index, *instance, ctx);
+                let seen = self.pair_seen_from(index, triangles, p);
                 let shares = match &seen {
                     Some([t0, t1]) => [t0.solid_angle, t1.solid_angle],
                     None => *areas,
