@@ -814,15 +814,19 @@ fn check_single_light(scene: &Scene, h: f32, with_sun: bool) {
         .expect("the panel lights the point below it");
     assert_eq!((index, p), (panel, 1.0));
     for _ in 0..200 {
-        let u = Vec2::new(rng.next_1d(), rng.next_1d());
-        let samples = random_light_samples_at(scene, &below, rng.next_1d(), u, &w);
-        let from_panel = samples
-            .iter()
-            .flatten()
-            .filter(|ls| ls.light == panel)
-            .count();
-        assert_eq!(from_panel, 1, "one sample of the panel from below");
-        if !with_sun {
+        let samples = random_light_samples(scene, &below, &mut rng, &w, LightSelection::Tree);
+        let count = |light: usize| {
+            samples
+                .iter()
+                .flatten()
+                .filter(|ls| ls.light == light)
+                .count()
+        };
+        assert_eq!(count(panel), 1, "one sample of the panel from below");
+        if with_sun {
+            assert_eq!(count(1 - panel), 1, "one sample of the sun, split off");
+        } else {
+            let u = Vec2::new(rng.next_1d(), rng.next_1d());
             sample_meeting_the_emitter(scene, &below, rng.next_1d(), u, &w)
                 .expect("a sample of the panel from below");
         }
@@ -838,39 +842,16 @@ fn check_single_light(scene: &Scene, h: f32, with_sun: bool) {
         ..below
     };
     for _ in 0..200 {
-        let u = Vec2::new(rng.next_1d(), rng.next_1d());
-        let samples = random_light_samples_at(scene, &behind, rng.next_1d(), u, &w);
+        let samples = random_light_samples(scene, &behind, &mut rng, &w, LightSelection::Tree);
         assert!(
             samples.iter().flatten().all(|ls| ls.light != panel),
             "a light sample of the panel from behind it"
         );
         // Facing away, the panel's sample (the light does not look at the point's normal) lies
         // below the point's horizon, where the BSDF gives it nothing before any shadow ray.
-        let samples = random_light_samples_at(scene, &facing_away, rng.next_1d(), u, &w);
+        let samples = random_light_samples(scene, &facing_away, &mut rng, &w, LightSelection::Tree);
         for ls in samples.iter().flatten().filter(|ls| ls.light == panel) {
             assert!(ls.wi.dot(-Vec3::Y) < 0.0, "towards {:?}", ls.wi);
         }
     }
-}
-
-/// The light samples of one next-event estimation at `ctx` (tree selection, split).
-fn random_light_samples_at(
-    scene: &Scene,
-    ctx: &ShadingContext,
-    u_select: f32,
-    u: Vec2,
-    w: &SampledWavelengths,
-) -> Vec<Option<prism::lights::LightSample>> {
-    scene
-        .lights
-        .sample(
-            &scene.geometry,
-            &scene.materials,
-            ctx,
-            u_select,
-            u,
-            w,
-            LightSelection::Tree,
-        )
-        .to_vec()
 }

@@ -1124,11 +1124,8 @@ impl Geometry {
     /// World-space vertices of triangle `prim` of `instance` at shutter time `time`.
     #[inline]
     pub fn world_triangle(&self, instance: u32, prim: u32, time: f32) -> [Vec3; 3] {
-        let inst = &self.instances[instance as usize];
-        let placement = inst.placement_at(time);
-        let mesh = &self.meshes[inst.mesh as usize];
         // The vertices `surface_point_at` reaches at barycentrics (0, 0), (1, 0) and (0, 1).
-        let (w0, e1, e2) = world_edges(mesh, &placement, prim, time);
+        let (w0, e1, e2) = self.world_edges_at(instance, prim, time);
         [w0, w0 + e1, w0 + e2].map(Vec3::from)
     }
 
