@@ -311,7 +311,7 @@ impl WavelengthPdf {
 /// objective are in `data/gen_wavelength_pdf.py`). The single-wavelength optimum (Cauchy-
 /// Schwarz: p ~ sqrt(sum_c (f c_bar / int f c_bar)^2)) does not see how the quartiles split
 /// each channel's integral; on 40 random RGB reflectances not in the fit, the fitted density
-/// has a median 0.32x its four-member colour variance (0.42x for products of two), and 1.04x
+/// has a median 0.31x its four-member colour variance (0.41x for products of two), and 1.04x
 /// its single-wavelength variance. Images (64 spp): noise -5% on the SSS Cornell box, -3 to
 /// -5% on the everyday, rough-glass and many-light scenes.
 ///
