@@ -365,8 +365,6 @@ impl Lights {
                 let sp = [0, 1].map(|prim| {
                     geometry.surface_point_at(ii as u32, prim, 1.0 / 3.0, 1.0 / 3.0, 0.5)
                 });
-                let v =
-                    [0, 1].map(|prim| mesh.vertices(prim as usize).map(|p| xf.transform_point3(p)));
                 // Coplanar and facing the same way: one orientation cone of angle 0.
                 if sp[0].ng.dot(sp[1].ng) > 0.9999 && sp[0].area > 0.0 && sp[1].area > 0.0 {
                     let area = sp[0].area + sp[1].area;
@@ -381,6 +379,8 @@ impl Lights {
                             material: mesh.material,
                         }
                     }));
+                    // Bounds and extent from the very vertices its samples are drawn on.
+                    let v = [triangles[0].vertices(), triangles[1].vertices()];
                     lights.push(Light::TrianglePair {
                         instance: ii as u32,
                         triangles,
