@@ -5,7 +5,7 @@
 
 use crate::film::{self, Film, PixelFilter, SampleClamp};
 use crate::geometry::Ray;
-use crate::integrator::{PathTracer, WavelengthSampling};
+use crate::integrator::{CameraRay, PathTracer, WavelengthSampling, WavelengthStrategy};
 use crate::lights::LightSelection;
 use crate::sampler::{ImageSampler, SamplerKind};
 use crate::scene::Scene;
@@ -212,6 +212,10 @@ pub fn render(
     film.track_alpha = settings.film_transparent || scene.geometry.has_holdout();
     let track_alpha = film.track_alpha;
     let clamp_off = settings.clamp.is_off();
+    // The film takes a uniform world seen directly exactly where the path's wavelengths are
+    // the hero's four (`PathSample::world_exact`); single-wavelength paths estimate it.
+    let exact_world = settings.wavelengths.strategy == WavelengthStrategy::Hero
+        && settings.wavelengths.fixed.is_none();
     let image_sampler = ImageSampler::new(settings.sampler, settings.spp, settings.seed);
     let total = (w * h) as u64 * settings.spp as u64;
     let samples_done = AtomicU64::new(0);
@@ -351,7 +355,6 @@ pub fn render(
                             let mut sampler = pixel_sampler.sample(sample);
                             let u_filter = sampler.pixel_filter();
                             let u_lens = if has_lens { sampler.lens() } else { Vec2::ZERO };
-                            let wavelengths = settings.wavelengths.sample(&mut sampler);
                             let raster = Vec2::new(x, y) + settings.filter.sample_2d(u_filter);
                             let time = if has_motion {
                                 sampler.shutter_time()
@@ -371,7 +374,32 @@ pub fn render(
                                 }
                                 continue;
                             };
-                            let result = tracer.radiance(ray, &wavelengths, &mut sampler);
+                            let first_hit = match tracer.camera_ray(&ray, exact_world) {
+                                CameraRay::Background { xyz, alpha } => {
+                                    band_rays += 1;
+                                    let xyz = if clamp_off {
+                                        xyz
+                                    } else {
+                                        settings.clamp.apply(xyz, glam::Vec3::ZERO)
+                                    };
+                                    if !px.add(xyz) {
+                                        band_discarded += 1;
+                                    }
+                                    if track_alpha {
+                                        px.add_alpha(alpha);
+                                    }
+                                    if settings.guides {
+                                        px.add_guides(glam::Vec3::ZERO, glam::Vec3::ZERO, None);
+                                    }
+                                    continue;
+                                }
+                                CameraRay::Path { first_hit } => first_hit,
+                            };
+                            // The wavelengths' own dimensions (`Sampler::wavelength`): drawn
+                            // here or before the camera ray, the same values.
+                            let wavelengths = settings.wavelengths.sample(&mut sampler);
+                            let result =
+                                tracer.radiance_from(ray, first_hit, &wavelengths, &mut sampler);
                             band_rays += result.rays as u64;
                             // The world seen directly counts with its exact colour.
                             let (world, world_xyz) = result

@@ -531,3 +531,83 @@ fn uniform_world_seen_directly_has_its_exact_colour() {
         );
     }
 }
+
+/// Camera rays that escape to a background the film takes exactly (`PathTracer::camera_ray`'s
+/// `Background`: a uniform world, a black one, a transparent film) skip the path and the
+/// wavelengths; the film must get bit for bit what the path gives (`render.rs` turns a path
+/// into its film value this way). Rays that hit keep their closest hit; a textured world is
+/// never taken as a background.
+#[test]
+fn background_camera_rays_give_the_film_what_their_path_gives() {
+    use prism::integrator::{CameraRay, PathTracer};
+    use prism::sampler::{ImageSampler, SamplerKind};
+    let uniform = furnace_scene(
+        diffuse_material("grey", Vec3::splat(0.5)),
+        Vec3::new(0.3, 0.6, 0.9),
+    );
+    let mut black = uniform.clone();
+    black.world.color = Vec3::ZERO;
+    let scenes = [
+        (
+            "uniform",
+            Scene::build(uniform).expect("scene builds"),
+            false,
+        ),
+        ("black", Scene::build(black).expect("scene builds"), false),
+        (
+            "transparent",
+            Scene::build(furnace_scene(
+                diffuse_material("grey", Vec3::splat(0.5)),
+                Vec3::ONE,
+            ))
+            .expect("scene builds"),
+            true,
+        ),
+        ("map", env_scene(test_texture(0.0)), false),
+    ];
+    for (name, scene, transparent) in &scenes {
+        let tracer = PathTracer::new(scene, 8, LightSelection::Tree)
+            .with_transparent_background(*transparent);
+        let pixels = ImageSampler::new(SamplerKind::Sobol, 4, 3);
+        let camera = scene.camera_for(32, 32);
+        let (mut background, mut paths) = (0, 0);
+        for y in 0..16u32 {
+            for x in 0..16u32 {
+                let raster = Vec2::new(x as f32 * 2.0 + 0.5, y as f32 * 2.0 + 0.5);
+                let ray = camera.generate_ray(raster, Vec2::ZERO).expect("ray");
+                let mut sampler = pixels.pixel(x, y, 16).sample(0);
+                let w = SampledWavelengths::sample_hero(sampler.wavelength().x, Default::default());
+                let path = tracer.radiance(ray, &w, &mut sampler);
+                match tracer.camera_ray(&ray, true) {
+                    CameraRay::Background { xyz, alpha } => {
+                        background += 1;
+                        assert!(*name != "map", "{name}: a textured world needs the path");
+                        let (world, world_xyz) = path
+                            .world_exact
+                            .unwrap_or((SampledSpectrum::ZERO, Vec3::ZERO));
+                        let film = prism::spectrum::spectrum_to_xyz(&(path.radiance - world), &w)
+                            + world_xyz;
+                        assert_eq!(film, xyz, "{name}: pixel ({x}, {y})");
+                        assert_eq!(path.alpha, alpha, "{name}: pixel ({x}, {y})");
+                    }
+                    CameraRay::Path { first_hit } => {
+                        paths += 1;
+                        let hit = scene.geometry.intersect(&ray, f32::INFINITY);
+                        assert_eq!(
+                            first_hit.map(|h| h.map(|h| (h.t, h.prim, h.instance))),
+                            Some(hit.map(|h| (h.t, h.prim, h.instance))),
+                            "{name}: pixel ({x}, {y})"
+                        );
+                    }
+                }
+            }
+        }
+        println!("{name}: {background} background rays, {paths} paths");
+        assert!(paths > 0, "{name}: the sphere is in view");
+        assert_eq!(
+            background > 0,
+            *name != "map",
+            "{name}: {background} background rays"
+        );
+    }
+}

@@ -4,5 +4,5 @@ pub mod path;
 pub mod spectral_mis;
 pub mod wavelengths;
 
-pub use path::{PathSample, PathTracer};
+pub use path::{CameraRay, PathSample, PathTracer};
 pub use wavelengths::{WavelengthPdf, WavelengthSampling, WavelengthStrategy};

@@ -7,7 +7,7 @@ use crate::bsdf::{BsdfSample, LobeFlags};
 use crate::bssrdf::{
     active_wavelengths, random_walk, ExitLobe, SubsurfaceAt, SubsurfaceMethod, WalkBoundary,
 };
-use crate::geometry::{bump_terminator_shadowing, offset_ray_origin, Ray};
+use crate::geometry::{bump_terminator_shadowing, offset_ray_origin, Hit, Ray};
 use crate::lights::{LightSelection, ShadingContext};
 use crate::math::{power_heuristic, Frame};
 use crate::media::{
@@ -52,6 +52,18 @@ pub struct PathTracer<'a> {
     /// Subsurface scattering keeps its full spatial spread after a diffuse bounce too
     /// (`with_full_indirect_subsurface`); by default it is collapsed to its entry point there.
     full_indirect_subsurface: bool,
+}
+
+/// Where a camera ray goes first (`PathTracer::camera_ray`).
+#[derive(Clone, Copy, Debug)]
+pub enum CameraRay {
+    /// It escapes to a background the film takes exactly, so there is nothing to trace and no
+    /// wavelengths to sample: `xyz` is its colour (all of it direct light), `alpha` its
+    /// coverage. What a path would give: the same film value, bit for bit.
+    Background { xyz: glam::Vec3, alpha: f32 },
+    /// A path follows, from the ray's closest hit when it has been found (`Some(None)`: the ray
+    /// escapes to lights at infinity whose spectra are sampled).
+    Path { first_hit: Option<Option<Hit>> },
 }
 
 /// What one camera path returns.
@@ -122,6 +134,9 @@ struct PathState<'a> {
     diffuse_ancestor: bool,
     /// `PathSample::world_exact`.
     world_exact: Option<(SampledSpectrum, glam::Vec3)>,
+    /// The closest hit of `ray`, when it has already been found (`PathTracer::camera_ray`):
+    /// taken instead of the next intersection.
+    first_hit: Option<Option<Hit>>,
     /// Scattering events so far that count towards Russian roulette's start
     /// (`RR_MIN_DEPTH`): every one but a transmission through a non-diffuse interface that
     /// neither enters nor leaves a subsurface medium (see `scatter`).
@@ -677,6 +692,49 @@ impl<'a> PathTracer<'a> {
     /// Radiance arriving along `ray` for the path's wavelengths, already weighted by the
     /// hero-wavelength MIS (the film divides slot i by `w.pdf[i]`).
     pub fn radiance(&self, ray: Ray, w: &SampledWavelengths, sampler: &mut Sampler) -> PathSample {
+        self.radiance_from(ray, None, w, sampler)
+    }
+
+    /// Where the camera ray `ray` goes first: a background the film takes exactly (black, a
+    /// transparent film, or with `exact_world` a uniform world; see `PathSample::world_exact`)
+    /// or a path, with the ray's closest hit. Most pixels of a product shot, or of a Cornell
+    /// box seen from outside (65% of the SSS box's image), see only such a background; their
+    /// samples then cost a camera ray and one traversal, without the four wavelengths and the
+    /// path's set-up (a black sample took 157 ns of CPU time, 22% of it sampling wavelengths).
+    /// Rays that may meet volumes or round lights before any surface always get a path.
+    pub fn camera_ray(&self, ray: &Ray, exact_world: bool) -> CameraRay {
+        let lights = &self.scene.lights;
+        if !self.camera_media.is_empty() || lights.has_round() {
+            return CameraRay::Path { first_hit: None };
+        }
+        let hit = self.scene.geometry.intersect(ray, f32::INFINITY);
+        if hit.is_some() {
+            return CameraRay::Path {
+                first_hit: Some(hit),
+            };
+        }
+        if self.transparent_background {
+            return CameraRay::Background {
+                xyz: glam::Vec3::ZERO,
+                alpha: 0.0,
+            };
+        }
+        match lights.exact_at_infinity(ray.dir, exact_world) {
+            Some(xyz) => CameraRay::Background { xyz, alpha: 1.0 },
+            None => CameraRay::Path {
+                first_hit: Some(None),
+            },
+        }
+    }
+
+    /// `radiance` with the camera ray's closest hit already found (`camera_ray`).
+    pub fn radiance_from(
+        &self,
+        ray: Ray,
+        first_hit: Option<Option<Hit>>,
+        w: &SampledWavelengths,
+        sampler: &mut Sampler,
+    ) -> PathSample {
         let mis = SpectralMis::new(w);
         // The wavelengths the path evaluates materials and lights at. After a smooth
         // dispersive refraction only the hero carries light: the secondaries are collapsed onto
@@ -714,6 +772,7 @@ impl<'a> PathTracer<'a> {
             diffuse_ancestor: false,
             world_exact: None,
             roulette_vertices: 0,
+            first_hit,
         };
         self.trace(&mut st, 0, sampler);
         PathSample {
@@ -762,7 +821,10 @@ impl<'a> PathTracer<'a> {
                         None => break,
                     }
                 }
-                None => geometry.intersect(&st.ray, f32::INFINITY),
+                None => match st.first_hit.take() {
+                    Some(hit) => hit,
+                    None => geometry.intersect(&st.ray, f32::INFINITY),
+                },
             };
             // Rays pass through surfaces they do not shade: camera rays through instances hidden
             // from the camera (meshes standing for Blender area lights), as Blender's ray

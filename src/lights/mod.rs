@@ -842,6 +842,28 @@ impl Lights {
         }
     }
 
+    /// What lies at infinity along the unit world-space direction `dir` when it is known
+    /// without sampling wavelengths: black where no sun disc contains `dir` and there is no
+    /// world, the uniform world's exact XYZ (`uniform_world_xyz`) where it is uniform and
+    /// `uniform_exact`. None where a sun disc or a textured world is seen (their spectra are
+    /// sampled).
+    pub fn exact_at_infinity(&self, dir: Vec3, uniform_exact: bool) -> Option<Vec3> {
+        let disc_seen = self.distant.iter().any(|&(i, _)| {
+            matches!(
+                &self.lights[i as usize],
+                Light::Directional { disc: Some(d), .. } if d.contains(dir)
+            )
+        });
+        if disc_seen {
+            return None;
+        }
+        match &self.environment {
+            None => Some(Vec3::ZERO),
+            Some((_, WorldLight::Uniform(_, xyz))) if uniform_exact => Some(*xyz),
+            Some(_) => None,
+        }
+    }
+
     /// A uniform world: its light index and the exact XYZ of its radiance (what
     /// `spectrum::spectrum_to_xyz` of its spectrum averages to over the wavelengths).
     pub fn uniform_world_xyz(&self) -> Option<(usize, Vec3)> {
