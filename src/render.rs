@@ -395,8 +395,9 @@ pub fn render(
                                 }
                                 CameraRay::Path { first_hit } => first_hit,
                             };
-                            // The wavelengths' own dimensions (`Sampler::wavelength`): drawn
-                            // here or before the camera ray, the same values.
+                            // The wavelengths' own dimensions (`Sampler::wavelength`): the
+                            // same values here as before the camera ray (the independent
+                            // sampler's one stream now gives the shutter time its value first).
                             let wavelengths = settings.wavelengths.sample(&mut sampler);
                             let result =
                                 tracer.radiance_from(ray, first_hit, &wavelengths, &mut sampler);
