@@ -242,3 +242,48 @@ fn agrees_with_brute_force(geometry: &Geometry) {
         "{multi_hits} rays through several surfaces, {edge_mismatches} differing at an edge"
     );
 }
+
+/// `Geometry::misses_bounds` (the camera rays' test before a traversal) never claims a miss
+/// for a ray that hits, including rays that graze the plane's edges and rays along its plane
+/// (a flat box), and does find rays that pass beside the geometry.
+#[test]
+fn a_bounds_miss_is_never_a_hit() {
+    let mut rng = prism::sampler::Pcg32::new(11, 0, 0);
+    let mut rnd = || rng.next_1d();
+    for transform in [
+        Affine3A::IDENTITY,
+        Affine3A::from_translation(Vec3::new(0.3, -0.5, 0.2)),
+        Affine3A::from_rotation_x(0.7),
+    ] {
+        let g = plane(transform);
+        let (mut hits, mut culled) = (0, 0);
+        for i in 0..20_000 {
+            let origin = Vec3::new(rnd() * 8.0 - 4.0, rnd() * 8.0 - 4.0, rnd() * 8.0 - 4.0);
+            // Aim at points on, just inside and just outside the quad's edges, and in its plane.
+            let (s, t) = (
+                rnd() * 2.2 - 1.1,
+                if i % 2 == 0 { 1.0 } else { rnd() * 2.0 - 1.0 },
+            );
+            let local = if i % 3 == 0 {
+                Vec3::new(s, 0.0, t)
+            } else {
+                Vec3::new(t, 0.0, s)
+            };
+            let target = transform.transform_point3(local);
+            let origin = if i % 7 == 0 {
+                transform.transform_point3(Vec3::new(origin.x, 0.0, origin.z))
+            } else {
+                origin
+            };
+            let ray = Ray::new(origin, (target - origin).normalize());
+            let hit = g.intersect(&ray, f32::INFINITY);
+            if g.misses_bounds(&ray) {
+                culled += 1;
+                assert!(hit.is_none(), "{ray:?}: culled but hits {hit:?}");
+            }
+            hits += usize::from(hit.is_some());
+        }
+        assert!(hits > 5_000 && culled > 500, "{hits} hits, {culled} culled");
+    }
+    assert!(Geometry::new(Vec::new(), Vec::new()).misses_bounds(&Ray::new(Vec3::ZERO, Vec3::X)));
+}

@@ -708,7 +708,12 @@ impl<'a> PathTracer<'a> {
         if !self.camera_media.is_empty() || lights.has_round() {
             return CameraRay::Path { first_hit: None };
         }
-        let hit = self.scene.geometry.intersect(ray, f32::INFINITY);
+        let geometry = &self.scene.geometry;
+        let hit = if geometry.misses_bounds(ray) {
+            None
+        } else {
+            geometry.intersect(ray, f32::INFINITY)
+        };
         if hit.is_some() {
             return CameraRay::Path {
                 first_hit: Some(hit),
