@@ -547,6 +547,18 @@ fn background_camera_rays_give_the_film_what_their_path_gives() {
     );
     let mut black = uniform.clone();
     black.world.color = Vec3::ZERO;
+    // A sun whose disc (0.9 rad across) the camera, looking down -z from z = 3, sees around
+    // the sphere: its rays need the path.
+    let mut sun = uniform.clone();
+    sun.lights.push(prism::scene::PunctualLightDesc {
+        name: "sun".into(),
+        kind: prism::scene::PunctualKind::Directional,
+        color: Vec3::ONE,
+        intensity: 3.0,
+        direction: Vec3::Z,
+        angle: 0.9,
+        ..Default::default()
+    });
     let scenes = [
         (
             "uniform",
@@ -564,13 +576,14 @@ fn background_camera_rays_give_the_film_what_their_path_gives() {
             true,
         ),
         ("map", env_scene(test_texture(0.0)), false),
+        ("sun", Scene::build(sun).expect("scene builds"), false),
     ];
     for (name, scene, transparent) in &scenes {
         let tracer = PathTracer::new(scene, 8, LightSelection::Tree)
             .with_transparent_background(*transparent);
         let pixels = ImageSampler::new(SamplerKind::Sobol, 4, 3);
         let camera = scene.camera_for(32, 32);
-        let (mut background, mut paths) = (0, 0);
+        let (mut background, mut paths, mut escaped) = (0, 0, 0);
         for y in 0..16u32 {
             for x in 0..16u32 {
                 let raster = Vec2::new(x as f32 * 2.0 + 0.5, y as f32 * 2.0 + 0.5);
@@ -592,6 +605,7 @@ fn background_camera_rays_give_the_film_what_their_path_gives() {
                     }
                     CameraRay::Path { first_hit } => {
                         paths += 1;
+                        escaped += usize::from(matches!(first_hit, Some(None)));
                         let hit = scene.geometry.intersect(&ray, f32::INFINITY);
                         assert_eq!(
                             first_hit.map(|h| h.map(|h| (h.t, h.prim, h.instance))),
@@ -602,8 +616,18 @@ fn background_camera_rays_give_the_film_what_their_path_gives() {
                 }
             }
         }
-        println!("{name}: {background} background rays, {paths} paths");
-        assert!(paths > 0, "{name}: the sphere is in view");
+        println!("{name}: {background} background rays, {paths} paths ({escaped} escaping)");
+        // (The textured-world scene has moved its object out of view.)
+        assert!(
+            *name == "map" || paths > escaped,
+            "{name}: the sphere is in view"
+        );
+        // Escaping rays that need the path: the textured world everywhere, the sun's disc.
+        assert_eq!(
+            escaped > 0,
+            matches!(*name, "map" | "sun"),
+            "{name}: {escaped} escaping paths"
+        );
         assert_eq!(
             background > 0,
             *name != "map",

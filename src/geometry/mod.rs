@@ -631,6 +631,8 @@ pub struct Geometry {
     /// Those instances in TLAS leaf order (ids the traversal reports).
     tlas_order: Vec<u32>,
     bounds: Aabb,
+    /// `bounds` grown by 1e-4 of its size (`misses_bounds`).
+    cull_bounds: Aabb,
 }
 
 /// The triangles of every instance whose mesh no other instance uses, in world space under one
@@ -786,6 +788,7 @@ impl Geometry {
             tlas: CwBvh::default(),
             tlas_order: Vec::new(),
             bounds: Aabb::empty(),
+            cull_bounds: Aabb::empty(),
         };
         geometry.build_top_level();
         geometry
@@ -807,6 +810,8 @@ impl Geometry {
             })
             .collect();
         self.bounds = aabbs.iter().fold(Aabb::empty(), |b, a| b.union(a));
+        let margin = 1e-4 * (self.bounds.max - self.bounds.min).max_element() + 1e-6;
+        self.cull_bounds = Aabb::new(self.bounds.min - margin, self.bounds.max + margin);
         let shared: Vec<u32> = (0..self.instances.len() as u32)
             .filter(|&i| !self.flattened[i as usize])
             .collect();
@@ -858,9 +863,8 @@ impl Geometry {
         if self.is_empty() {
             return true;
         }
-        let margin = 1e-4 * (self.bounds.max - self.bounds.min).max_element() + 1e-6;
-        let grown = Aabb::new(self.bounds.min - margin, self.bounds.max + margin);
         let line = bvh_ray(ray.origin, ray.dir, f32::INFINITY);
+        let grown = &self.cull_bounds;
         grown.min.is_finite()
             && grown.max.is_finite()
             && grown.intersect_ray(&line) == f32::INFINITY

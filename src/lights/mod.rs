@@ -812,6 +812,24 @@ impl Lights {
         }
     }
 
+    /// The suns whose disc contains the unit world-space direction `dir`: (light index,
+    /// irradiance, disc).
+    fn sun_discs_along(
+        &self,
+        dir: Vec3,
+    ) -> impl Iterator<Item = (usize, &RgbIlluminantSpectrum, &SunDisc)> {
+        self.distant
+            .iter()
+            .filter_map(move |&(i, _)| match &self.lights[i as usize] {
+                Light::Directional {
+                    irradiance,
+                    disc: Some(d),
+                    ..
+                } if d.contains(dir) => Some((i as usize, irradiance, d)),
+                _ => None,
+            })
+    }
+
     /// Radiance of the world and of every sun disc seen along the escaping world-space
     /// direction `dir` (unit): calls `f(light index, radiance)` for each that is not black.
     pub fn for_each_at_infinity(
@@ -820,17 +838,8 @@ impl Lights {
         w: &SampledWavelengths,
         mut f: impl FnMut(usize, SampledSpectrum),
     ) {
-        for &(i, _) in &self.distant {
-            if let Light::Directional {
-                irradiance,
-                disc: Some(d),
-                ..
-            } = &self.lights[i as usize]
-            {
-                if d.contains(dir) {
-                    f(i as usize, irradiance.sample(w) * d.radiance_scale);
-                }
-            }
+        for (i, irradiance, d) in self.sun_discs_along(dir) {
+            f(i, irradiance.sample(w) * d.radiance_scale);
         }
         let le = match &self.environment {
             Some((i, WorldLight::Uniform(radiance, _))) => Some((*i, radiance.sample(w))),
@@ -848,13 +857,7 @@ impl Lights {
     /// `uniform_exact`. None where a sun disc or a textured world is seen (their spectra are
     /// sampled).
     pub fn exact_at_infinity(&self, dir: Vec3, uniform_exact: bool) -> Option<Vec3> {
-        let disc_seen = self.distant.iter().any(|&(i, _)| {
-            matches!(
-                &self.lights[i as usize],
-                Light::Directional { disc: Some(d), .. } if d.contains(dir)
-            )
-        });
-        if disc_seen {
+        if self.sun_discs_along(dir).next().is_some() {
             return None;
         }
         match &self.environment {
