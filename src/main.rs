@@ -103,6 +103,12 @@ struct SceneArgs {
     /// diffuse bounce leaves where it entered, with the medium's total diffuse reflectance
     #[arg(long)]
     full_indirect_subsurface: bool,
+    /// Branches per camera path at its first diffuse, glossy or subsurface vertex, each with its
+    /// own light sample and continuation: auto (default; planned per 8 x 8 pixels from the
+    /// first 4 samples, 1-4 where it pays, none below 16 spp) or a number 1-4 (1 = plain path
+    /// tracing)
+    #[arg(long, value_name = "auto|1-4", value_parser = parse_splits)]
+    splits: Option<Splits>,
     /// Adaptive sampling: pixels whose estimated error (Cycles' definition) is below this stop
     /// early; --spp becomes the maximum. 0 = off (default: the JSON's render.noise_threshold,
     /// else 0)
@@ -133,6 +139,23 @@ struct SceneArgs {
     /// render (default: the JSON's render.crop, else the whole image)
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
     crop: Option<[u32; 4]>,
+}
+
+/// `--splits`: None = auto.
+#[derive(Clone, Copy, Debug)]
+struct Splits(Option<u32>);
+
+fn parse_splits(s: &str) -> std::result::Result<Splits, String> {
+    if s == "auto" {
+        return Ok(Splits(None));
+    }
+    match s.parse::<u32>() {
+        Ok(k) if (1..=prism::integrator::splitting::MAX_SPLITS).contains(&k) => Ok(Splits(Some(k))),
+        _ => Err(format!(
+            "'{s}' is not auto or a number of branches from 1 to {}",
+            prism::integrator::splitting::MAX_SPLITS
+        )),
+    }
 }
 
 fn parse_crop(s: &str) -> std::result::Result<[u32; 4], String> {
@@ -508,6 +531,7 @@ fn load(args: &SceneArgs) -> Result<Loaded> {
         crop: None,
         max_pass_samples: 64,
         full_indirect_subsurface: args.full_indirect_subsurface,
+        splits: args.splits.and_then(|s| s.0),
     };
     let threshold = args
         .noise_threshold
@@ -917,6 +941,7 @@ fn run_bench(bench: &BenchArgs) -> Result<()> {
         sampler: None,
         light_sampler: None,
         full_indirect_subsurface: false,
+        splits: None,
         noise_threshold: None,
         min_samples: None,
         time_limit: None,

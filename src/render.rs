@@ -5,6 +5,7 @@
 
 use crate::film::{self, Film, PixelFilter, SampleClamp};
 use crate::geometry::Ray;
+use crate::integrator::splitting::{SplitPlanner, SplitStats};
 use crate::integrator::{CameraRay, PathTracer, WavelengthSampling, WavelengthStrategy};
 use crate::lights::LightSelection;
 use crate::sampler::{ImageSampler, SamplerKind};
@@ -54,6 +55,10 @@ pub struct RenderSettings {
     /// Subsurface scattering keeps its spatial spread after diffuse bounces too (for
     /// comparisons; `PathTracer::with_full_indirect_subsurface`). Off by default, as in Cycles.
     pub full_indirect_subsurface: bool,
+    /// Branches per camera path at its first vertex (`integrator::splitting`): None plans them
+    /// per block of pixels from the first samples, Some(k) takes k everywhere (1: plain path
+    /// tracing).
+    pub splits: Option<u32>,
 }
 
 /// A window of the image: top-left pixel and size.
@@ -124,6 +129,7 @@ impl Default for RenderSettings {
             crop: None,
             max_pass_samples: 64,
             full_indirect_subsurface: false,
+            splits: None,
         }
     }
 }
@@ -216,7 +222,16 @@ pub fn render(
     // the hero's four (`PathSample::world_exact`); single-wavelength paths estimate it.
     let exact_world = settings.wavelengths.strategy == WavelengthStrategy::Hero
         && settings.wavelengths.fixed.is_none();
-    let image_sampler = ImageSampler::new(settings.sampler, settings.spp, settings.seed);
+    let splitting = SplitPlanner::new(settings.spp, window, settings.splits);
+    let image_sampler = ImageSampler::with_branches(
+        settings.sampler,
+        settings.spp,
+        splitting.max_splits(),
+        settings.seed,
+    );
+    // Branches per camera path at its first vertex, per pixel (`SplitPlanner`).
+    let mut splits = vec![splitting.pilot_splits(); w * h];
+    let mut split_stats = vec![SplitStats::default(); w * h];
     let total = (w * h) as u64 * settings.spp as u64;
     let samples_done = AtomicU64::new(0);
     let rays = AtomicU64::new(0);
@@ -286,6 +301,7 @@ pub fn render(
         let mut pass_end = vec![0u32; w * h];
         // The pixels' errors after the last pass (`film::adaptive::pixel_errors`).
         let mut errors = Vec::new();
+        let mut splitting_planned = false;
         loop {
             if cancel.load(Ordering::Relaxed) || active_count == 0 {
                 break;
@@ -326,128 +342,147 @@ pub fn render(
                 .par_chunks_mut(chunk)
                 .zip(active.par_chunks(chunk))
                 .zip(pass_end.par_chunks(chunk))
+                .zip(splits.par_chunks(chunk))
+                .zip(split_stats.par_chunks_mut(chunk))
                 .enumerate()
                 // Every chunk its own job: rayon's default splitting can leave one thread a
                 // long run of chunks that the idle thread cannot steal.
                 .with_max_len(1)
-                .for_each(|(band, ((pixels, band_active), band_end))| {
-                    let mut band_rays = 0u64;
-                    let mut band_discarded = 0u64;
-                    // Counted per band, not per pixel: the early passes take one or two
-                    // samples per pixel, and an atomic add per pixel on a counter both threads
-                    // write cost about 1% of a render.
-                    let mut band_samples = 0u64;
-                    for (i, px) in pixels.iter_mut().enumerate() {
-                        if cancel.load(Ordering::Relaxed) || out_of_time() {
-                            break;
-                        }
-                        let (s0, s1) = (px.samples, band_end[i]);
-                        if !band_active[i] || s1 <= s0 {
-                            continue;
-                        }
-                        let index = band * chunk + i;
-                        // Pixel coordinates in the full image (the same samples with a crop).
-                        let (px_x, px_y) =
-                            ((index % w) as u32 + window.x, (index / w) as u32 + window.y);
-                        let pixel_sampler = image_sampler.pixel(px_x, px_y, settings.width);
-                        let (x, y) = (px_x as f32, px_y as f32);
-                        for sample in s0..s1 {
-                            let mut sampler = pixel_sampler.sample(sample);
-                            let u_filter = sampler.pixel_filter();
-                            let u_lens = if has_lens { sampler.lens() } else { Vec2::ZERO };
-                            let raster = Vec2::new(x, y) + settings.filter.sample_2d(u_filter);
-                            let time = if has_motion {
-                                sampler.shutter_time()
-                            } else {
-                                0.5
-                            };
-                            let Some(ray): Option<Ray> =
-                                camera.generate_ray_at(raster, u_lens, time)
-                            else {
-                                // Outside a fisheye's image circle: black, as in Cycles.
-                                px.add(glam::Vec3::ZERO);
-                                if track_alpha {
-                                    px.add_alpha(0.0);
-                                }
-                                if settings.guides {
-                                    px.add_guides(glam::Vec3::ZERO, glam::Vec3::ZERO, None);
-                                }
+                .for_each(
+                    |(band, ((((pixels, band_active), band_end), band_splits), band_stats))| {
+                        let mut band_rays = 0u64;
+                        let mut band_discarded = 0u64;
+                        // Counted per band, not per pixel: the early passes take one or two
+                        // samples per pixel, and an atomic add per pixel on a counter both threads
+                        // write cost about 1% of a render.
+                        let mut band_samples = 0u64;
+                        for (i, px) in pixels.iter_mut().enumerate() {
+                            if cancel.load(Ordering::Relaxed) || out_of_time() {
+                                break;
+                            }
+                            let (s0, s1) = (px.samples, band_end[i]);
+                            if !band_active[i] || s1 <= s0 {
                                 continue;
-                            };
-                            let first_hit = match tracer.camera_ray(&ray, exact_world) {
-                                CameraRay::Background { xyz, alpha } => {
-                                    band_rays += 1;
-                                    let xyz = if clamp_off {
-                                        xyz
-                                    } else {
-                                        settings.clamp.apply(xyz, glam::Vec3::ZERO)
-                                    };
-                                    if !px.add(xyz) {
-                                        band_discarded += 1;
-                                    }
+                            }
+                            let index = band * chunk + i;
+                            // Pixel coordinates in the full image (the same samples with a crop).
+                            let (px_x, px_y) =
+                                ((index % w) as u32 + window.x, (index / w) as u32 + window.y);
+                            let pixel_sampler = image_sampler.pixel(px_x, px_y, settings.width);
+                            let (x, y) = (px_x as f32, px_y as f32);
+                            for sample in s0..s1 {
+                                let mut sampler = pixel_sampler.sample(sample);
+                                let u_filter = sampler.pixel_filter();
+                                let u_lens = if has_lens { sampler.lens() } else { Vec2::ZERO };
+                                let raster = Vec2::new(x, y) + settings.filter.sample_2d(u_filter);
+                                let time = if has_motion {
+                                    sampler.shutter_time()
+                                } else {
+                                    0.5
+                                };
+                                let Some(ray): Option<Ray> =
+                                    camera.generate_ray_at(raster, u_lens, time)
+                                else {
+                                    // Outside a fisheye's image circle: black, as in Cycles.
+                                    px.add(glam::Vec3::ZERO);
                                     if track_alpha {
-                                        px.add_alpha(alpha);
+                                        px.add_alpha(0.0);
                                     }
                                     if settings.guides {
                                         px.add_guides(glam::Vec3::ZERO, glam::Vec3::ZERO, None);
                                     }
                                     continue;
-                                }
-                                CameraRay::Path { first_hit } => first_hit,
-                            };
-                            // The wavelengths' own dimensions (`Sampler::wavelength`): the
-                            // same values here as before the camera ray (the independent
-                            // sampler's one stream now gives the shutter time its value first).
-                            let wavelengths = settings.wavelengths.sample(&mut sampler);
-                            let result =
-                                tracer.radiance_from(ray, first_hit, &wavelengths, &mut sampler);
-                            band_rays += result.rays as u64;
-                            // The world seen directly counts with its exact colour.
-                            let (world, world_xyz) = result
-                                .world_exact
-                                .unwrap_or((SampledSpectrum::ZERO, glam::Vec3::ZERO));
-                            let xyz = if clamp_off {
-                                spectrum_to_xyz(&(result.radiance - world), &wavelengths)
-                                    + world_xyz
-                            } else {
-                                let direct =
-                                    spectrum_to_xyz(&(result.direct - world), &wavelengths)
-                                        + world_xyz;
-                                let indirect = spectrum_to_xyz(
-                                    &(result.radiance - result.direct),
+                                };
+                                let first_hit = match tracer.camera_ray(&ray, exact_world) {
+                                    CameraRay::Background { xyz, alpha } => {
+                                        band_rays += 1;
+                                        let xyz = if clamp_off {
+                                            xyz
+                                        } else {
+                                            settings.clamp.apply(xyz, glam::Vec3::ZERO)
+                                        };
+                                        if !px.add(xyz) {
+                                            band_discarded += 1;
+                                        }
+                                        if track_alpha {
+                                            px.add_alpha(alpha);
+                                        }
+                                        if settings.guides {
+                                            px.add_guides(glam::Vec3::ZERO, glam::Vec3::ZERO, None);
+                                        }
+                                        continue;
+                                    }
+                                    CameraRay::Path { first_hit } => first_hit,
+                                };
+                                // The wavelengths' own dimensions (`Sampler::wavelength`): the
+                                // same values here as before the camera ray (the independent
+                                // sampler's one stream now gives the shutter time its value first).
+                                let wavelengths = settings.wavelengths.sample(&mut sampler);
+                                let k = band_splits[i] as u32;
+                                let result = tracer.radiance_split(
+                                    ray,
+                                    first_hit,
                                     &wavelengths,
+                                    &mut sampler,
+                                    k,
                                 );
-                                settings.clamp.apply(direct, indirect)
-                            };
-                            if !px.add(xyz) {
-                                band_discarded += 1;
+                                band_rays += result.rays as u64;
+                                // The world seen directly counts with its exact colour.
+                                let (world, world_xyz) = result
+                                    .world_exact
+                                    .unwrap_or((SampledSpectrum::ZERO, glam::Vec3::ZERO));
+                                let xyz = if clamp_off {
+                                    spectrum_to_xyz(&(result.radiance - world), &wavelengths)
+                                        + world_xyz
+                                } else {
+                                    let direct =
+                                        spectrum_to_xyz(&(result.direct - world), &wavelengths)
+                                            + world_xyz;
+                                    let indirect = spectrum_to_xyz(
+                                        &(result.radiance - result.direct),
+                                        &wavelengths,
+                                    );
+                                    settings.clamp.apply(direct, indirect)
+                                };
+                                if !px.add(xyz) {
+                                    band_discarded += 1;
+                                }
+                                if track_alpha {
+                                    px.add_alpha(result.alpha);
+                                }
+                                if sample < splitting.pilot_end() {
+                                    band_stats[i].add(&result, xyz.y, || {
+                                        spectrum_to_xyz(&result.branch_difference, &wavelengths).y
+                                    });
+                                }
+                                if !settings.guides {
+                                    continue;
+                                }
+                                let g = &result.guides;
+                                // The albedo's colour under a white (normalised D65) light.
+                                let lit = g.albedo
+                                    * SampledSpectrum::from_fn(|i| {
+                                        d65_normalized(wavelengths.lambda[i])
+                                    });
+                                let depth = g
+                                    .first_distance
+                                    .is_finite()
+                                    .then(|| camera.depth(g.first_distance, ray.dir));
+                                px.add_guides(spectrum_to_xyz(&lit, &wavelengths), g.normal, depth);
                             }
-                            if track_alpha {
-                                px.add_alpha(result.alpha);
-                            }
-                            if !settings.guides {
-                                continue;
-                            }
-                            let g = &result.guides;
-                            // The albedo's colour under a white (normalised D65) light.
-                            let lit = g.albedo
-                                * SampledSpectrum::from_fn(|i| {
-                                    d65_normalized(wavelengths.lambda[i])
-                                });
-                            let depth = g
-                                .first_distance
-                                .is_finite()
-                                .then(|| camera.depth(g.first_distance, ray.dir));
-                            px.add_guides(spectrum_to_xyz(&lit, &wavelengths), g.normal, depth);
+                            band_samples += (s1 - s0) as u64;
                         }
-                        band_samples += (s1 - s0) as u64;
-                    }
-                    samples_done.fetch_add(band_samples, Ordering::Relaxed);
-                    rays.fetch_add(band_rays, Ordering::Relaxed);
-                    discarded.fetch_add(band_discarded, Ordering::Relaxed);
-                });
+                        samples_done.fetch_add(band_samples, Ordering::Relaxed);
+                        rays.fetch_add(band_rays, Ordering::Relaxed);
+                        discarded.fetch_add(band_discarded, Ordering::Relaxed);
+                    },
+                );
             if cancel.load(Ordering::Relaxed) {
                 break;
+            }
+            if !splitting_planned && (spp_done >= splitting.pilot_end() || prioritised) {
+                splitting.plan(&split_stats, &mut splits);
+                splitting_planned = true;
             }
             let mut active_fraction = None;
             let mut pass_spp = spp_done;

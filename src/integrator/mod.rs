@@ -2,6 +2,7 @@
 
 pub mod path;
 pub mod spectral_mis;
+pub mod splitting;
 pub mod wavelengths;
 
 pub use path::{CameraRay, PathSample, PathTracer};

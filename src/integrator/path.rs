@@ -75,6 +75,11 @@ pub struct PathSample {
     pub direct: SampledSpectrum,
     /// Rays traced (closest-hit and shadow), for throughput statistics.
     pub rays: u32,
+    /// Of `rays`, those before the path split (all of them when it did not).
+    pub shared_rays: u32,
+    /// Split paths (`PathTracer::radiance_split`): the first branch's radiance minus the
+    /// second's (each as `radiance`), whose spread estimates the variance splitting removes.
+    pub branch_difference: SampledSpectrum,
     pub guides: DenoiseGuides,
     /// Coverage: 0 where the camera ray escaped (only counted as transparent with
     /// `transparent_background`) or reached a holdout, else 1 (Blender's alpha).
@@ -141,6 +146,10 @@ struct PathState<'a> {
     /// (`RR_MIN_DEPTH`): every one but a transmission through a non-diffuse interface that
     /// neither enters nor leaves a subsurface medium (see `scatter`).
     roulette_vertices: u32,
+    /// Branches at the first vertex (`PathTracer::radiance_split`) and what they report.
+    splits: u32,
+    branch_difference: SampledSpectrum,
+    shared_rays: u32,
 }
 
 /// A surface vertex of the path once its BSDF is known: what continuing the path from it
@@ -741,6 +750,24 @@ impl<'a> PathTracer<'a> {
         w: &SampledWavelengths,
         sampler: &mut Sampler,
     ) -> PathSample {
+        self.radiance_split(ray, first_hit, w, sampler, 1)
+    }
+
+    /// `radiance_from` with the path split into `splits` branches at its first vertex that
+    /// scatters diffusely or glossily (or enters a subsurface object): the camera ray, what it
+    /// passes and the vertex's shading are traced once, then every branch takes its own light
+    /// sample, BSDF sample and rest of the path (`Sampler::branch`), and the sample is their
+    /// mean. Splitting (Arvo and Kirk 1990; as in Cycles' former branched path tracing, and
+    /// the splitting half of Rath et al. 2022, "EARS") pays where the variance comes after the
+    /// first vertex and the camera ray's share of the cost is large: 1 is plain path tracing.
+    pub fn radiance_split(
+        &self,
+        ray: Ray,
+        first_hit: Option<Option<Hit>>,
+        w: &SampledWavelengths,
+        sampler: &mut Sampler,
+        splits: u32,
+    ) -> PathSample {
         let mis = SpectralMis::new(w);
         // The wavelengths the path evaluates materials and lights at. After a smooth
         // dispersive refraction only the hero carries light: the secondaries are collapsed onto
@@ -779,12 +806,21 @@ impl<'a> PathTracer<'a> {
             world_exact: None,
             roulette_vertices: 0,
             first_hit,
+            splits,
+            branch_difference: SampledSpectrum::ZERO,
+            shared_rays: 0,
         };
         self.trace(&mut st, 0, sampler);
         PathSample {
             radiance: st.l,
             direct: st.l_direct,
             rays: st.rays,
+            shared_rays: if st.splits > 1 {
+                st.shared_rays
+            } else {
+                st.rays
+            },
+            branch_difference: st.branch_difference,
             guides: st.guides,
             alpha: st.alpha,
             world_exact: st.world_exact,
@@ -1265,87 +1301,161 @@ impl<'a> PathTracer<'a> {
                 bumped,
                 ctx,
             };
-            let (u_light2, u_light) = sampler.light();
-            if !bsdf.is_specular() && walk_exit.is_none() {
-                for ls in lights
-                    .sample(
-                        geometry,
-                        &scene.materials,
-                        &ctx,
-                        u_light,
-                        u_light2,
-                        &st.alive,
-                        selection,
-                    )
-                    .into_iter()
-                    .flatten()
-                {
-                    let wi = frame.to_local(ls.wi);
-                    // A dispersive BSDF costs one evaluation per wavelength, often more than
-                    // the shadow ray that makes it moot (light seen through glass is mostly
-                    // blocked by the glass itself): when the hero's own value is non-zero, test
-                    // visibility first and evaluate every wavelength only for visible lights.
-                    // Otherwise the full evaluation goes first and saves shadow rays where f is 0.
-                    let eval_after_shadow = bsdf.is_dispersive() && bsdf.hero_value(wo, wi) > 0.0;
-                    let (mut f, mut bsdf_pdfs) = if eval_after_shadow {
-                        (SampledSpectrum::ONE, SampledSpectrum::ZERO)
-                    } else {
-                        bsdf.eval_pdf_wavelengths(wo, wi)
-                    };
-                    // A direction on the wrong geometric side would leak light through the surface.
-                    let same_side = ls.wi.dot(ng) * wo_world.dot(ng) > 0.0;
-                    let side_ok = if transmissive { true } else { same_side };
-                    if side_ok && !f.is_black() {
-                        st.rays += 1;
-                        let origin = offset_ray_origin(sp.p, ng, ls.wi);
-                        // The shadow ray travels in the medium on its side of the surface.
-                        let shadow_media = if ls.wi.dot(sp.ng) * wo_world.dot(sp.ng) > 0.0 {
-                            st.media
-                        } else {
-                            self.media_across(&st.media, hit.instance, sp.material, ls.wi, sp.ng)
-                        };
-                        let shadow = self.transmittance(
-                            Ray::new_at(origin, ls.wi, ctx.time),
-                            ls.distance,
-                            &shadow_media,
-                            &st.alive,
-                            sampler,
-                        );
-                        let visible = !shadow.is_black();
-                        if visible && eval_after_shadow {
-                            (f, bsdf_pdfs) = bsdf.eval_pdf_wavelengths(wo, wi);
-                        }
-                        if visible && !ls.visibility.is_all() {
-                            f = bsdf.visible_part(wo, wi, f, ls.visibility);
-                        }
-                        if visible && bumped && ls.visibility.diffuse {
-                            f = (f - vertex.bump_loss(wi, ls.wi)).clamp_zero();
-                        }
-                        f *= wi.z.abs();
-                        if visible && !f.is_black() {
-                            let weight = if ls.delta {
-                                1.0
-                            } else {
-                                st.mis.light_weight(ls.pdf, bsdf_pdfs)
-                            };
-                            let contrib = st.beta
-                                * f
-                                * ls.li
-                                * shadow
-                                * (weight / (ls.pdf * st.mis.denominator()));
-                            st.l += contrib;
-                            if depth == 0 {
-                                st.l_direct += contrib;
-                            }
-                        }
-                    }
-                }
+            // A camera path splits at its first vertex that scatters diffusely or glossily
+            // (`radiance_split`): each branch gets its own light sample and continuation.
+            let split = depth == 0
+                && st.splits > 1
+                && (subsurface.is_some() || !bsdf.is_specular())
+                && walk_exit.is_none();
+            if split {
+                self.split_continuations(&vertex, st, sampler);
+                break;
             }
+            self.vertex_direct(&vertex, st, depth, sampler);
 
             if !self.scatter(&vertex, st, depth, sampler) {
                 break;
             }
         }
+    }
+
+    /// Next-event estimation at the surface vertex `v` of bounce `depth`. A surface that only
+    /// reflects receives light on the side of `ng` (turned towards the viewer); light selection
+    /// ignores lights behind it.
+    #[inline(always)]
+    fn vertex_direct(
+        &self,
+        v: &Vertex<'a>,
+        st: &mut PathState<'a>,
+        depth: u32,
+        sampler: &mut Sampler,
+    ) {
+        let scene = self.scene;
+        let geometry = &scene.geometry;
+        let lights = &scene.lights;
+        let selection = self.selection;
+        let transmissive = v.bsdf.has_transmission();
+        let (u_light2, u_light) = sampler.light();
+        if !v.bsdf.is_specular() && v.walk_exit.is_none() {
+            for ls in lights
+                .sample(
+                    geometry,
+                    &scene.materials,
+                    &v.ctx,
+                    u_light,
+                    u_light2,
+                    &st.alive,
+                    selection,
+                )
+                .into_iter()
+                .flatten()
+            {
+                let wi = v.frame.to_local(ls.wi);
+                // A dispersive BSDF costs one evaluation per wavelength, often more than
+                // the shadow ray that makes it moot (light seen through glass is mostly
+                // blocked by the glass itself): when the hero's own value is non-zero, test
+                // visibility first and evaluate every wavelength only for visible lights.
+                // Otherwise the full evaluation goes first and saves shadow rays where f is 0.
+                let eval_after_shadow = v.bsdf.is_dispersive() && v.bsdf.hero_value(v.wo, wi) > 0.0;
+                let (mut f, mut bsdf_pdfs) = if eval_after_shadow {
+                    (SampledSpectrum::ONE, SampledSpectrum::ZERO)
+                } else {
+                    v.bsdf.eval_pdf_wavelengths(v.wo, wi)
+                };
+                // A direction on the wrong geometric side would leak light through the surface.
+                let same_side = ls.wi.dot(v.ng) * v.wo_world.dot(v.ng) > 0.0;
+                let side_ok = if transmissive { true } else { same_side };
+                if side_ok && !f.is_black() {
+                    st.rays += 1;
+                    let origin = offset_ray_origin(v.sp.p, v.ng, ls.wi);
+                    // The shadow ray travels in the medium on its side of the surface.
+                    let shadow_media = if ls.wi.dot(v.sp.ng) * v.wo_world.dot(v.sp.ng) > 0.0 {
+                        st.media
+                    } else {
+                        self.media_across(&st.media, v.instance, v.sp.material, ls.wi, v.sp.ng)
+                    };
+                    let shadow = self.transmittance(
+                        Ray::new_at(origin, ls.wi, v.ctx.time),
+                        ls.distance,
+                        &shadow_media,
+                        &st.alive,
+                        sampler,
+                    );
+                    let visible = !shadow.is_black();
+                    if visible && eval_after_shadow {
+                        (f, bsdf_pdfs) = v.bsdf.eval_pdf_wavelengths(v.wo, wi);
+                    }
+                    if visible && !ls.visibility.is_all() {
+                        f = v.bsdf.visible_part(v.wo, wi, f, ls.visibility);
+                    }
+                    if visible && v.bumped && ls.visibility.diffuse {
+                        f = (f - v.bump_loss(wi, ls.wi)).clamp_zero();
+                    }
+                    f *= wi.z.abs();
+                    if visible && !f.is_black() {
+                        let weight = if ls.delta {
+                            1.0
+                        } else {
+                            st.mis.light_weight(ls.pdf, bsdf_pdfs)
+                        };
+                        let contrib = st.beta
+                            * f
+                            * ls.li
+                            * shadow
+                            * (weight / (ls.pdf * st.mis.denominator()));
+                        st.l += contrib;
+                        if depth == 0 {
+                            st.l_direct += contrib;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Continues the path `st` from its first vertex `v` in `st.splits` branches, each with
+    /// its own light sample, BSDF sample and rest of the path (the values of `Sampler::branch`),
+    /// and keeps their mean: the camera ray and the vertex's set-up are shared. Records the
+    /// difference between the first two branches (`PathSample::branch_difference`).
+    #[inline(never)]
+    fn split_continuations(&self, v: &Vertex<'a>, st: &mut PathState<'a>, sampler: &mut Sampler) {
+        let base = *st;
+        let k = st.splits;
+        let mut sum_l = SampledSpectrum::ZERO;
+        let mut sum_direct = SampledSpectrum::ZERO;
+        let mut first = SampledSpectrum::ZERO;
+        let mut rays = 0;
+        for j in 0..k {
+            let mut branch = base;
+            let mut s = if j == 0 {
+                sampler.clone()
+            } else {
+                sampler.branch(j)
+            };
+            self.vertex_direct(v, &mut branch, 0, &mut s);
+            if self.scatter(v, &mut branch, 0, &mut s) {
+                self.trace(&mut branch, 1, &mut s);
+            }
+            let gathered = branch.l - base.l;
+            match j {
+                0 => {
+                    first = gathered;
+                    st.guides = branch.guides;
+                    st.guides_done = branch.guides_done;
+                    st.alpha = branch.alpha;
+                }
+                1 => st.branch_difference = first - gathered,
+                _ => {}
+            }
+            sum_l += gathered;
+            sum_direct += branch.l_direct - base.l_direct;
+            rays += branch.rays - base.rays;
+        }
+        let inv = 1.0 / k as f32;
+        st.l = base.l + sum_l * inv;
+        st.l_direct = base.l_direct + sum_direct * inv;
+        st.shared_rays = base.rays;
+        st.rays = base.rays + rays;
     }
 
     /// Continues the path from the vertex `v` of bounce `depth`: samples the BSDF (and, for

@@ -102,6 +102,9 @@ pub struct ImageSampler {
     block_bits: u32,
     /// Levels of the pixel hierarchy in a tile (tiles are 2^levels pixels square).
     levels: u32,
+    /// ceil(log2(max spp)): a branch j of sample i takes index i + j 2^branch_shift of the
+    /// pixel's block (`Sampler::branch`).
+    branch_shift: u32,
 }
 
 /// The sampler of one pixel.
@@ -114,6 +117,7 @@ pub struct PixelSampler {
     tile_seed: u32,
     pixel_index: u64,
     seed: u64,
+    branch_shift: u32,
 }
 
 /// All 24 permutations of a base-4 digit.
@@ -172,13 +176,25 @@ fn hierarchical_rank(x: u32, y: u32, levels: u32, seed: u32) -> u32 {
 
 impl ImageSampler {
     pub fn new(kind: SamplerKind, max_spp: u32, seed: u64) -> Self {
-        // ceil(log2(max_spp)), 0 for one sample.
-        let block_bits = 32 - (max_spp.max(1) - 1).leading_zeros();
+        Self::with_branches(kind, max_spp, 1, seed)
+    }
+
+    /// A sampler whose samples may each branch into `branches` continuations
+    /// (`Sampler::branch`): every pixel's block holds `branches` x max spp indices (rounded up
+    /// to powers of two), sample i at index i and its branch j at i + j 2^ceil(log2(max spp)),
+    /// so the first max spp indices are a net as without branches and every branch's samples,
+    /// and all branches together, are nets too.
+    pub fn with_branches(kind: SamplerKind, max_spp: u32, branches: u32, seed: u64) -> Self {
+        // ceil(log2(n)), 0 for one.
+        let log2_up = |n: u32| 32 - (n.max(1) - 1).leading_zeros();
+        let branch_shift = log2_up(max_spp);
+        let block_bits = (branch_shift + log2_up(branches)).min(31);
         ImageSampler {
             kind,
             seed,
             block_bits,
             levels: ((32 - block_bits) / 2).min(15),
+            branch_shift,
         }
     }
 
@@ -203,6 +219,7 @@ impl ImageSampler {
             tile_seed,
             pixel_index,
             seed: self.seed,
+            branch_shift: self.branch_shift,
         }
     }
 }
@@ -218,6 +235,7 @@ impl PixelSampler {
             independent: self.kind == SamplerKind::Independent,
             rng: None,
             stream: (self.pixel_index, sample as u64, self.seed),
+            branch_shift: self.branch_shift,
         }
     }
 }
@@ -272,6 +290,8 @@ pub struct Sampler {
     rng: Option<Pcg32>,
     /// What seeds it: (pixel, sample, seed).
     stream: (u64, u64, u64),
+    /// `ImageSampler::with_branches`.
+    branch_shift: u32,
 }
 
 impl Sampler {
@@ -286,6 +306,26 @@ impl Sampler {
             independent: true,
             rng: Some(Pcg32::new(pixel_index, sample_index, seed)),
             stream: (pixel_index, sample_index, seed),
+            branch_shift: 0,
+        }
+    }
+
+    /// Branch `j` (>= 1) of this sample: the same values for the groups already read would be
+    /// those of index i + j 2^shift; the caller reads only later groups from it (a path's
+    /// continuations after a shared vertex, `PathTracer::with_first_vertex_splits`). The
+    /// independent stream is another stream.
+    pub fn branch(&self, j: u32) -> Sampler {
+        let offset = j.checked_shl(self.branch_shift).unwrap_or(0);
+        let (pixel, sample, seed) = self.stream;
+        Sampler {
+            rev_index: self.rev_index ^ offset.reverse_bits(),
+            seed: self.seed,
+            group_base: self.group_base,
+            shuffled: (NO_GROUP, 0),
+            independent: self.independent,
+            rng: None,
+            stream: (pixel, sample | ((j as u64) << 32), seed),
+            branch_shift: self.branch_shift,
         }
     }
 

@@ -1,0 +1,232 @@
+//! How many branches a camera path takes at its first vertex (`PathTracer::radiance_split`),
+//! chosen per block of pixels from the render's first samples.
+//!
+//! A split path shares its camera ray and first hit's shading (cost `C_s`, variance `V_s`:
+//! what the pixel's footprint sees) and traces k branches of light sample, BSDF sample and
+//! rest of the path (cost `C_b` and variance `V_b` each). The sample then has variance
+//! `V_s + V_b / k` for cost `C_s + k C_b`, whose product is least at
+//! `k* = sqrt((V_b / V_s) (C_s / C_b))` (Rath et al. 2022, "EARS: Efficiency-Aware Russian
+//! Roulette and Splitting", eq. 7 with one splitting factor per image region).
+//!
+//! The first [`PILOT_SPP`] samples of every pixel are split in two. Per pixel they give the
+//! variance of the samples, `Var(X) = V_s + V_b / 2`, and the spread between the two branches,
+//! `E[(b_1 - b_2)^2] / 2 = V_b`; per block of [`BLOCK`] x [`BLOCK`] pixels the relative
+//! variances (each pixel's over its mean^2 + 0.01, the benchmark's measure) are summed, and the
+//! rays traced before and after the split stand for the costs. Everything is a function of
+//! the samples, so the plan, and the image, are the same for any thread count.
+//!
+//! Where most of a pixel's variance comes after its first vertex (a Cornell box's
+//! interreflections, subsurface scattering) blocks take up to [`MAX_SPLITS`] branches; where
+//! it is in what the camera sees (a thousand small lights seen directly, texture and
+//! silhouette edges) they take one, and cost what they cost without splitting.
+
+use super::PathSample;
+use crate::render::Crop;
+
+/// Samples per pixel traced with two branches to measure the variances.
+pub const PILOT_SPP: u32 = 4;
+/// Renders with fewer samples per pixel than this do not split (too few to plan from).
+pub const MIN_SPP: u32 = 16;
+/// Most branches per camera path.
+pub const MAX_SPLITS: u32 = 4;
+/// Side of a block of pixels that share one splitting factor.
+pub const BLOCK: u32 = 8;
+/// The cost of a sample's set-up (camera ray generation, wavelengths, film, the first hit's
+/// shading) in rays.
+const SETUP_RAYS: f64 = 0.5;
+
+/// Splitting factors per block, from each block's `[V_s, V_b, C_s, C_b]` (summed over its
+/// pixels), that minimise the image's total variance times its total cost: setting the
+/// derivative of (sum V_s + V_b / k_b) (sum C_s + k_b C_b) by k_b to zero gives
+/// k_b = sqrt((V_b / C_b) (C / V)) with C and V the image's totals at that plan, a fixed point
+/// found by iterating from k = 1. (Each block's own optimum, sqrt((V_b / V_s) (C_s / C_b)),
+/// splits a block whose variance is small next to the image's as much as one that holds most
+/// of it: with a thousand small lights seen directly, the floor's blocks split 2-4 times for
+/// noise that was not the image's.)
+pub fn optimal_splits(blocks: &[[f64; 4]]) -> Vec<u8> {
+    let mut k = vec![1f64; blocks.len()];
+    for _ in 0..32 {
+        let (mut v, mut c) = (0.0, 0.0);
+        for (b, &kb) in blocks.iter().zip(&k) {
+            v += b[0] + b[1] / kb;
+            c += b[2] + kb * b[3];
+        }
+        // The variance before the split is at least a small share of the whole (the
+        // estimate is a difference of two noisy sums).
+        v = v.max(0.02 * blocks.iter().map(|b| b[0] + b[1] / 2.0).sum::<f64>());
+        if !(v > 0.0 && c > 0.0) {
+            break;
+        }
+        for (b, kb) in blocks.iter().zip(k.iter_mut()) {
+            *kb = if b[1] > 0.0 && b[3] > 0.0 {
+                ((b[1] / b[3]) * (c / v))
+                    .sqrt()
+                    .clamp(1.0, MAX_SPLITS as f64)
+            } else {
+                1.0
+            };
+        }
+    }
+    k.iter().map(|&kb| kb.round() as u8).collect()
+}
+
+/// One pixel's pilot samples: sums for the variance of the samples and of the branches, and
+/// the rays before and after the split.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SplitStats {
+    n: u32,
+    sum: f64,
+    sum_sq: f64,
+    /// Sum of (first branch - second branch)^2 over the samples that split.
+    sum_diff_sq: f64,
+    shared_rays: u64,
+    branch_rays: u64,
+    split_samples: u32,
+}
+
+impl SplitStats {
+    /// Adds a pilot sample whose film luminance is `y`; `difference` gives the luminance of
+    /// the branches' difference (computed only for samples that split).
+    pub fn add(&mut self, sample: &PathSample, y: f32, difference: impl FnOnce() -> f32) {
+        let y = y as f64;
+        if !y.is_finite() {
+            return;
+        }
+        self.n += 1;
+        self.sum += y;
+        self.sum_sq += y * y;
+        self.shared_rays += sample.shared_rays as u64;
+        if sample.rays > sample.shared_rays {
+            let d = difference() as f64;
+            if d.is_finite() {
+                self.sum_diff_sq += d * d;
+            }
+            self.branch_rays += (sample.rays - sample.shared_rays) as u64;
+            self.split_samples += 1;
+        }
+    }
+}
+
+/// The render's splitting plan.
+#[derive(Clone, Copy, Debug)]
+pub struct SplitPlanner {
+    enabled: bool,
+    forced: Option<u32>,
+    window: Crop,
+}
+
+impl SplitPlanner {
+    /// `splits`: None plans them (from [`MIN_SPP`] spp on), Some(k) takes k everywhere (1: no
+    /// splitting).
+    pub fn new(spp: u32, window: Crop, splits: Option<u32>) -> Self {
+        let forced = splits.map(|k| k.clamp(1, MAX_SPLITS));
+        SplitPlanner {
+            enabled: spp >= MIN_SPP || forced.is_some(),
+            forced,
+            window,
+        }
+    }
+
+    /// Branches the image sampler must provide for.
+    pub fn max_splits(&self) -> u32 {
+        match (self.enabled, self.forced) {
+            (false, _) => 1,
+            (true, Some(k)) => k,
+            (true, None) => MAX_SPLITS,
+        }
+    }
+
+    /// Branches of the pilot samples.
+    pub fn pilot_splits(&self) -> u8 {
+        match (self.enabled, self.forced) {
+            (false, _) => 1,
+            (true, Some(k)) => k as u8,
+            (true, None) => 2,
+        }
+    }
+
+    /// Samples per pixel before the plan (0: no pilot).
+    pub fn pilot_end(&self) -> u32 {
+        if self.enabled && self.forced.is_none() {
+            PILOT_SPP
+        } else {
+            0
+        }
+    }
+
+    /// Sets every pixel's branches from the pilot's statistics (`stats`, `splits`: the
+    /// window's pixels in rows).
+    pub fn plan(&self, stats: &[SplitStats], splits: &mut [u8]) {
+        if self.pilot_end() == 0 {
+            return;
+        }
+        let (w, h) = (self.window.width as usize, self.window.height as usize);
+        let block = BLOCK as usize;
+        let (x0, y0) = (self.window.x as usize, self.window.y as usize);
+        // Blocks aligned in the full image, so a crop plans its pixels as the full render.
+        let (bx0, by0) = (x0 / block, y0 / block);
+        let bw = (x0 + w).div_ceil(block) - bx0;
+        let bh = (y0 + h).div_ceil(block) - by0;
+        let mut sums = vec![[0f64; 5]; bw * bh];
+        let mut means = vec![[0f64; 2]; bw * bh];
+        for y in 0..h {
+            for x in 0..w {
+                let s = &stats[y * w + x];
+                if s.n >= 2 {
+                    let b = ((y + y0) / block - by0) * bw + (x + x0) / block - bx0;
+                    means[b][0] += s.sum / s.n as f64;
+                    means[b][1] += 1.0;
+                }
+            }
+        }
+        for y in 0..h {
+            for x in 0..w {
+                let s = &stats[y * w + x];
+                if s.n < 2 {
+                    continue;
+                }
+                let n = s.n as f64;
+                let mean = s.sum / n;
+                let var = ((s.sum_sq - s.sum * mean) / (n - 1.0)).max(0.0);
+                let b = ((y + y0) / block - by0) * bw + (x + x0) / block - bx0;
+                // Relative to the block's mean, not the pixel's own: four samples rarely see
+                // the small bright things a pixel's footprint covers (a thousand small lights
+                // seen directly), and when they do the pixel's mean rises with them, so its
+                // own mean hid that variance, which no splitting removes, and the many-light
+                // scene split its floor for 0.61x the efficiency (1.0 with the block's mean).
+                let m = means[b][0] / means[b][1];
+                let norm = 1.0 / (m * m + 1e-2);
+                let v_b = if s.split_samples > 0 {
+                    s.sum_diff_sq / (2.0 * s.split_samples as f64)
+                } else {
+                    0.0
+                };
+                sums[b][0] += var * norm;
+                sums[b][1] += v_b * norm * (s.split_samples as f64 / n);
+                sums[b][2] += s.shared_rays as f64 / n;
+                sums[b][3] += s.branch_rays as f64 / (2.0 * n);
+                sums[b][4] += 1.0;
+            }
+        }
+        // Per block: the variance before the split and a branch's, and their costs.
+        let blocks: Vec<[f64; 4]> = sums
+            .iter()
+            .map(|&[var, v_b, shared, branch, pixels]| {
+                // Var(X) = V_s + V_b / 2 for the pilot's two branches.
+                // Not clamped at 0: only the image's total of V_s enters the plan, and the
+                // blocks' estimates from four samples scatter around their means (clamping
+                // them made the SSS box's V_s 12% of its variance, where splitting shows it
+                // is about 0).
+                let v_s = var - 0.5 * v_b;
+                [v_s, v_b.max(0.0), shared + SETUP_RAYS * pixels, branch]
+            })
+            .collect();
+        let factors = optimal_splits(&blocks);
+        for y in 0..h {
+            for x in 0..w {
+                let b = ((y + y0) / block - by0) * bw + (x + x0) / block - bx0;
+                splits[y * w + x] = factors[b];
+            }
+        }
+    }
+}
