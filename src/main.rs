@@ -531,7 +531,10 @@ fn load(args: &SceneArgs) -> Result<Loaded> {
         crop: None,
         max_pass_samples: 64,
         full_indirect_subsurface: args.full_indirect_subsurface,
-        splits: args.splits.and_then(|s| s.0),
+        splits: match args.splits {
+            Some(s) => s.0,
+            None => defaults.splits.filter(|&k| k > 0),
+        },
     };
     let threshold = args
         .noise_threshold

@@ -223,12 +223,7 @@ pub fn render(
     let exact_world = settings.wavelengths.strategy == WavelengthStrategy::Hero
         && settings.wavelengths.fixed.is_none();
     let splitting = SplitPlanner::new(settings.spp, window, settings.splits);
-    let image_sampler = ImageSampler::with_branches(
-        settings.sampler,
-        settings.spp,
-        splitting.max_splits(),
-        settings.seed,
-    );
+    let image_sampler = ImageSampler::new(settings.sampler, settings.spp, settings.seed);
     // Branches per camera path at its first vertex, per pixel (`SplitPlanner`).
     let mut splits = vec![splitting.pilot_splits(); w * h];
     let mut split_stats = vec![SplitStats::default(); w * h];
@@ -451,7 +446,16 @@ pub fn render(
                                     px.add_alpha(result.alpha);
                                 }
                                 if sample < splitting.pilot_end() {
-                                    band_stats[i].add(&result, xyz.y, || {
+                                    // The plan sees the samples before any clamping, so that
+                                    // a clamped render takes the same samples as an unclamped
+                                    // one.
+                                    let y = if clamp_off {
+                                        xyz.y
+                                    } else {
+                                        spectrum_to_xyz(&(result.radiance - world), &wavelengths).y
+                                            + world_xyz.y
+                                    };
+                                    band_stats[i].add(&result, y, || {
                                         spectrum_to_xyz(&result.branch_difference, &wavelengths).y
                                     });
                                 }

@@ -1427,11 +1427,7 @@ impl<'a> PathTracer<'a> {
         let mut rays = 0;
         for j in 0..k {
             let mut branch = base;
-            let mut s = if j == 0 {
-                sampler.clone()
-            } else {
-                sampler.branch(j)
-            };
+            let mut s = sampler.branch(j);
             self.vertex_direct(v, &mut branch, 0, &mut s);
             if self.scatter(v, &mut branch, 0, &mut s) {
                 self.trace(&mut branch, 1, &mut s);

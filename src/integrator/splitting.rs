@@ -28,7 +28,7 @@ pub const PILOT_SPP: u32 = 4;
 /// Renders with fewer samples per pixel than this do not split (too few to plan from).
 pub const MIN_SPP: u32 = 16;
 /// Most branches per camera path.
-pub const MAX_SPLITS: u32 = 4;
+pub const MAX_SPLITS: u32 = crate::sampler::MAX_BRANCHES;
 /// Side of a block of pixels that share one splitting factor.
 pub const BLOCK: u32 = 8;
 /// The cost of a sample's set-up (camera ray generation, wavelengths, film, the first hit's
@@ -124,15 +124,6 @@ impl SplitPlanner {
             enabled: spp >= MIN_SPP || forced.is_some(),
             forced,
             window,
-        }
-    }
-
-    /// Branches the image sampler must provide for.
-    pub fn max_splits(&self) -> u32 {
-        match (self.enabled, self.forced) {
-            (false, _) => 1,
-            (true, Some(k)) => k,
-            (true, None) => MAX_SPLITS,
         }
     }
 

@@ -563,6 +563,9 @@ pub struct RenderDefaults {
     pub noise_threshold: Option<f32>,
     pub min_samples: Option<u32>,
     pub time_limit: Option<f64>,
+    /// `render.splits`: branches per camera path at its first vertex, 0 for "auto" (planned),
+    /// else 1-4 (validated by the sidecar parser).
+    pub splits: Option<u32>,
     /// `render.denoise`: denoise the final image with OIDN; `render.denoise_quality` ("high" |
     /// "balanced" | "fast") and `render.denoise_prefilter` ("accurate" | "fast" | "none"),
     /// validated by the sidecar parser.

@@ -84,6 +84,9 @@
 //!   its choice | `"tree-single"`: one light per shading point | `"power"`: by emitted power),
 //!   `noise_threshold` (>= 0: adaptive sampling's noise threshold, Cycles' convention, 0 = off),
 //!   `min_samples` (integer >= 0, 0 = automatic), `time_limit` (seconds >= 0, 0 = none),
+//!   `splits` (`"auto"`, the default: branches per camera path at its first vertex planned
+//!   from the first samples | 1-4 everywhere, 1 = plain path tracing;
+//!   `crate::integrator::splitting`),
 //!   `denoise` (true | false: OIDN denoising of the final image, `crate::film::denoise`),
 //!   `denoise_quality` (`"high"` default | `"balanced"` | `"fast"`), `denoise_prefilter`
 //!   (`"accurate"` default | `"fast"` | `"none"`), and
@@ -1309,6 +1312,7 @@ impl Validator<'_> {
                 "film_transparent",
                 "crop",
                 "texture_filtering",
+                "splits",
             ],
             path,
         )?;
@@ -1343,6 +1347,25 @@ impl Validator<'_> {
                 .map(|x| self.number(x, &path.key("noise_threshold"), Range::NonNeg))
                 .transpose()?,
             min_samples: get("min_samples", 0)?,
+            splits: m
+                .get("splits")
+                .map(|x| {
+                    let key = path.key("splits");
+                    if x.as_str() == Some("auto") {
+                        return Ok(0);
+                    }
+                    match self.uint(x, &key, 1) {
+                        Ok(k) if k <= crate::integrator::splitting::MAX_SPLITS => Ok(k),
+                        _ => Err(self.err(
+                            &key,
+                            format!(
+                                "must be \"auto\" or a number of branches from 1 to {}",
+                                crate::integrator::splitting::MAX_SPLITS
+                            ),
+                        )),
+                    }
+                })
+                .transpose()?,
             denoise: m
                 .get("denoise")
                 .map(|x| self.boolean(x, &path.key("denoise")))
