@@ -227,6 +227,8 @@ pub fn render(
     // Branches per camera path at its first vertex, per pixel (`SplitPlanner`).
     let mut splits = vec![splitting.pilot_splits(); w * h];
     let mut split_stats = vec![SplitStats::default(); w * h];
+    // A sample's cost per pixel relative to an unsplit one (adaptive passes weigh by it).
+    let mut sample_costs = vec![1.0f32; w * h];
     let total = (w * h) as u64 * settings.spp as u64;
     let samples_done = AtomicU64::new(0);
     let rays = AtomicU64::new(0);
@@ -305,10 +307,11 @@ pub fn render(
                 let (Some(a), Some(min)) = (settings.adaptive, adaptive_min) else {
                     break;
                 };
-                let planned = film::adaptive::plan_pass(
+                let planned = film::adaptive::plan_pass_with_costs(
                     &film,
                     &errors,
                     &active,
+                    splitting_planned.then_some(&sample_costs[..]),
                     film::adaptive::PassLimits {
                         threshold: a.threshold,
                         min_samples: min,
@@ -485,7 +488,7 @@ pub fn render(
                 break;
             }
             if !splitting_planned && (spp_done >= splitting.pilot_end() || prioritised) {
-                splitting.plan(&split_stats, &mut splits);
+                splitting.plan(&split_stats, &mut splits, &mut sample_costs);
                 splitting_planned = true;
             }
             let mut active_fraction = None;

@@ -530,6 +530,8 @@ pub fn session_settings(
         light_selection: named(&d.light_sampler, LightSelection::from_name),
         film_transparent: d.film_transparent.unwrap_or(false),
         max_pass_samples: SESSION_PASS_SAMPLES,
+        // render.splits: 0 is "auto".
+        splits: d.splits.filter(|&k| k > 0),
         ..RenderSettings::default()
     }
 }

@@ -146,8 +146,9 @@ impl SplitPlanner {
     }
 
     /// Sets every pixel's branches from the pilot's statistics (`stats`, `splits`: the
-    /// window's pixels in rows).
-    pub fn plan(&self, stats: &[SplitStats], splits: &mut [u8]) {
+    /// window's pixels in rows), and the cost of its samples relative to unsplit ones
+    /// (C_s + k C_b) / (C_s + C_b) (`costs`, for adaptive sampling's passes).
+    pub fn plan(&self, stats: &[SplitStats], splits: &mut [u8], costs: &mut [f32]) {
         if self.pilot_end() == 0 {
             return;
         }
@@ -217,6 +218,13 @@ impl SplitPlanner {
             for x in 0..w {
                 let b = ((y + y0) / block - by0) * bw + (x + x0) / block - bx0;
                 splits[y * w + x] = factors[b];
+                let [_, _, c_s, c_b] = blocks[b];
+                let k = factors[b] as f64;
+                costs[y * w + x] = if c_s + c_b > 0.0 {
+                    ((c_s + k * c_b) / (c_s + c_b)) as f32
+                } else {
+                    1.0
+                };
             }
         }
     }

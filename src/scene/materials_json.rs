@@ -1478,6 +1478,26 @@ mod tests {
     }
 
     #[test]
+    fn render_splits_parse_and_reject_bad_values() {
+        let f = parse(r#"{"version":1,"render":{"splits":"auto"}}"#).unwrap();
+        assert_eq!(f.render.splits, Some(0));
+        let f = parse(r#"{"version":1,"render":{"splits":3}}"#).unwrap();
+        assert_eq!(f.render.splits, Some(3));
+        for doc in [
+            r#"{"version":1,"render":{"splits":0}}"#,
+            r#"{"version":1,"render":{"splits":5}}"#,
+            r#"{"version":1,"render":{"splits":"many"}}"#,
+            r#"{"version":1,"render":{"splits":2.5}}"#,
+        ] {
+            let e = parse(doc).unwrap_err();
+            assert!(
+                e.contains("render.splits") && !e.contains('\n'),
+                "{doc}: {e}"
+            );
+        }
+    }
+
+    #[test]
     fn render_filter_parses_and_rejects_bad_values() {
         let f =
             parse(r#"{"version":1,"render":{"filter":{"type":"gaussian","width":2}}}"#).unwrap();
