@@ -4,6 +4,8 @@
 
 mod common;
 
+use common::is_net;
+
 use common::scenes::{diffuse_material, emissive_material, quad_mesh};
 use glam::{Mat4, Vec2, Vec3};
 use prism::render::{render_quiet, RenderSettings};
@@ -41,21 +43,6 @@ fn values_1d(s: &mut Sampler) -> Vec<f32> {
         out.push(s.exit_light().1);
     }
     out
-}
-
-/// Does every elementary interval of area 1/n (n = points.len(), a power of 2) hold exactly
-/// one point?
-fn is_net(points: &[Vec2]) -> bool {
-    let k = points.len().trailing_zeros();
-    (0..=k).all(|a| {
-        let (nx, ny) = (1u32 << a, 1u32 << (k - a));
-        let mut seen = vec![false; points.len()];
-        points.iter().all(|p| {
-            let cell = ((p.x * nx as f32) as u32).min(nx - 1) * ny
-                + ((p.y * ny as f32) as u32).min(ny - 1);
-            !std::mem::replace(&mut seen[cell as usize], true)
-        })
-    })
 }
 
 #[test]

@@ -4,6 +4,8 @@
 
 mod common;
 
+use common::is_net;
+
 use common::scenes::{diffuse_material, emissive_material, furnace_scene, quad_mesh};
 use glam::{Vec2, Vec3};
 use prism::integrator::splitting::{optimal_splits, MAX_SPLITS};
@@ -11,21 +13,6 @@ use prism::render::{render_quiet, RenderSettings};
 use prism::sampler::{ImageSampler, SamplerKind};
 use prism::scene::{load_scene, Scene, SceneDesc, WorldDesc};
 use std::path::Path;
-
-/// Does every elementary interval of area 1/n (n = points.len(), a power of 2) hold exactly
-/// one point?
-fn is_net(points: &[Vec2]) -> bool {
-    let k = points.len().trailing_zeros();
-    (0..=k).all(|a| {
-        let (nx, ny) = (1u32 << a, 1u32 << (k - a));
-        let mut seen = vec![false; points.len()];
-        points.iter().all(|p| {
-            let cell = ((p.x * nx as f32) as u32).min(nx - 1) * ny
-                + ((p.y * ny as f32) as u32).min(ny - 1);
-            !std::mem::replace(&mut seen[cell as usize], true)
-        })
-    })
-}
 
 #[test]
 fn every_branch_and_all_branches_of_a_pixel_are_nets() {

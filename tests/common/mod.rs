@@ -23,3 +23,18 @@ pub fn oidn_library() -> std::path::PathBuf {
          (installs the bpy wheel, which ships OIDN) or set PRISM_TEST_OIDN"
     );
 }
+
+/// Does every elementary interval of area 1/n (n = points.len(), a power of 2) hold exactly
+/// one point? (The stratification of a (0, k, 2)-net in base 2.)
+pub fn is_net(points: &[glam::Vec2]) -> bool {
+    let k = points.len().trailing_zeros();
+    (0..=k).all(|a| {
+        let (nx, ny) = (1u32 << a, 1u32 << (k - a));
+        let mut seen = vec![false; points.len()];
+        points.iter().all(|p| {
+            let cell = ((p.x * nx as f32) as u32).min(nx - 1) * ny
+                + ((p.y * ny as f32) as u32).min(ny - 1);
+            !std::mem::replace(&mut seen[cell as usize], true)
+        })
+    })
+}
