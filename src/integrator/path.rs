@@ -32,6 +32,9 @@ use crate::spectrum::{RgbAlbedoSpectrum, SampledSpectrum, SampledWavelengths};
 /// left the other three scenes as they were.
 const RR_MIN_DEPTH: u32 = 5;
 
+/// `PathState::shared_rays` of a path that has not split.
+const NOT_SPLIT: u32 = u32::MAX;
+
 pub struct PathTracer<'a> {
     scene: &'a Scene,
     /// Maximum number of scattering events (bounces); emission seen after the last one counts.
@@ -75,7 +78,9 @@ pub struct PathSample {
     pub direct: SampledSpectrum,
     /// Rays traced (closest-hit and shadow), for throughput statistics.
     pub rays: u32,
-    /// Of `rays`, those before the path split (all of them when it did not).
+    /// The path split at its first vertex (`PathTracer::radiance_split`), after
+    /// `shared_rays` of its `rays`.
+    pub split: bool,
     pub shared_rays: u32,
     /// Split paths (`PathTracer::radiance_split`): the first branch's radiance minus the
     /// second's (each as `radiance`), whose spread estimates the variance splitting removes.
@@ -808,14 +813,15 @@ impl<'a> PathTracer<'a> {
             first_hit,
             splits,
             branch_difference: SampledSpectrum::ZERO,
-            shared_rays: 0,
+            shared_rays: NOT_SPLIT,
         };
         self.trace(&mut st, 0, sampler);
         PathSample {
             radiance: st.l,
             direct: st.l_direct,
             rays: st.rays,
-            shared_rays: if st.splits > 1 {
+            split: st.shared_rays != NOT_SPLIT,
+            shared_rays: if st.shared_rays != NOT_SPLIT {
                 st.shared_rays
             } else {
                 st.rays

@@ -74,35 +74,40 @@ pub fn optimal_splits(blocks: &[[f64; 4]]) -> Vec<u8> {
 /// the rays before and after the split.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SplitStats {
-    n: u32,
-    sum: f64,
-    sum_sq: f64,
+    /// Pilot samples that reached a path, and those of them that split.
+    n: u16,
+    split_samples: u16,
+    sum: f32,
+    sum_sq: f32,
     /// Sum of (first branch - second branch)^2 over the samples that split.
-    sum_diff_sq: f64,
-    shared_rays: u64,
-    branch_rays: u64,
-    split_samples: u32,
+    sum_diff_sq: f32,
+    /// Rays before the split (all of an unsplit sample's) and after it.
+    shared_rays: u32,
+    branch_rays: u32,
 }
 
 impl SplitStats {
     /// Adds a pilot sample whose film luminance is `y`; `difference` gives the luminance of
     /// the branches' difference (computed only for samples that split).
     pub fn add(&mut self, sample: &PathSample, y: f32, difference: impl FnOnce() -> f32) {
-        let y = y as f64;
-        if !y.is_finite() {
+        if !y.is_finite() || self.n == u16::MAX {
             return;
         }
         self.n += 1;
         self.sum += y;
         self.sum_sq += y * y;
-        self.shared_rays += sample.shared_rays as u64;
-        if sample.rays > sample.shared_rays {
-            let d = difference() as f64;
+        if sample.split {
+            let d = difference();
             if d.is_finite() {
                 self.sum_diff_sq += d * d;
             }
-            self.branch_rays += (sample.rays - sample.shared_rays) as u64;
+            self.shared_rays = self.shared_rays.saturating_add(sample.shared_rays);
+            self.branch_rays = self
+                .branch_rays
+                .saturating_add(sample.rays - sample.shared_rays);
             self.split_samples += 1;
+        } else {
+            self.shared_rays = self.shared_rays.saturating_add(sample.rays);
         }
     }
 }
@@ -166,7 +171,7 @@ impl SplitPlanner {
                 let s = &stats[y * w + x];
                 if s.n >= 2 {
                     let b = ((y + y0) / block - by0) * bw + (x + x0) / block - bx0;
-                    means[b][0] += s.sum / s.n as f64;
+                    means[b][0] += s.sum as f64 / s.n as f64;
                     means[b][1] += 1.0;
                 }
             }
@@ -178,8 +183,9 @@ impl SplitPlanner {
                     continue;
                 }
                 let n = s.n as f64;
-                let mean = s.sum / n;
-                let var = ((s.sum_sq - s.sum * mean) / (n - 1.0)).max(0.0);
+                let (sum, sum_sq) = (s.sum as f64, s.sum_sq as f64);
+                let mean = sum / n;
+                let var = ((sum_sq - sum * mean) / (n - 1.0)).max(0.0);
                 let b = ((y + y0) / block - by0) * bw + (x + x0) / block - bx0;
                 // Relative to the block's mean, not the pixel's own: four samples rarely see
                 // the small bright things a pixel's footprint covers (a thousand small lights
@@ -189,7 +195,7 @@ impl SplitPlanner {
                 let m = means[b][0] / means[b][1];
                 let norm = 1.0 / (m * m + 1e-2);
                 let v_b = if s.split_samples > 0 {
-                    s.sum_diff_sq / (2.0 * s.split_samples as f64)
+                    s.sum_diff_sq as f64 / (2.0 * s.split_samples as f64)
                 } else {
                     0.0
                 };
