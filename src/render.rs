@@ -6,12 +6,14 @@
 use crate::film::{self, Film, PixelFilter, SampleClamp};
 use crate::geometry::Ray;
 use crate::integrator::splitting::{SplitPlanner, SplitStats};
-use crate::integrator::{CameraRay, PathTracer, WavelengthSampling, WavelengthStrategy};
+use crate::integrator::{
+    CameraRay, PathSample, PathTracer, WavelengthSampling, WavelengthStrategy,
+};
 use crate::lights::LightSelection;
-use crate::sampler::{ImageSampler, SamplerKind};
+use crate::sampler::{ImageSampler, PixelSampler, SamplerKind};
 use crate::scene::Scene;
 use crate::spectrum::cie::d65_normalized;
-use crate::spectrum::{spectrum_to_xyz, SampledSpectrum};
+use crate::spectrum::{spectrum_to_xyz, SampledSpectrum, SampledWavelengths};
 use glam::Vec2;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -257,6 +259,104 @@ pub fn render(
     };
     // The reporter waits on this channel: it wakes every 20 ms to check the time, and at once
     // when the sender is dropped at the end of the render (so finishing never waits on a sleep).
+    // One camera sample of a pixel of the full image, up to its path's result.
+    let camera_sample =
+        |px_x: u32, px_y: u32, pixel_sampler: &PixelSampler, sample: u32, k: u32| {
+            let mut sampler = pixel_sampler.sample(sample);
+            let u_filter = sampler.pixel_filter();
+            let u_lens = if has_lens { sampler.lens() } else { Vec2::ZERO };
+            let raster = Vec2::new(px_x as f32, px_y as f32) + settings.filter.sample_2d(u_filter);
+            let time = if has_motion {
+                sampler.shutter_time()
+            } else {
+                0.5
+            };
+            let Some(ray): Option<Ray> = camera.generate_ray_at(raster, u_lens, time) else {
+                return CameraSample::Outside;
+            };
+            let first_hit = match tracer.camera_ray(&ray, exact_world) {
+                CameraRay::Background { xyz, alpha } => {
+                    return CameraSample::Background { xyz, alpha }
+                }
+                CameraRay::Path { first_hit } => first_hit,
+            };
+            // The wavelengths' own dimensions (`Sampler::wavelength`): the same values here as
+            // before the camera ray (the independent sampler's one stream now gives the shutter
+            // time its value first).
+            let wavelengths = settings.wavelengths.sample(&mut sampler);
+            let result = tracer.radiance_split(ray, first_hit, &wavelengths, &mut sampler, k);
+            CameraSample::Path {
+                ray,
+                wavelengths,
+                result,
+            }
+        };
+    // A pilot sample's statistics for the splitting plan. The plan sees the samples before any
+    // clamping, so that a clamped render takes the same samples as an unclamped one.
+    let add_pilot =
+        |stats: &mut SplitStats, result: &PathSample, wavelengths: &SampledWavelengths| {
+            let (world, world_xyz) = result
+                .world_exact
+                .unwrap_or((SampledSpectrum::ZERO, glam::Vec3::ZERO));
+            let y = spectrum_to_xyz(&(result.radiance - world), wavelengths).y + world_xyz.y;
+            stats.add(result, y, || {
+                spectrum_to_xyz(&result.branch_difference, wavelengths).y
+            });
+        };
+    // A window of the image plans its splitting from the whole image's pilot samples, so that
+    // its pixels take exactly the samples they take in the full render (`--crop`, Blender's
+    // render border). Costs the pilot's samples over the whole image (4 of them, split in two).
+    let window_plan = if splitting.pilot_end() > 0
+        && (window.x, window.y, window.width, window.height)
+            != (0, 0, settings.width, settings.height)
+    {
+        let (fw, fh) = (settings.width as usize, settings.height as usize);
+        let full = Crop {
+            x: 0,
+            y: 0,
+            width: settings.width,
+            height: settings.height,
+        };
+        let stats: Vec<SplitStats> = (0..fw * fh)
+            .into_par_iter()
+            .map(|index| {
+                let (px_x, px_y) = ((index % fw) as u32, (index / fw) as u32);
+                let pixel_sampler = image_sampler.pixel(px_x, px_y, settings.width);
+                let mut stats = SplitStats::default();
+                for sample in 0..splitting.pilot_end() {
+                    let k = splitting.pilot_splits() as u32;
+                    if let CameraSample::Path {
+                        wavelengths,
+                        result,
+                        ..
+                    } = camera_sample(px_x, px_y, &pixel_sampler, sample, k)
+                    {
+                        add_pilot(&mut stats, &result, &wavelengths);
+                    }
+                }
+                stats
+            })
+            .collect();
+        let mut full_splits = vec![1u8; fw * fh];
+        let mut full_costs = vec![1f32; fw * fh];
+        SplitPlanner::new(settings.spp, full, settings.splits).plan(
+            &stats,
+            &mut full_splits,
+            &mut full_costs,
+        );
+        let mut plan = (vec![1u8; w * h], vec![1f32; w * h]);
+        for y in 0..h {
+            for x in 0..w {
+                let i = (y + window.y as usize) * fw + x + window.x as usize;
+                plan.0[y * w + x] = full_splits[i];
+                plan.1[y * w + x] = full_costs[i];
+            }
+        }
+        Some(plan)
+    } else {
+        None
+    };
+
     let (stop_reporter, reporter_wakeup) = std::sync::mpsc::channel::<()>();
 
     std::thread::scope(|s| {
@@ -367,63 +467,54 @@ pub fn render(
                             let (px_x, px_y) =
                                 ((index % w) as u32 + window.x, (index / w) as u32 + window.y);
                             let pixel_sampler = image_sampler.pixel(px_x, px_y, settings.width);
-                            let (x, y) = (px_x as f32, px_y as f32);
                             for sample in s0..s1 {
-                                let mut sampler = pixel_sampler.sample(sample);
-                                let u_filter = sampler.pixel_filter();
-                                let u_lens = if has_lens { sampler.lens() } else { Vec2::ZERO };
-                                let raster = Vec2::new(x, y) + settings.filter.sample_2d(u_filter);
-                                let time = if has_motion {
-                                    sampler.shutter_time()
-                                } else {
-                                    0.5
-                                };
-                                let Some(ray): Option<Ray> =
-                                    camera.generate_ray_at(raster, u_lens, time)
-                                else {
-                                    // Outside a fisheye's image circle: black, as in Cycles.
-                                    px.add(glam::Vec3::ZERO);
-                                    if track_alpha {
-                                        px.add_alpha(0.0);
-                                    }
-                                    if settings.guides {
-                                        px.add_guides(glam::Vec3::ZERO, glam::Vec3::ZERO, None);
-                                    }
-                                    continue;
-                                };
-                                let first_hit = match tracer.camera_ray(&ray, exact_world) {
-                                    CameraRay::Background { xyz, alpha } => {
-                                        band_rays += 1;
-                                        let xyz = if clamp_off {
-                                            xyz
-                                        } else {
-                                            settings.clamp.apply(xyz, glam::Vec3::ZERO)
-                                        };
-                                        if !px.add(xyz) {
-                                            band_discarded += 1;
-                                        }
-                                        if track_alpha {
-                                            px.add_alpha(alpha);
-                                        }
-                                        if settings.guides {
-                                            px.add_guides(glam::Vec3::ZERO, glam::Vec3::ZERO, None);
-                                        }
-                                        continue;
-                                    }
-                                    CameraRay::Path { first_hit } => first_hit,
-                                };
-                                // The wavelengths' own dimensions (`Sampler::wavelength`): the
-                                // same values here as before the camera ray (the independent
-                                // sampler's one stream now gives the shutter time its value first).
-                                let wavelengths = settings.wavelengths.sample(&mut sampler);
                                 let k = band_splits[i] as u32;
-                                let result = tracer.radiance_split(
-                                    ray,
-                                    first_hit,
-                                    &wavelengths,
-                                    &mut sampler,
-                                    k,
-                                );
+                                let (ray, wavelengths, result) =
+                                    match camera_sample(px_x, px_y, &pixel_sampler, sample, k) {
+                                        CameraSample::Outside => {
+                                            // Outside a fisheye's image circle: black, as in
+                                            // Cycles.
+                                            px.add(glam::Vec3::ZERO);
+                                            if track_alpha {
+                                                px.add_alpha(0.0);
+                                            }
+                                            if settings.guides {
+                                                px.add_guides(
+                                                    glam::Vec3::ZERO,
+                                                    glam::Vec3::ZERO,
+                                                    None,
+                                                );
+                                            }
+                                            continue;
+                                        }
+                                        CameraSample::Background { xyz, alpha } => {
+                                            band_rays += 1;
+                                            let xyz = if clamp_off {
+                                                xyz
+                                            } else {
+                                                settings.clamp.apply(xyz, glam::Vec3::ZERO)
+                                            };
+                                            if !px.add(xyz) {
+                                                band_discarded += 1;
+                                            }
+                                            if track_alpha {
+                                                px.add_alpha(alpha);
+                                            }
+                                            if settings.guides {
+                                                px.add_guides(
+                                                    glam::Vec3::ZERO,
+                                                    glam::Vec3::ZERO,
+                                                    None,
+                                                );
+                                            }
+                                            continue;
+                                        }
+                                        CameraSample::Path {
+                                            ray,
+                                            wavelengths,
+                                            result,
+                                        } => (ray, wavelengths, result),
+                                    };
                                 band_rays += result.rays as u64;
                                 // The world seen directly counts with its exact colour.
                                 let (world, world_xyz) = result
@@ -449,18 +540,7 @@ pub fn render(
                                     px.add_alpha(result.alpha);
                                 }
                                 if sample < splitting.pilot_end() {
-                                    // The plan sees the samples before any clamping, so that
-                                    // a clamped render takes the same samples as an unclamped
-                                    // one.
-                                    let y = if clamp_off {
-                                        xyz.y
-                                    } else {
-                                        spectrum_to_xyz(&(result.radiance - world), &wavelengths).y
-                                            + world_xyz.y
-                                    };
-                                    band_stats[i].add(&result, y, || {
-                                        spectrum_to_xyz(&result.branch_difference, &wavelengths).y
-                                    });
+                                    add_pilot(&mut band_stats[i], &result, &wavelengths);
                                 }
                                 if !settings.guides {
                                     continue;
@@ -488,7 +568,13 @@ pub fn render(
                 break;
             }
             if !splitting_planned && (spp_done >= splitting.pilot_end() || prioritised) {
-                splitting.plan(&split_stats, &mut splits, &mut sample_costs);
+                match &window_plan {
+                    Some((planned, costs)) => {
+                        splits.copy_from_slice(planned);
+                        sample_costs.copy_from_slice(costs);
+                    }
+                    None => splitting.plan(&split_stats, &mut splits, &mut sample_costs),
+                }
                 splitting_planned = true;
             }
             let mut active_fraction = None;
@@ -546,6 +632,19 @@ pub fn render(
         cancelled: cancel.load(Ordering::Relaxed),
     };
     (film, stats)
+}
+
+/// Where one camera sample went (`render`'s sample loop and the splitting pilot of a window).
+enum CameraSample {
+    /// Outside a fisheye's image circle.
+    Outside,
+    /// Escaped to a background the film takes exactly (`CameraRay::Background`).
+    Background { xyz: glam::Vec3, alpha: f32 },
+    Path {
+        ray: Ray,
+        wavelengths: SampledWavelengths,
+        result: PathSample,
+    },
 }
 
 /// Renders without progress reports or cancellation (library users, tests, benchmarks).

@@ -228,3 +228,34 @@ fn planned_splitting_is_the_same_for_any_thread_count() {
         "the plan did not split ({rays_two} rays)"
     );
 }
+
+#[test]
+fn a_window_takes_the_full_renders_plan_and_pixels() {
+    // A crop plans from the whole image's pilot samples: every pixel of the window equals
+    // the full render's, bit for bit, with planned splitting (32 spp).
+    let scene = diffuse_box();
+    let full = settings(40, 32, 4, None);
+    let crop = RenderSettings {
+        crop: Some(prism::render::Crop {
+            x: 9,
+            y: 5,
+            width: 17,
+            height: 22,
+        }),
+        ..full.clone()
+    };
+    let (a, stats) = render_quiet(&scene, &full);
+    let (b, _) = render_quiet(&scene, &crop);
+    let (_, plain) = render_quiet(&scene, &settings(40, 32, 4, Some(1)));
+    assert!(stats.rays > plain.rays, "the plan did not split");
+    let (a, b) = (a.to_rgba(), b.to_rgba());
+    for y in 0..22 {
+        for x in 0..17 {
+            assert_eq!(
+                a[(y + 5) * 40 + x + 9].map(f32::to_bits),
+                b[y * 17 + x].map(f32::to_bits),
+                "pixel ({x}, {y}) of the window"
+            );
+        }
+    }
+}
