@@ -323,6 +323,9 @@ pub fn render(
                 let (px_x, px_y) = ((index % fw) as u32, (index / fw) as u32);
                 let pixel_sampler = image_sampler.pixel(px_x, px_y, settings.width);
                 let mut stats = SplitStats::default();
+                if cancel.load(Ordering::Relaxed) {
+                    return stats;
+                }
                 for sample in 0..splitting.pilot_end() {
                     let k = splitting.pilot_splits() as u32;
                     if let CameraSample::Path {
@@ -471,24 +474,18 @@ pub fn render(
                                 let k = band_splits[i] as u32;
                                 let (ray, wavelengths, result) =
                                     match camera_sample(px_x, px_y, &pixel_sampler, sample, k) {
-                                        CameraSample::Outside => {
-                                            // Outside a fisheye's image circle: black, as in
-                                            // Cycles.
-                                            px.add(glam::Vec3::ZERO);
-                                            if track_alpha {
-                                                px.add_alpha(0.0);
-                                            }
-                                            if settings.guides {
-                                                px.add_guides(
-                                                    glam::Vec3::ZERO,
-                                                    glam::Vec3::ZERO,
-                                                    None,
-                                                );
-                                            }
-                                            continue;
-                                        }
-                                        CameraSample::Background { xyz, alpha } => {
-                                            band_rays += 1;
+                                        // Outside a fisheye's image circle: black and
+                                        // transparent, as in Cycles; a background the film
+                                        // takes exactly: its colour, for one camera ray.
+                                        sampled @ (CameraSample::Outside
+                                        | CameraSample::Background { .. }) => {
+                                            let (xyz, alpha) = match sampled {
+                                                CameraSample::Background { xyz, alpha } => {
+                                                    band_rays += 1;
+                                                    (xyz, alpha)
+                                                }
+                                                _ => (glam::Vec3::ZERO, 0.0),
+                                            };
                                             let xyz = if clamp_off {
                                                 xyz
                                             } else {
