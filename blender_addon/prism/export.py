@@ -2578,6 +2578,8 @@ def render_settings(scene):
             out["min_samples"] = int(p.adaptive_min_samples)
         if getattr(p, "time_limit", 0.0) > 0.0:
             out["time_limit"] = float(p.time_limit)
+        if hasattr(p, "path_splits"):
+            out["splits"] = int(p.path_splits) if p.path_splits > 0 else "auto"
         for key in ("clamp_direct", "clamp_indirect"):
             if getattr(p, key, 0.0) > 0.0:
                 out[key] = float(getattr(p, key))

@@ -134,6 +134,16 @@ class PrismRenderSettings(bpy.types.PropertyGroup):
         max=10.0,
         subtype="PIXEL",
     )
+    path_splits: IntProperty(
+        name="Path Splitting",
+        description="Branches a camera path takes at its first diffuse, glossy or subsurface hit, each with its "
+        "own light sample and bounce (Cycles' former branched path tracing): 0 = planned per 8 x 8 pixels from "
+        "the first samples, where it pays (default; not below 16 samples), 1 = no splitting, 2-4 = that many "
+        "everywhere",
+        default=0,
+        min=0,
+        max=4,
+    )
     threads: IntProperty(name="Threads", description="Worker threads (0 = all cores)", default=0, min=0, max=1024)
     use_denoising: BoolProperty(
         name="Denoise",

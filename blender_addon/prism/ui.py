@@ -46,6 +46,7 @@ class RENDER_PT_prism_sampling(PrismPanel, bpy.types.Panel):
         col = layout.column(align=True)
         col.prop(p, "wavelengths")
         col.prop(p, "wavelength_pdf", text="Density")
+        layout.prop(p, "path_splits")
         col = layout.column()
         col.prop(p, "threads")
         col.prop(p, "seed")

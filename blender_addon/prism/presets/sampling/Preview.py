@@ -6,4 +6,5 @@ prism.use_adaptive_sampling = True
 prism.adaptive_threshold = 0.1
 prism.adaptive_min_samples = 0
 prism.time_limit = 0.0
+prism.path_splits = 0
 prism.use_denoising = True
