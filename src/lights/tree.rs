@@ -11,7 +11,7 @@
 //! Importances are in irradiance units (W/m^2 of luminance), so that the caller can compare a
 //! node with the distant lights (the sun, the world) whose importance is their irradiance.
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 /// Bounds of one light or of a set of lights (the node of the tree).
 ///
@@ -113,19 +113,20 @@ impl LightBounds {
         if p.cmpge(self.lo).all() && p.cmple(self.hi).all() {
             return (0.0, -1.0);
         }
+        // The eight corners k (x from bit 0, y bit 1, z bit 2) as two groups of four lanes,
+        // so the square roots and divisions run four at a time (the same operations, in the
+        // same order, per corner as a scalar loop: the same bits).
+        let (lo, hi) = (self.lo - p, self.hi - p);
+        let x = Vec4::new(lo.x, hi.x, lo.x, hi.x);
+        let y = Vec4::new(lo.y, lo.y, hi.y, hi.y);
         let mut cos_min = 1.0f32;
-        for k in 0..8 {
-            let corner = Vec3::new(
-                if k & 1 == 0 { self.lo.x } else { self.hi.x },
-                if k & 2 == 0 { self.lo.y } else { self.hi.y },
-                if k & 4 == 0 { self.lo.z } else { self.hi.z },
-            );
-            let v = corner - p;
-            let len2 = v.length_squared();
-            if len2 <= 0.0 {
+        for z in [Vec4::splat(lo.z), Vec4::splat(hi.z)] {
+            let len2 = x * x + y * y + z * z;
+            if len2.cmple(Vec4::ZERO).any() {
                 return (0.0, -1.0);
             }
-            cos_min = cos_min.min(dir.dot(v) / len2.sqrt());
+            let cos = (x * dir.x + y * dir.y + z * dir.z) / len2.sqrt();
+            cos_min = cos_min.min(cos.min_element());
         }
         if cos_min <= 0.0 {
             return (0.0, -1.0);
