@@ -133,6 +133,7 @@ fn light_only_meshes_cast_no_shadow_and_hide_from_the_camera() {
     let light_only = InstanceVisibility {
         casts_shadows: false,
         camera_visible: false,
+        light_only: true,
         holdout: false,
         light_visibility: Default::default(),
     };

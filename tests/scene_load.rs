@@ -95,6 +95,7 @@ fn area_light_node_extras_set_ray_visibility() {
         InstanceVisibility {
             casts_shadows: false,
             camera_visible: false,
+            light_only: true,
             holdout: false,
             light_visibility: Default::default(),
         }
@@ -104,6 +105,7 @@ fn area_light_node_extras_set_ray_visibility() {
         InstanceVisibility {
             casts_shadows: false,
             camera_visible: true,
+            light_only: true,
             holdout: false,
             light_visibility: Default::default(),
         }
@@ -121,6 +123,7 @@ fn area_light_node_extras_set_ray_visibility() {
         InstanceVisibility {
             casts_shadows: false,
             camera_visible: false,
+            light_only: false,
             holdout: false,
             light_visibility: Default::default(),
         }

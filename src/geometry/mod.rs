@@ -511,6 +511,9 @@ pub struct Instance {
     pub casts_shadows: bool,
     /// False hides the instance from camera rays (the integrator looks through it).
     pub camera_visible: bool,
+    /// A light, not geometry (a Blender area light's mesh): rays take its emission and pass
+    /// on, so it is no path vertex, as it casts no shadow (`casts_shadows` is false too).
+    pub light_only: bool,
     /// A hole in the image (Blender's holdout): camera rays that reach it leave the pixel
     /// transparent, and paths end there.
     pub holdout: bool,
@@ -526,6 +529,7 @@ impl Instance {
             motion: None,
             casts_shadows: true,
             camera_visible: true,
+            light_only: false,
             holdout: false,
             light_visibility: crate::bsdf::RayVisibility::ALL,
         }
@@ -547,6 +551,11 @@ impl Instance {
             to_object.transform_vector3(ray.dir),
             t_max,
         )
+    }
+
+    pub fn with_light_only(mut self, light_only: bool) -> Self {
+        self.light_only = light_only;
+        self
     }
 
     pub fn with_holdout(mut self, holdout: bool) -> Self {
@@ -884,6 +893,12 @@ impl Geometry {
     #[inline]
     pub fn camera_visible(&self, instance: u32) -> bool {
         self.instances[instance as usize].camera_visible
+    }
+
+    /// Rays pass this instance after taking its emission (see `Instance::light_only`).
+    #[inline]
+    pub fn light_only(&self, instance: u32) -> bool {
+        self.instances[instance as usize].light_only
     }
 
     /// Closest intersection with t in (0, t_max).

@@ -618,6 +618,48 @@ impl<'a> PathTracer<'a> {
     /// materials: never), and the path's throughput is then multiplied by the returned weight,
     /// the transparent share's transmittance over that probability (1 unless a Transparent
     /// BSDF is tinted).
+    /// The radiance a ray brings back from the emitting surface it hit at `sp`, `distance`
+    /// along the path's last segments from its last vertex: the emission times the path's
+    /// throughput, weighted by MIS against that vertex's light sample (1 after a Dirac
+    /// scattering or from the camera), 0 where the light is invisible to the last lobe.
+    fn surface_emission(
+        &self,
+        st: &PathState<'_>,
+        hit: &Hit,
+        sp: &crate::geometry::SurfacePoint,
+        inputs: Option<&crate::shading::ShadingInputs>,
+        distance: f32,
+    ) -> SampledSpectrum {
+        let geometry = &self.scene.geometry;
+        let material = &self.scene.materials[sp.material as usize];
+        let cos_light = sp.ng.dot(-st.ray.dir);
+        let le = material.emitted(inputs, cos_light, &st.alive);
+        let seen = st.last_lobe.is_none_or(|fl| {
+            geometry.instances[hit.instance as usize]
+                .light_visibility
+                .sees(fl)
+        });
+        if !seen || le.is_black() {
+            return SampledSpectrum::ZERO;
+        }
+        let weight = if st.specular_bounce {
+            1.0
+        } else {
+            let light_pdf = self.scene.lights.triangle_pdf(
+                geometry,
+                &st.prev_ctx,
+                hit.instance,
+                hit.prim,
+                sp.area,
+                distance,
+                cos_light,
+                self.selection,
+            );
+            power_heuristic(st.prev_bsdf_density, light_pdf * st.prev_denominator)
+        };
+        st.beta * le * (weight / st.mis.denominator())
+    }
+
     #[inline(never)]
     fn passes_through(
         &self,
@@ -1012,12 +1054,35 @@ impl<'a> PathTracer<'a> {
                     break;
                 };
                 let hidden = depth == 0 && !geometry.camera_visible(h.instance);
+                let light_only = geometry.light_only(h.instance);
                 let may_pass = (self.alpha || self.null_surfaces) && !in_walk;
-                if !(hidden || may_pass) {
+                if !(hidden || may_pass || light_only) {
                     break;
                 }
                 let sp = geometry.surface_point(&h);
-                if !hidden {
+                if light_only {
+                    // A light (a Blender area light's mesh) is no geometry: the ray takes its
+                    // emission, weighted against the light sample of the path's last vertex
+                    // (whose shadow ray passed it too), and goes on from that vertex's state.
+                    // As a surface it was a vertex of its own, whose smooth pass-through
+                    // counted what lay behind it at full weight besides that vertex's light
+                    // samples: a sun behind a softbox made fireflies 700 times the pixel.
+                    let material = &scene.materials[sp.material as usize];
+                    if !hidden && material.is_emissive() {
+                        let inputs = material.graph_inputs(geometry, &sp, -st.ray.dir, depth == 0);
+                        let c = self.surface_emission(
+                            st,
+                            &h,
+                            &sp,
+                            inputs.as_ref(),
+                            camera_offset + h.t,
+                        );
+                        st.l += c;
+                        if depth <= 1 {
+                            st.l_direct += c;
+                        }
+                    }
+                } else if !hidden {
                     match self.passes_through(&sp, st.ray.dir, depth == 0, &st.alive, sampler) {
                         Some(weight) => st.beta *= weight,
                         None => break,
@@ -1193,34 +1258,16 @@ impl<'a> PathTracer<'a> {
             }
 
             if material.is_emissive() {
-                let cos_light = sp.ng.dot(wo_world);
-                let le = material.emitted(graph_inputs.as_ref(), cos_light, &st.alive);
-                let seen = st.last_lobe.is_none_or(|fl| {
-                    geometry.instances[hit.instance as usize]
-                        .light_visibility
-                        .sees(fl)
-                });
-                if seen && !le.is_black() {
-                    let weight = if st.specular_bounce {
-                        1.0
-                    } else {
-                        let light_pdf = lights.triangle_pdf(
-                            geometry,
-                            &st.prev_ctx,
-                            hit.instance,
-                            hit.prim,
-                            sp.area,
-                            camera_offset + hit.t,
-                            cos_light,
-                            selection,
-                        );
-                        power_heuristic(st.prev_bsdf_density, light_pdf * st.prev_denominator)
-                    };
-                    let c = st.beta * le * (weight / st.mis.denominator());
-                    st.l += c;
-                    if depth <= 1 {
-                        st.l_direct += c;
-                    }
+                let c = self.surface_emission(
+                    st,
+                    &hit,
+                    &sp,
+                    graph_inputs.as_ref(),
+                    camera_offset + hit.t,
+                );
+                st.l += c;
+                if depth <= 1 {
+                    st.l_direct += c;
                 }
             }
             if depth == self.max_depth {

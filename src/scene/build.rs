@@ -134,6 +134,7 @@ impl Scene {
                 let mut instance = Instance::new(mesh, affine)
                     .with_visibility(vis.casts_shadows, vis.camera_visible)
                     .with_holdout(vis.holdout)
+                    .with_light_only(vis.light_only)
                     .with_light_visibility(vis.light_visibility);
                 if let Some(keys) = instance_motion.get(i).filter(|k| !k.is_empty()) {
                     match motion_of(keys) {

@@ -610,6 +610,9 @@ pub struct SceneDesc {
 pub struct InstanceVisibility {
     pub casts_shadows: bool,
     pub camera_visible: bool,
+    /// A Blender light standing as a mesh (`"prism_area_light"`): rays that meet it take its
+    /// emission and go on as if it were not there (lights are no geometry in Blender).
+    pub light_only: bool,
     /// Blender's holdout (the object's, or a Holdout material's): a transparent hole.
     pub holdout: bool,
     /// An emitting instance's (an area light's) ray visibility as a light.
@@ -621,6 +624,7 @@ impl Default for InstanceVisibility {
         InstanceVisibility {
             casts_shadows: true,
             camera_visible: true,
+            light_only: false,
             holdout: false,
             light_visibility: RayVisibility::ALL,
         }

@@ -643,6 +643,7 @@ impl<'d> Importer<'d> {
             let visibility = InstanceVisibility {
                 casts_shadows: !area_light && flag("prism_casts_shadows").unwrap_or(true),
                 camera_visible: flag("prism_visible_camera").unwrap_or(!area_light),
+                light_only: area_light,
                 holdout: flag("prism_holdout").unwrap_or(false),
                 // An emitter's (an area light's) ray visibility as a light.
                 light_visibility: RayVisibility {
