@@ -618,18 +618,20 @@ impl<'a> PathTracer<'a> {
     /// materials: never), and the path's throughput is then multiplied by the returned weight,
     /// the transparent share's transmittance over that probability (1 unless a Transparent
     /// BSDF is tinted).
-    /// The radiance a ray brings back from the emitting surface it hit at `sp`, `distance`
-    /// along the path's last segments from its last vertex: the emission times the path's
-    /// throughput, weighted by MIS against that vertex's light sample (1 after a Dirac
-    /// scattering or from the camera), 0 where the light is invisible to the last lobe.
-    fn surface_emission(
+    /// Adds to the path the radiance its ray brings back from the emitting surface it hit at
+    /// `sp`, `distance` along the path's last segments from its last vertex (after `depth`
+    /// scattering events): the emission times the path's throughput, weighted by MIS against
+    /// that vertex's light sample (1 after a Dirac scattering or from the camera); nothing
+    /// where the light is invisible to the last lobe.
+    fn add_surface_emission(
         &self,
-        st: &PathState<'_>,
+        st: &mut PathState<'_>,
+        depth: u32,
         hit: &Hit,
         sp: &crate::geometry::SurfacePoint,
         inputs: Option<&crate::shading::ShadingInputs>,
         distance: f32,
-    ) -> SampledSpectrum {
+    ) {
         let geometry = &self.scene.geometry;
         let material = &self.scene.materials[sp.material as usize];
         let cos_light = sp.ng.dot(-st.ray.dir);
@@ -640,7 +642,7 @@ impl<'a> PathTracer<'a> {
                 .sees(fl)
         });
         if !seen || le.is_black() {
-            return SampledSpectrum::ZERO;
+            return;
         }
         let weight = if st.specular_bounce {
             1.0
@@ -657,7 +659,11 @@ impl<'a> PathTracer<'a> {
             );
             power_heuristic(st.prev_bsdf_density, light_pdf * st.prev_denominator)
         };
-        st.beta * le * (weight / st.mis.denominator())
+        let c = st.beta * le * (weight / st.mis.denominator());
+        st.l += c;
+        if depth <= 1 {
+            st.l_direct += c;
+        }
     }
 
     #[inline(never)]
@@ -1070,17 +1076,14 @@ impl<'a> PathTracer<'a> {
                     let material = &scene.materials[sp.material as usize];
                     if !hidden && material.is_emissive() {
                         let inputs = material.graph_inputs(geometry, &sp, -st.ray.dir, depth == 0);
-                        let c = self.surface_emission(
+                        self.add_surface_emission(
                             st,
+                            depth,
                             &h,
                             &sp,
                             inputs.as_ref(),
                             camera_offset + h.t,
                         );
-                        st.l += c;
-                        if depth <= 1 {
-                            st.l_direct += c;
-                        }
                     }
                 } else if !hidden {
                     match self.passes_through(&sp, st.ray.dir, depth == 0, &st.alive, sampler) {
@@ -1258,17 +1261,14 @@ impl<'a> PathTracer<'a> {
             }
 
             if material.is_emissive() {
-                let c = self.surface_emission(
+                self.add_surface_emission(
                     st,
+                    depth,
                     &hit,
                     &sp,
                     graph_inputs.as_ref(),
                     camera_offset + hit.t,
                 );
-                st.l += c;
-                if depth <= 1 {
-                    st.l_direct += c;
-                }
             }
             if depth == self.max_depth {
                 break;
