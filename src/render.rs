@@ -257,8 +257,6 @@ pub fn render(
         });
         by_samples.max(by_time)
     };
-    // The reporter waits on this channel: it wakes every 20 ms to check the time, and at once
-    // when the sender is dropped at the end of the render (so finishing never waits on a sleep).
     // One camera sample of a pixel of the full image, up to its path's result.
     let camera_sample =
         |px_x: u32, px_y: u32, pixel_sampler: &PixelSampler, sample: u32, k: u32| {
@@ -360,6 +358,8 @@ pub fn render(
         None
     };
 
+    // The reporter waits on this channel: it wakes every 20 ms to check the time, and at once
+    // when the sender is dropped at the end of the render (so finishing never waits on a sleep).
     let (stop_reporter, reporter_wakeup) = std::sync::mpsc::channel::<()>();
 
     std::thread::scope(|s| {

@@ -45,6 +45,8 @@ pub struct PathTracer<'a> {
     alpha: bool,
     /// Some material is a volume boundary without a surface: rays pass its surfaces.
     null_surfaces: bool,
+    /// Some instance is a light standing as a mesh (`Instance::light_only`): rays pass it.
+    light_meshes: bool,
     /// The volumes enclosing the camera (a camera inside a fog box).
     camera_media: MediumStack,
     /// Blender's Film > Transparent: camera rays that escape (directly or through transparent
@@ -230,6 +232,7 @@ impl<'a> PathTracer<'a> {
             selection,
             alpha: scene.materials.iter().any(|m| m.has_alpha()),
             null_surfaces: scene.materials.iter().any(|m| m.is_null_surface()),
+            light_meshes: scene.geometry.instances.iter().any(|i| i.light_only),
             camera_media: enclosing_media(scene, scene.camera.camera_to_world.w_axis.truncate()),
             transparent_background: false,
             // About a 100-pixel-high image at a 60-degree field of view, until the render
@@ -614,10 +617,6 @@ impl<'a> PathTracer<'a> {
         }
     }
 
-    /// Stochastic transparency at `sp`: the ray passes with probability 1 - alpha (opaque
-    /// materials: never), and the path's throughput is then multiplied by the returned weight,
-    /// the transparent share's transmittance over that probability (1 unless a Transparent
-    /// BSDF is tinted).
     /// Adds to the path the radiance its ray brings back from the emitting surface it hit at
     /// `sp`, `distance` along the path's last segments from its last vertex (after `depth`
     /// scattering events): the emission times the path's throughput, weighted by MIS against
@@ -666,6 +665,10 @@ impl<'a> PathTracer<'a> {
         }
     }
 
+    /// Stochastic transparency at `sp`: the ray passes with probability 1 - alpha (opaque
+    /// materials: never), and the path's throughput is then multiplied by the returned weight,
+    /// the transparent share's transmittance over that probability (1 unless a Transparent
+    /// BSDF is tinted).
     #[inline(never)]
     fn passes_through(
         &self,
@@ -1060,7 +1063,7 @@ impl<'a> PathTracer<'a> {
                     break;
                 };
                 let hidden = depth == 0 && !geometry.camera_visible(h.instance);
-                let light_only = geometry.light_only(h.instance);
+                let light_only = self.light_meshes && geometry.light_only(h.instance);
                 let may_pass = (self.alpha || self.null_surfaces) && !in_walk;
                 if !(hidden || may_pass || light_only) {
                     break;
@@ -1510,9 +1513,9 @@ impl<'a> PathTracer<'a> {
     /// Continues the path from the vertex `v` of bounce `depth`: samples the BSDF (and, for
     /// light entering a subsurface medium, its exit point, with next-event estimation there)
     /// and sets `st.ray` to the next ray. False when the path ends here. Inlined into `trace`
-    /// (and `split_continuations`), as the loop body it was (CPU time against the loop before it, median
-    /// of 5, 32 spp: SSS Cornell 3.80 / 3.73 s, everyday 2.18 / 2.19, rough glass 4.13 / 4.38;
-    /// without the attribute SSS Cornell measured 3-6% slower).
+    /// (and `split_continuations`) as the loop body it was (CPU time against the loop before
+    /// it, median of 5, 32 spp: SSS Cornell 3.80 / 3.73 s, everyday 2.18 / 2.19, rough glass
+    /// 4.13 / 4.38; without the attribute SSS Cornell measured 3-6% slower).
     #[inline(always)]
     fn scatter(
         &self,

@@ -37,8 +37,8 @@ pub const BLOCK: u32 = 8;
 /// The cost of a sample's set-up (camera ray generation, wavelengths, film, the first hit's
 /// shading) in rays.
 const SETUP_RAYS: f64 = 0.5;
-/// Pixels whose pilot variance is above this quantile of all pixels' enter the plan at it
-/// (`outlier_cap`).
+/// Pixels whose pilot variance is above this quantile of the varying pixels' enter the plan
+/// at it (`outlier_cap`).
 const OUTLIER_QUANTILE: f64 = 0.99;
 
 /// Splitting factors per block, from each block's `[V_s, V_b, C_s, C_b]` (summed over its
