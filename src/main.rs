@@ -103,10 +103,10 @@ struct SceneArgs {
     /// diffuse bounce leaves where it entered, with the medium's total diffuse reflectance
     #[arg(long)]
     full_indirect_subsurface: bool,
-    /// Branches per camera path at its first diffuse, glossy or subsurface vertex, each with its
-    /// own light sample and continuation: auto (default; planned per 8 x 8 pixels from the
-    /// first 4 samples, 1-4 where it pays, none below 16 spp) or a number 1-4 (1 = plain path
-    /// tracing)
+    /// Branches per camera path at its first diffuse, glossy or subsurface vertex: auto
+    /// (default; light samples and continuations planned apart per 8 x 8 pixels from the first
+    /// 4 samples, 1-4 of each where it pays, none below 16 spp) or a number 1-4 of whole
+    /// branches, each with its own light sample and continuation (1 = plain path tracing)
     #[arg(long, value_name = "auto|1-4", value_parser = parse_splits)]
     splits: Option<Splits>,
     /// Adaptive sampling: pixels whose estimated error (Cycles' definition) is below this stop

@@ -5,7 +5,7 @@
 
 use crate::film::{self, Film, PixelFilter, SampleClamp};
 use crate::geometry::Ray;
-use crate::integrator::splitting::{SplitPlanner, SplitStats};
+use crate::integrator::splitting::{Branches, SplitPlanner, SplitStats};
 use crate::integrator::{
     CameraRay, PathSample, PathTracer, WavelengthSampling, WavelengthStrategy,
 };
@@ -259,7 +259,7 @@ pub fn render(
     };
     // One camera sample of a pixel of the full image, up to its path's result.
     let camera_sample =
-        |px_x: u32, px_y: u32, pixel_sampler: &PixelSampler, sample: u32, k: u32| {
+        |px_x: u32, px_y: u32, pixel_sampler: &PixelSampler, sample: u32, k: Branches| {
             let mut sampler = pixel_sampler.sample(sample);
             let u_filter = sampler.pixel_filter();
             let u_lens = if has_lens { sampler.lens() } else { Vec2::ZERO };
@@ -297,9 +297,7 @@ pub fn render(
                 .world_exact
                 .unwrap_or((SampledSpectrum::ZERO, glam::Vec3::ZERO));
             let y = spectrum_to_xyz(&(result.radiance - world), wavelengths).y + world_xyz.y;
-            stats.add(result, y, || {
-                spectrum_to_xyz(&result.branch_difference, wavelengths).y
-            });
+            stats.add(result, y);
         };
     // A window of the image plans its splitting from the whole image's pilot samples, so that
     // its pixels take exactly the samples they take in the full render (`--crop`, Blender's
@@ -325,7 +323,7 @@ pub fn render(
                     return stats;
                 }
                 for sample in 0..splitting.pilot_end() {
-                    let k = splitting.pilot_splits() as u32;
+                    let k = splitting.pilot_splits();
                     if let CameraSample::Path {
                         wavelengths,
                         result,
@@ -338,14 +336,14 @@ pub fn render(
                 stats
             })
             .collect();
-        let mut full_splits = vec![1u8; fw * fh];
+        let mut full_splits = vec![Branches::ONE; fw * fh];
         let mut full_costs = vec![1f32; fw * fh];
         SplitPlanner::new(settings.spp, full, settings.splits).plan(
             &stats,
             &mut full_splits,
             &mut full_costs,
         );
-        let mut plan = (vec![1u8; w * h], vec![1f32; w * h]);
+        let mut plan = (vec![Branches::ONE; w * h], vec![1f32; w * h]);
         for y in 0..h {
             for x in 0..w {
                 let i = (y + window.y as usize) * fw + x + window.x as usize;
@@ -471,7 +469,7 @@ pub fn render(
                                 ((index % w) as u32 + window.x, (index / w) as u32 + window.y);
                             let pixel_sampler = image_sampler.pixel(px_x, px_y, settings.width);
                             for sample in s0..s1 {
-                                let k = band_splits[i] as u32;
+                                let k = band_splits[i];
                                 let (ray, wavelengths, result) =
                                     match camera_sample(px_x, px_y, &pixel_sampler, sample, k) {
                                         // Outside a fisheye's image circle: black and

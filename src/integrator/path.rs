@@ -3,6 +3,7 @@
 //! hero-wavelength MIS over the path's wavelengths (`spectral_mis`).
 
 use super::spectral_mis::SpectralMis;
+use super::splitting::Branches;
 use crate::bsdf::{BsdfSample, LobeFlags};
 use crate::bssrdf::{
     active_wavelengths, random_walk, ExitLobe, SubsurfaceAt, SubsurfaceMethod, WalkBoundary,
@@ -17,7 +18,7 @@ use crate::media::{
 use crate::sampler::Sampler;
 use crate::scene::camera::PixelFootprint;
 use crate::scene::Scene;
-use crate::spectrum::{RgbAlbedoSpectrum, SampledSpectrum, SampledWavelengths};
+use crate::spectrum::{spectrum_to_xyz, RgbAlbedoSpectrum, SampledSpectrum, SampledWavelengths};
 
 /// Scattering events after which Russian roulette may end a path: the first four always
 /// continue (Mitsuba 3's default `rr_depth` is 5), and refractions through glass do not count
@@ -81,12 +82,14 @@ pub struct PathSample {
     /// Rays traced (closest-hit and shadow), for throughput statistics.
     pub rays: u32,
     /// The path split at its first vertex (`PathTracer::radiance_split`), after
-    /// `shared_rays` of its `rays`.
+    /// `shared_rays` of its `rays`; `light_rays` of the rest were its light samples' there.
     pub split: bool,
     pub shared_rays: u32,
-    /// Split paths (`PathTracer::radiance_split`): the first branch's radiance minus the
-    /// second's (each as `radiance`), whose spread estimates the variance splitting removes.
-    pub branch_difference: SampledSpectrum,
+    pub light_rays: u32,
+    /// Split paths (`PathTracer::radiance_split`): the luminance (CIE Y) of what the first
+    /// vertex's first light sample gathered minus the second's, and the same for its first two
+    /// continuations, whose spreads estimate the variance each kind of branch removes.
+    pub branch_differences: [f32; 2],
     pub guides: DenoiseGuides,
     /// Coverage: 0 where the camera ray escaped (only counted as transparent with
     /// `transparent_background`) or reached a holdout, else 1 (Blender's alpha).
@@ -154,9 +157,11 @@ struct PathState<'a> {
     /// neither enters nor leaves a subsurface medium (see `scatter`).
     roulette_vertices: u32,
     /// Branches at the first vertex (`PathTracer::radiance_split`) and what they report.
-    splits: u32,
-    branch_difference: SampledSpectrum,
+    splits: Branches,
+    light_difference: SampledSpectrum,
+    path_difference: SampledSpectrum,
     shared_rays: u32,
+    light_rays: u32,
 }
 
 /// A surface vertex of the path once its BSDF is known: what continuing the path from it
@@ -806,23 +811,23 @@ impl<'a> PathTracer<'a> {
         w: &SampledWavelengths,
         sampler: &mut Sampler,
     ) -> PathSample {
-        self.radiance_split(ray, first_hit, w, sampler, 1)
+        self.radiance_split(ray, first_hit, w, sampler, Branches::ONE)
     }
 
-    /// `radiance_from` with the path split into `splits` branches at its first vertex that
-    /// scatters diffusely or glossily (or enters a subsurface object): the camera ray, what it
-    /// passes and the vertex's shading are traced once, then every branch takes its own light
-    /// sample, BSDF sample and rest of the path (`Sampler::branch`), and the sample is their
-    /// mean. Splitting (Arvo and Kirk 1990; as in Cycles' former branched path tracing, and
-    /// the splitting half of Rath et al. 2022, "EARS") pays where the variance comes after the
-    /// first vertex and the camera ray's share of the cost is large: 1 is plain path tracing.
+    /// `radiance_from` with the path branching at its first vertex that scatters diffusely or
+    /// glossily (or enters a subsurface object) into `splits.lights` light samples and
+    /// `splits.paths` continuations (BSDF sample and rest of the path; `Sampler::branch`), each
+    /// kind averaged: the camera ray, what it passes and the vertex's shading are traced once.
+    /// Splitting (Arvo and Kirk 1990; as in Cycles' former branched path tracing, and the
+    /// splitting half of Rath et al. 2022, "EARS") pays where the variance comes after the
+    /// camera ray and its share of the cost is large: `Branches::ONE` is plain path tracing.
     pub fn radiance_split(
         &self,
         ray: Ray,
         first_hit: Option<Option<Hit>>,
         w: &SampledWavelengths,
         sampler: &mut Sampler,
-        splits: u32,
+        splits: Branches,
     ) -> PathSample {
         let mis = SpectralMis::new(w);
         // The wavelengths the path evaluates materials and lights at. After a smooth
@@ -863,8 +868,10 @@ impl<'a> PathTracer<'a> {
             roulette_vertices: 0,
             first_hit,
             splits,
-            branch_difference: SampledSpectrum::ZERO,
+            light_difference: SampledSpectrum::ZERO,
+            path_difference: SampledSpectrum::ZERO,
             shared_rays: NOT_SPLIT,
+            light_rays: 0,
         };
         self.trace(&mut st, 0, sampler);
         PathSample {
@@ -877,7 +884,13 @@ impl<'a> PathTracer<'a> {
             } else {
                 st.rays
             },
-            branch_difference: st.branch_difference,
+            light_rays: st.light_rays,
+            // Only the splitting pilot's (independent branches) are read.
+            branch_differences: if st.splits.independent && st.shared_rays != NOT_SPLIT {
+                [st.light_difference, st.path_difference].map(|d| spectrum_to_xyz(&d, w).y)
+            } else {
+                [0.0; 2]
+            },
             guides: st.guides,
             alpha: st.alpha,
             world_exact: st.world_exact,
@@ -1360,7 +1373,7 @@ impl<'a> PathTracer<'a> {
             // A camera path splits at its first vertex that scatters diffusely or glossily
             // (`radiance_split`): each branch gets its own light sample and continuation.
             let split = depth == 0
-                && st.splits > 1
+                && st.splits.split()
                 && (subsurface.is_some() || !bsdf.is_specular())
                 && walk_exit.is_none();
             if split {
@@ -1469,45 +1482,74 @@ impl<'a> PathTracer<'a> {
         }
     }
 
-    /// Continues the path `st` from its first vertex `v` in `st.splits` branches, each with
-    /// its own light sample, BSDF sample and rest of the path (the values of `Sampler::branch`),
-    /// and keeps their mean: the camera ray and the vertex's set-up are shared. Records the
-    /// difference between the first two branches (`PathSample::branch_difference`).
+    /// Continues the path `st` from its first vertex `v` in the branches of `st.splits`:
+    /// `lights` light samples and `paths` continuations (BSDF sample and rest of the path),
+    /// branch j taking its values from `Sampler::branch(j)`, and keeps the mean of each: the
+    /// camera ray and the vertex's set-up are shared. Given the vertex the two are independent,
+    /// so the sample's variance is V_s + V_l / lights + V_p / paths (`splitting`). MIS between
+    /// the light samples and the continuations' hits of lights keeps its weights, which still
+    /// sum to one for every path (Veach 1997, section 9.2.2: unbiased for any sample counts).
+    /// Records the differences between the first two of each (`PathSample::light_difference`,
+    /// `path_difference`).
     #[inline(never)]
     fn split_continuations(&self, v: &Vertex<'a>, st: &mut PathState<'a>, sampler: &mut Sampler) {
         let base = *st;
-        let k = st.splits;
+        let Branches {
+            lights,
+            paths,
+            independent,
+        } = st.splits;
+        let (light_weight, path_weight) = (1.0 / lights as f32, 1.0 / paths as f32);
         let mut sum_l = SampledSpectrum::ZERO;
         let mut sum_direct = SampledSpectrum::ZERO;
-        let mut first = SampledSpectrum::ZERO;
-        let mut rays = 0;
-        for j in 0..k {
-            let mut branch = base;
-            let mut s = sampler.branch(j);
-            self.vertex_direct(v, &mut branch, 0, &mut s);
-            if self.scatter(v, &mut branch, 0, &mut s) {
-                self.trace(&mut branch, 1, &mut s);
-            }
-            let gathered = branch.l - base.l;
-            match j {
-                0 => {
-                    first = gathered;
-                    st.guides = branch.guides;
-                    st.guides_done = branch.guides_done;
-                    st.alpha = branch.alpha;
+        let mut first_light = SampledSpectrum::ZERO;
+        let mut first_path = SampledSpectrum::ZERO;
+        let (mut light_rays, mut path_rays) = (0, 0);
+        for j in 0..lights.max(paths) as u32 {
+            let mut s = if independent {
+                sampler.independent_branch(j)
+            } else {
+                sampler.branch(j)
+            };
+            if j < lights as u32 {
+                let mut lit = base;
+                self.vertex_direct(v, &mut lit, 0, &mut s);
+                let gathered = lit.l - base.l;
+                match j {
+                    0 => first_light = gathered,
+                    1 => st.light_difference = first_light - gathered,
+                    _ => {}
                 }
-                1 => st.branch_difference = first - gathered,
-                _ => {}
+                sum_l += gathered * light_weight;
+                sum_direct += (lit.l_direct - base.l_direct) * light_weight;
+                light_rays += lit.rays - base.rays;
             }
-            sum_l += gathered;
-            sum_direct += branch.l_direct - base.l_direct;
-            rays += branch.rays - base.rays;
+            if j < paths as u32 {
+                let mut branch = base;
+                if self.scatter(v, &mut branch, 0, &mut s) {
+                    self.trace(&mut branch, 1, &mut s);
+                }
+                let gathered = branch.l - base.l;
+                match j {
+                    0 => {
+                        first_path = gathered;
+                        st.guides = branch.guides;
+                        st.guides_done = branch.guides_done;
+                        st.alpha = branch.alpha;
+                    }
+                    1 => st.path_difference = first_path - gathered,
+                    _ => {}
+                }
+                sum_l += gathered * path_weight;
+                sum_direct += (branch.l_direct - base.l_direct) * path_weight;
+                path_rays += branch.rays - base.rays;
+            }
         }
-        let inv = 1.0 / k as f32;
-        st.l = base.l + sum_l * inv;
-        st.l_direct = base.l_direct + sum_direct * inv;
+        st.l = base.l + sum_l;
+        st.l_direct = base.l_direct + sum_direct;
         st.shared_rays = base.rays;
-        st.rays = base.rays + rays;
+        st.light_rays = light_rays;
+        st.rays = base.rays + light_rays + path_rays;
     }
 
     /// Continues the path from the vertex `v` of bounce `depth`: samples the BSDF (and, for

@@ -2,17 +2,23 @@
 //! chosen per block of pixels from the render's first samples.
 //!
 //! A split path shares its camera ray and first hit's shading (cost `C_s`, variance `V_s`:
-//! what the pixel's footprint sees) and traces k branches of light sample, BSDF sample and
-//! rest of the path (cost `C_b` and variance `V_b` each). The sample then has variance
-//! `V_s + V_b / k` for cost `C_s + k C_b`, whose product is least at
-//! `k* = sqrt((V_b / V_s) (C_s / C_b))` (Rath et al. 2022, "EARS: Efficiency-Aware Russian
-//! Roulette and Splitting", eq. 7 with one splitting factor per image region).
+//! what the pixel's footprint sees) and traces `k_l` light samples (cost `C_l` and variance
+//! `V_l` each) and `k_p` continuations: BSDF sample and rest of the path (`C_p`, `V_p`). Given
+//! the vertex the two are independent, so the sample has variance
+//! `V_s + V_l / k_l + V_p / k_p` for cost `C_s + k_l C_l + k_p C_p`, whose product is least at
+//! `k_l = sqrt((V_l / C_l) (C / V))` and `k_p = sqrt((V_p / C_p) (C / V))` with C and V the
+//! totals (Rath et al. 2022, "EARS: Efficiency-Aware Russian Roulette and Splitting", eq. 7,
+//! one factor per image region and per kind of branch). Splitting both by one factor wastes
+//! light samples where the noise comes from the continuation (a sun's caustic from a gold
+//! ball on a floor: 1.4x the efficiency with one light sample and four continuations) and
+//! continuations where it comes from the light sample.
 //!
-//! The first [`PILOT_SPP`] samples of every pixel are split in two. Per pixel they give the
-//! variance of the samples, `Var(X) = V_s + V_b / 2`, and the spread between the two branches,
-//! `E[(b_1 - b_2)^2] / 2 = V_b`; per block of [`BLOCK`] x [`BLOCK`] pixels the relative
-//! variances (each pixel's over its mean^2 + 0.01, the benchmark's measure) are summed, and the
-//! rays traced before and after the split stand for the costs. Pixels above the 99th
+//! The first [`PILOT_SPP`] samples of every pixel take two of each. Per pixel they give the
+//! variance of the samples, `Var(X) = V_s + V_l / 2 + V_p / 2`, and the spreads between the
+//! two light samples and the two continuations, `E[(b_1 - b_2)^2] / 2 = V_l` and `V_p`; per
+//! block of [`BLOCK`] x [`BLOCK`] pixels the relative variances (each pixel's over its
+//! mean^2 + 0.01, the benchmark's measure) are summed, and the rays traced before the split,
+//! by the light samples and by the continuations stand for the costs. Pixels above the 99th
 //! percentile of the varying pixels' relative variance enter at it (`outlier_cap`): a rare
 //! bright path seen by a few pilot samples must not decide the plan for the whole image.
 //! Everything is a function of the samples, so the plan, and the image, are the same for
@@ -26,7 +32,7 @@
 use super::PathSample;
 use crate::render::Crop;
 
-/// Samples per pixel traced with two branches to measure the variances.
+/// Samples per pixel traced with two branches of each kind to measure the variances.
 pub const PILOT_SPP: u32 = 4;
 /// Renders with fewer samples per pixel than this do not split (too few to plan from).
 pub const MIN_SPP: u32 = 16;
@@ -37,43 +43,120 @@ pub const BLOCK: u32 = 8;
 /// The cost of a sample's set-up (camera ray generation, wavelengths, film, the first hit's
 /// shading) in rays.
 const SETUP_RAYS: f64 = 0.5;
+/// The least `sequence_gain` (one pilot's estimate is noisy; no estimate says a kind of branch
+/// is free of noise).
+const MIN_SEQUENCE_GAIN: f64 = 0.05;
 /// Pixels whose pilot variance is above this quantile of the varying pixels' enter the plan
 /// at it (`outlier_cap`).
 const OUTLIER_QUANTILE: f64 = 0.99;
 
-/// Splitting factors per block, from each block's `[V_s, V_b, C_s, C_b]` (summed over its
-/// pixels), that minimise the image's total variance times its total cost: setting the
-/// derivative of (sum V_s + V_b / k_b) (sum C_s + k_b C_b) by k_b to zero gives
-/// k_b = sqrt((V_b / C_b) (C / V)) with C and V the image's totals at that plan, a fixed point
-/// found by iterating from k = 1. (Each block's own optimum, sqrt((V_b / V_s) (C_s / C_b)),
-/// splits a block whose variance is small next to the image's as much as one that holds most
-/// of it: with a thousand small lights seen directly, the floor's blocks split 2-4 times for
-/// noise that was not the image's.)
-pub fn optimal_splits(blocks: &[[f64; 4]]) -> Vec<u8> {
-    let mut k = vec![1f64; blocks.len()];
+/// How a camera path branches at its first vertex: light samples and continuations there,
+/// each kind averaged (`PathTracer::radiance_split`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Branches {
+    pub lights: u8,
+    pub paths: u8,
+    /// The branches take independent scrambles (`Sampler::independent_branch`): the pilot's,
+    /// whose spreads estimate the variance of one branch.
+    pub independent: bool,
+}
+
+impl Branches {
+    /// Plain path tracing.
+    pub const ONE: Branches = Branches::new(1, 1);
+
+    pub const fn new(lights: u8, paths: u8) -> Branches {
+        Branches {
+            lights,
+            paths,
+            independent: false,
+        }
+    }
+
+    pub fn split(self) -> bool {
+        self.lights > 1 || self.paths > 1
+    }
+}
+
+/// One block's sums over its pixels: the variance before the split, of a light sample and of a
+/// continuation, and their costs.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BlockVariance {
+    pub shared: f64,
+    pub light: f64,
+    pub path: f64,
+    pub shared_cost: f64,
+    pub light_cost: f64,
+    pub path_cost: f64,
+}
+
+/// Branches per block, from each block's variances and costs, that minimise the image's total
+/// variance times its total cost: setting the derivatives of
+/// (sum V_s + V_l / k_l + V_p / k_p) (sum C_s + k_l C_l + k_p C_p) by k_l and k_p to zero gives
+/// k = sqrt((V / C)_kind (C / V)) with C and V the image's totals at that plan, a fixed point
+/// found by iterating from 1. (Each block's own optimum, sqrt((V_p / V_s) (C_s / C_p)), splits a
+/// block whose variance is small next to the image's as much as one that holds most of it:
+/// with a thousand small lights seen directly, the floor's blocks split 2-4 times for noise
+/// that was not the image's.)
+pub fn optimal_splits(blocks: &[BlockVariance]) -> Vec<Branches> {
+    let mut k = vec![(1f64, 1f64); blocks.len()];
+    // The variance before the split is at least a small share of the whole (the estimate is a
+    // difference of noisy sums).
+    let floor = 0.02
+        * blocks
+            .iter()
+            .map(|b| b.shared + (b.light + b.path) / 2.0)
+            .sum::<f64>();
+    let factor = |v: f64, c: f64, scale: f64| {
+        if v > 0.0 && c > 0.0 {
+            ((v / c) * scale).sqrt().clamp(1.0, MAX_SPLITS as f64)
+        } else {
+            1.0
+        }
+    };
     for _ in 0..32 {
         let (mut v, mut c) = (0.0, 0.0);
-        for (b, &kb) in blocks.iter().zip(&k) {
-            v += b[0] + b[1] / kb;
-            c += b[2] + kb * b[3];
+        for (b, &(kl, kp)) in blocks.iter().zip(&k) {
+            v += b.shared + b.light / kl + b.path / kp;
+            c += b.shared_cost + kl * b.light_cost + kp * b.path_cost;
         }
-        // The variance before the split is at least a small share of the whole (the
-        // estimate is a difference of two noisy sums).
-        v = v.max(0.02 * blocks.iter().map(|b| b[0] + b[1] / 2.0).sum::<f64>());
+        let v = v.max(floor);
         if !(v > 0.0 && c > 0.0) {
             break;
         }
         for (b, kb) in blocks.iter().zip(k.iter_mut()) {
-            *kb = if b[1] > 0.0 && b[3] > 0.0 {
-                ((b[1] / b[3]) * (c / v))
-                    .sqrt()
-                    .clamp(1.0, MAX_SPLITS as f64)
-            } else {
-                1.0
-            };
+            *kb = (
+                factor(b.light, b.light_cost, c / v),
+                factor(b.path, b.path_cost, c / v),
+            );
         }
     }
-    k.iter().map(|&kb| kb.round() as u8).collect()
+    k.iter()
+        .map(|&(kl, kp)| Branches::new(kl.round() as u8, kp.round() as u8))
+        .collect()
+}
+
+/// How much less a kind of branch's error is at `spp` samples than independent samples' would
+/// be (variance over variance). The samples are an Owen-scrambled net, whose variance for an
+/// integrand with discontinuities falls as N^-3/2 rather than N^-1 (Owen 1997, "Scrambled net
+/// variance for integrals of smooth functions"; a light sample's shadow edges), and for the
+/// high-dimensional rest of a path hardly faster than N^-1. Each pilot sample's two branches
+/// take independent scrambles of one sequence (`Sampler::independent_branch`), so over the
+/// pilot's n samples the difference of the two branches' means has the sequence's variance at
+/// n, `sum_seq` = sum (sum d)^2 / n^2, where independent samples would give `sum_mc` =
+/// sum sum d^2 / n^2. Their ratio g(n) is extrapolated as a power law, g(N) = g(n)^(ln N / ln n):
+/// the light samples of the scenes measured gain 0.43-0.65 at n = 4 (N^-3/2 predicts 0.5), their
+/// continuations 0.8-0.96. Without it the plan took the light samples' variance at its
+/// independent value, two to ten times what 64 samples leave of it, and split too little
+/// (a gold ball's caustic on a floor under a sun: one light sample and four continuations
+/// were 1.27x as efficient as the plan).
+fn sequence_gain(sum_mc: f64, sum_seq: f64, spp: u32) -> f64 {
+    if !(sum_mc > 0.0 && sum_seq >= 0.0) {
+        return 1.0;
+    }
+    let at_pilot = (sum_seq / sum_mc).clamp(MIN_SEQUENCE_GAIN, 1.0);
+    let exponent = (spp.max(PILOT_SPP) as f64).ln() / (PILOT_SPP as f64).ln();
+    at_pilot.powf(exponent).max(MIN_SEQUENCE_GAIN)
 }
 
 /// The largest relative variance a pixel's pilot samples enter the plan with: the
@@ -100,17 +183,22 @@ pub struct SplitStats {
     split_samples: u16,
     sum: f32,
     sum_sq: f32,
-    /// Sum of (first branch - second branch)^2 over the samples that split.
-    sum_diff_sq: f32,
-    /// Rays before the split (all of an unsplit sample's) and after it.
+    /// Sums of (first - second)^2 over the samples that split: of their light samples and of
+    /// their continuations.
+    light_diff_sq: f32,
+    path_diff_sq: f32,
+    light_diff_sum: f32,
+    path_diff_sum: f32,
+    /// Rays before the split (all of an unsplit sample's), of the light samples and of the
+    /// continuations.
     shared_rays: u32,
-    branch_rays: u32,
+    light_rays: u32,
+    path_rays: u32,
 }
 
 impl SplitStats {
-    /// Adds a pilot sample whose film luminance is `y`; `difference` gives the luminance of
-    /// the branches' difference (computed only for samples that split).
-    pub fn add(&mut self, sample: &PathSample, y: f32, difference: impl FnOnce() -> f32) {
+    /// Adds a pilot sample whose film luminance is `y`.
+    pub fn add(&mut self, sample: &PathSample, y: f32) {
         if !y.is_finite() || self.n == u16::MAX {
             return;
         }
@@ -118,14 +206,18 @@ impl SplitStats {
         self.sum += y;
         self.sum_sq += y * y;
         if sample.split {
-            let d = difference();
-            if d.is_finite() {
-                self.sum_diff_sq += d * d;
+            let [dl, dp] = sample.branch_differences;
+            if dl.is_finite() && dp.is_finite() {
+                self.light_diff_sq += dl * dl;
+                self.path_diff_sq += dp * dp;
+                self.light_diff_sum += dl;
+                self.path_diff_sum += dp;
             }
             self.shared_rays = self.shared_rays.saturating_add(sample.shared_rays);
-            self.branch_rays = self
-                .branch_rays
-                .saturating_add(sample.rays - sample.shared_rays);
+            self.light_rays = self.light_rays.saturating_add(sample.light_rays);
+            self.path_rays = self
+                .path_rays
+                .saturating_add(sample.rays - sample.shared_rays - sample.light_rays);
             self.split_samples += 1;
         } else {
             self.shared_rays = self.shared_rays.saturating_add(sample.rays);
@@ -136,6 +228,7 @@ impl SplitStats {
 /// The render's splitting plan.
 #[derive(Clone, Copy, Debug)]
 pub struct SplitPlanner {
+    spp: u32,
     enabled: bool,
     forced: Option<u32>,
     window: Crop,
@@ -147,6 +240,7 @@ impl SplitPlanner {
     pub fn new(spp: u32, window: Crop, splits: Option<u32>) -> Self {
         let forced = splits.map(|k| k.clamp(1, MAX_SPLITS));
         SplitPlanner {
+            spp,
             enabled: spp >= MIN_SPP || forced.is_some(),
             forced,
             window,
@@ -154,11 +248,14 @@ impl SplitPlanner {
     }
 
     /// Branches of the pilot samples.
-    pub fn pilot_splits(&self) -> u8 {
+    pub fn pilot_splits(&self) -> Branches {
         match (self.enabled, self.forced) {
-            (false, _) => 1,
-            (true, Some(k)) => k as u8,
-            (true, None) => 2,
+            (false, _) => Branches::ONE,
+            (true, Some(k)) => Branches::new(k as u8, k as u8),
+            (true, None) => Branches {
+                independent: true,
+                ..Branches::new(2, 2)
+            },
         }
     }
 
@@ -173,8 +270,8 @@ impl SplitPlanner {
 
     /// Sets every pixel's branches from the pilot's statistics (`stats`, `splits`: the
     /// window's pixels in rows), and the cost of its samples relative to unsplit ones
-    /// (C_s + k C_b) / (C_s + C_b) (`costs`, for adaptive sampling's passes).
-    pub fn plan(&self, stats: &[SplitStats], splits: &mut [u8], costs: &mut [f32]) {
+    /// (C_s + k_l C_l + k_p C_p) / (C_s + C_l + C_p) (`costs`, for adaptive sampling's passes).
+    pub fn plan(&self, stats: &[SplitStats], splits: &mut [Branches], costs: &mut [f32]) {
         if self.pilot_end() == 0 {
             return;
         }
@@ -185,7 +282,7 @@ impl SplitPlanner {
         let (bx0, by0) = (x0 / block, y0 / block);
         let bw = (x0 + w).div_ceil(block) - bx0;
         let bh = (y0 + h).div_ceil(block) - by0;
-        let mut sums = vec![[0f64; 5]; bw * bh];
+        let mut blocks = vec![BlockVariance::default(); bw * bh];
         let mut means = vec![[0f64; 2]; bw * bh];
         for y in 0..h {
             for x in 0..w {
@@ -197,7 +294,8 @@ impl SplitPlanner {
                 }
             }
         }
-        // Each pixel's relative variance of its samples and of a branch, over its block's mean.
+        // Each pixel's relative variance of its samples, of a light sample and of a
+        // continuation, over its block's mean.
         let mut pixels = Vec::with_capacity(w * h);
         for y in 0..h {
             for x in 0..w {
@@ -217,46 +315,76 @@ impl SplitPlanner {
                 // scene split its floor for 0.61x the efficiency (1.0 with the block's mean).
                 let m = means[b][0] / means[b][1];
                 let norm = 1.0 / (m * m + 1e-2);
-                let v_b = if s.split_samples > 0 {
-                    s.sum_diff_sq as f64 / (2.0 * s.split_samples as f64)
-                } else {
-                    0.0
+                // A branch's variance, over all of the pixel's samples (those that did not
+                // split have none after their first vertex).
+                let branch_variance = |diff_sq: f32| {
+                    if s.split_samples > 0 {
+                        diff_sq as f64 / (2.0 * n)
+                    } else {
+                        0.0
+                    }
                 };
-                pixels.push((b, var * norm, v_b * norm * (s.split_samples as f64 / n), s));
+                pixels.push((
+                    b,
+                    var * norm,
+                    branch_variance(s.light_diff_sq) * norm,
+                    branch_variance(s.path_diff_sq) * norm,
+                    norm,
+                    s,
+                ));
             }
         }
         let cap = outlier_cap(pixels.iter().map(|p| p.1));
-        for &(b, var, v_b, s) in &pixels {
+        // Sums over the image of each kind's squared differences' mean (Monte Carlo) and of
+        // the square of their mean (the pilot's own sequence), for `sequence_gain`.
+        let mut gain_sums = [[0f64; 2]; 2];
+        for &(b, var, v_l, v_p, norm, s) in &pixels {
             let n = s.n as f64;
             let keep = if var > cap { cap / var } else { 1.0 };
-            sums[b][0] += var * keep;
-            sums[b][1] += v_b * keep;
-            sums[b][2] += s.shared_rays as f64 / n;
-            sums[b][3] += s.branch_rays as f64 / (2.0 * n);
-            sums[b][4] += 1.0;
+            if s.split_samples > 0 {
+                let m2 = (s.split_samples as f64).powi(2);
+                let w = norm * keep / m2;
+                for (sums, (sq, sum)) in gain_sums.iter_mut().zip([
+                    (s.light_diff_sq, s.light_diff_sum),
+                    (s.path_diff_sq, s.path_diff_sum),
+                ]) {
+                    sums[0] += w * sq as f64;
+                    sums[1] += w * (sum as f64).powi(2);
+                }
+            }
+            let sum = &mut blocks[b];
+            // Var(X) = V_s + V_l / 2 + V_p / 2 for the pilot's two branches of each kind.
+            // Not clamped at 0: only the image's total of V_s enters the plan, and the blocks'
+            // estimates from four samples scatter around their means (clamping them made the
+            // SSS box's V_s 12% of its variance, where splitting shows it is about 0).
+            sum.shared += (var - 0.5 * (v_l + v_p)) * keep;
+            sum.light += v_l * keep;
+            sum.path += v_p * keep;
+            sum.shared_cost += s.shared_rays as f64 / n + SETUP_RAYS;
+            sum.light_cost += s.light_rays as f64 / (2.0 * n);
+            sum.path_cost += s.path_rays as f64 / (2.0 * n);
         }
-        // Per block: the variance before the split and a branch's, and their costs.
-        let blocks: Vec<[f64; 4]> = sums
-            .iter()
-            .map(|&[var, v_b, shared, branch, pixels]| {
-                // Var(X) = V_s + V_b / 2 for the pilot's two branches.
-                // Not clamped at 0: only the image's total of V_s enters the plan, and the
-                // blocks' estimates from four samples scatter around their means (clamping
-                // them made the SSS box's V_s 12% of its variance, where splitting shows it
-                // is about 0).
-                let v_s = var - 0.5 * v_b;
-                [v_s, v_b.max(0.0), shared + SETUP_RAYS * pixels, branch]
-            })
-            .collect();
+        let [light_gain, path_gain] = gain_sums.map(|[mc, seq]| sequence_gain(mc, seq, self.spp));
+        for b in &mut blocks {
+            // The camera's share gains at least what the continuation does (its dimensions
+            // are fewer); taking the continuation's gain for it errs towards splitting less.
+            b.shared *= path_gain;
+            b.light *= light_gain;
+            b.path *= path_gain;
+        }
         let factors = optimal_splits(&blocks);
         for y in 0..h {
             for x in 0..w {
                 let b = ((y + y0) / block - by0) * bw + (x + x0) / block - bx0;
-                splits[y * w + x] = factors[b];
-                let [_, _, c_s, c_b] = blocks[b];
-                let k = factors[b] as f64;
-                costs[y * w + x] = if c_s + c_b > 0.0 {
-                    ((c_s + k * c_b) / (c_s + c_b)) as f32
+                let k = factors[b];
+                splits[y * w + x] = k;
+                let v = &blocks[b];
+                let unsplit = v.shared_cost + v.light_cost + v.path_cost;
+                costs[y * w + x] = if unsplit > 0.0 {
+                    ((v.shared_cost
+                        + k.lights as f64 * v.light_cost
+                        + k.paths as f64 * v.path_cost)
+                        / unsplit) as f32
                 } else {
                     1.0
                 };
@@ -270,9 +398,10 @@ mod tests {
     use super::*;
 
     /// A pixel's pilot of four split samples `1 + 0.5 s` (s = +1, -1, +1, -1) whose two
-    /// branches differ by 1 (most of the variance after the split: V_s = 1/12, V_b = 1/2), each
-    /// with 2 rays before the split and 4 per branch; `outlier` adds `y` to the first sample,
-    /// in both branches (variance before the split).
+    /// continuations differ by 1 and whose light samples agree (the variance is the
+    /// continuations': V_s = 1/12, V_l = 0, V_p = 1/2), each with 2 rays before the split, 1 per
+    /// light sample and 4 per continuation; `outlier` adds `y` to the first sample, in all its
+    /// branches (variance before the split).
     fn pilot(outlier: f32) -> SplitStats {
         let mut s = SplitStats::default();
         for j in 0..4 {
@@ -281,14 +410,15 @@ mod tests {
             s.split_samples += 1;
             s.sum += y;
             s.sum_sq += y * y;
-            s.sum_diff_sq += 1.0;
+            s.path_diff_sq += 1.0;
             s.shared_rays += 2;
-            s.branch_rays += 8;
+            s.light_rays += 2;
+            s.path_rays += 8;
         }
         s
     }
 
-    fn plan(stats: &[SplitStats], size: u32) -> Vec<u8> {
+    fn plan(stats: &[SplitStats], size: u32) -> Vec<Branches> {
         let window = Crop {
             x: 0,
             y: 0,
@@ -296,7 +426,7 @@ mod tests {
             height: size,
         };
         let n = (size * size) as usize;
-        let (mut splits, mut costs) = (vec![0u8; n], vec![0f32; n]);
+        let (mut splits, mut costs) = (vec![Branches::ONE; n], vec![0f32; n]);
         SplitPlanner::new(64, window, None).plan(stats, &mut splits, &mut costs);
         splits
     }
@@ -311,8 +441,9 @@ mod tests {
         let mut stats = vec![pilot(0.0); (size * size) as usize];
         let clean = plan(&stats, size);
         assert!(
-            clean.iter().all(|&k| k == 2),
-            "the clean image splits in two"
+            clean.iter().all(|&k| k == Branches::new(1, 2)),
+            "the clean image takes two continuations and one light sample: {:?}",
+            clean[0]
         );
         stats[5 * size as usize + 5] = pilot(1e4);
         let with_outlier = plan(&stats, size);
@@ -325,5 +456,18 @@ mod tests {
             changed.iter().all(|&b| b == (0, 0)),
             "blocks planned differently: {changed:?}"
         );
+    }
+
+    /// The sequence's gain at the pilot is carried to the render's samples as a power law
+    /// (a light sample at 0.5 with 4 samples, N^-3/2, is at 1/8 with 64), never above 1 (a
+    /// pilot whose branches happened to differ more than independent ones would) and never
+    /// below `MIN_SEQUENCE_GAIN`.
+    #[test]
+    fn the_sequence_gain_follows_a_power_law_from_the_pilot() {
+        assert!((sequence_gain(2.0, 1.0, 64) - 0.125).abs() < 1e-9);
+        assert!((sequence_gain(2.0, 1.0, PILOT_SPP) - 0.5).abs() < 1e-9);
+        assert_eq!(sequence_gain(1.0, 3.0, 64), 1.0);
+        assert_eq!(sequence_gain(1.0, 0.0, 64), MIN_SEQUENCE_GAIN);
+        assert_eq!(sequence_gain(0.0, 0.0, 64), 1.0);
     }
 }

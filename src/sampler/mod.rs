@@ -333,15 +333,32 @@ impl Sampler {
         let index = self
             .split_index
             .wrapping_add(j.checked_shl(self.block_bits).unwrap_or(0));
-        let (pixel, sample, seed) = self.stream;
+        self.branch_at(j, index, self.seed ^ SPLIT_SCRAMBLE)
+    }
+
+    /// Branch `j` as [`Sampler::branch`], but independent of the sample's other branches: its
+    /// own scramble of the sample's index, so that branch j of a pixel's samples is one
+    /// randomisation of the sequence and branch j' another (the splitting pilot's: the spread
+    /// between the two branches' means over the pilot measures the sequence's own variance,
+    /// `integrator::splitting::sequence_gain`).
+    pub fn independent_branch(&self, j: u32) -> Sampler {
+        self.branch_at(
+            j,
+            self.split_index,
+            self.seed ^ SPLIT_SCRAMBLE ^ hash::hash32(j.wrapping_add(0x9e37_79b9)),
+        )
+    }
+
+    fn branch_at(&self, j: u32, index: u32, seed: u32) -> Sampler {
+        let (pixel, sample, stream_seed) = self.stream;
         Sampler {
             rev_index: index.reverse_bits(),
-            seed: self.seed ^ SPLIT_SCRAMBLE,
+            seed,
             group_base: self.group_base,
             shuffled: (NO_GROUP, 0),
             independent: self.independent,
             rng: None,
-            stream: (pixel, sample | ((j as u64 + 1) << 40), seed),
+            stream: (pixel, sample | ((j as u64 + 1) << 40), stream_seed),
             split_index: self.split_index,
             block_bits: self.block_bits,
         }
