@@ -120,7 +120,7 @@ fn light_samples_and_continuations_split_by_their_own_variance() {
     // A block whose noise is its light samples' takes more of them and one continuation, one
     // whose noise is its continuations' the opposite (splitting both alike, as `--splits k`
     // does, pays for branches that remove no noise: on a floor lit by a gold ball's caustic,
-    // one light sample and four continuations were 1.4x as efficient as four of each).
+    // one light sample and four continuations were 1.1-1.3x as efficient as four of each).
     let lit = |light, path| BlockVariance {
         shared: 0.05,
         light,

@@ -1371,7 +1371,7 @@ impl<'a> PathTracer<'a> {
                 ctx,
             };
             // A camera path splits at its first vertex that scatters diffusely or glossily
-            // (`radiance_split`): each branch gets its own light sample and continuation.
+            // (`radiance_split`): into its light samples and continuations there.
             let split = depth == 0
                 && st.splits.split()
                 && (subsurface.is_some() || !bsdf.is_specular())
@@ -1484,13 +1484,13 @@ impl<'a> PathTracer<'a> {
 
     /// Continues the path `st` from its first vertex `v` in the branches of `st.splits`:
     /// `lights` light samples and `paths` continuations (BSDF sample and rest of the path),
-    /// branch j taking its values from `Sampler::branch(j)`, and keeps the mean of each: the
-    /// camera ray and the vertex's set-up are shared. Given the vertex the two are independent,
+    /// branch j taking its values from `Sampler::branch(j)` (the pilot's from
+    /// `Sampler::independent_branch(j)`), and keeps the mean of each: the camera ray and the
+    /// vertex's set-up are shared. Given the vertex the two are independent,
     /// so the sample's variance is V_s + V_l / lights + V_p / paths (`splitting`). MIS between
     /// the light samples and the continuations' hits of lights keeps its weights, which still
     /// sum to one for every path (Veach 1997, section 9.2.2: unbiased for any sample counts).
-    /// Records the differences between the first two of each (`PathSample::light_difference`,
-    /// `path_difference`).
+    /// Records the differences between the first two of each (`PathSample::branch_differences`).
     #[inline(never)]
     fn split_continuations(&self, v: &Vertex<'a>, st: &mut PathState<'a>, sampler: &mut Sampler) {
         let base = *st;

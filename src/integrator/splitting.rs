@@ -10,7 +10,7 @@
 //! totals (Rath et al. 2022, "EARS: Efficiency-Aware Russian Roulette and Splitting", eq. 7,
 //! one factor per image region and per kind of branch). Splitting both by one factor wastes
 //! light samples where the noise comes from the continuation (a sun's caustic from a gold
-//! ball on a floor: 1.4x the efficiency with one light sample and four continuations) and
+//! ball on a floor: 1.1-1.3x the efficiency with one light sample and four continuations) and
 //! continuations where it comes from the light sample.
 //!
 //! The first [`PILOT_SPP`] samples of every pixel take two of each. Per pixel they give the
@@ -137,10 +137,12 @@ pub fn optimal_splits(blocks: &[BlockVariance]) -> Vec<Branches> {
 }
 
 /// How much less a kind of branch's error is at `spp` samples than independent samples' would
-/// be (variance over variance). The samples are an Owen-scrambled net, whose variance for an
-/// integrand with discontinuities falls as N^-3/2 rather than N^-1 (Owen 1997, "Scrambled net
-/// variance for integrals of smooth functions"; a light sample's shadow edges), and for the
-/// high-dimensional rest of a path hardly faster than N^-1. Each pilot sample's two branches
+/// be (variance over variance). The samples are an Owen-scrambled net, whose variance falls
+/// faster than N^-1 (Owen 1997, "Monte Carlo variance of scrambled net quadrature": o(1/N)
+/// for any square-integrable integrand); for a two-dimensional one with edges, as a light
+/// sample's shadows, as about N^-3/2 (Christensen et al. 2018, "Progressive Multi-Jittered
+/// Sample Sequences", measured on discontinuous test functions), and for the high-dimensional
+/// rest of a path hardly faster than N^-1. Each pilot sample's two branches
 /// take independent scrambles of one sequence (`Sampler::independent_branch`), so over the
 /// pilot's n samples the difference of the two branches' means has the sequence's variance at
 /// n, `sum_seq` = sum (sum d)^2 / n^2, where independent samples would give `sum_mc` =
