@@ -136,10 +136,10 @@ class PrismRenderSettings(bpy.types.PropertyGroup):
     )
     path_splits: IntProperty(
         name="Path Splitting",
-        description="Branches a camera path takes at its first diffuse, glossy or subsurface hit, each with its "
-        "own light sample and bounce (Cycles' former branched path tracing): 0 = planned per 8 x 8 pixels from "
-        "the first samples, where it pays (default; not below 16 samples), 1 = no splitting, 2-4 = that many "
-        "everywhere",
+        description="Branches a camera path takes at its first diffuse, glossy or subsurface hit (Cycles' former "
+        "branched path tracing): 0 = light samples and bounces planned apart per 8 x 8 pixels from the first "
+        "samples, 1-4 of each where it pays (default; not below 16 samples), 1 = no splitting, 2-4 = that many "
+        "branches everywhere, each with its own light sample and bounce",
         default=0,
         min=0,
         max=4,

@@ -460,6 +460,40 @@ mod tests {
         );
     }
 
+    /// Light samples and continuations that vary alike and cost alike are planned by how the
+    /// sequence converges for each: light samples whose two branches' means agree over the
+    /// pilot (differences 0.3 x (+1, -1, +1, -1): the sequence stratifies them) take fewer
+    /// branches than continuations whose means differ as independent samples' would
+    /// (0.3 x (+1, +1, -1, +1)).
+    /// Without `sequence_gain` both would take the same number.
+    #[test]
+    fn the_plan_weighs_each_kind_by_the_sequences_gain() {
+        let mut s = SplitStats::default();
+        for (j, sign) in [1.0f32, 1.0, -1.0, 1.0].into_iter().enumerate() {
+            let alternate = if j % 2 == 0 { 1.0 } else { -1.0 };
+            let (dl, dp) = (0.3 * alternate, 0.3 * sign);
+            let y = 1.0 + 0.2 * alternate;
+            s.n += 1;
+            s.split_samples += 1;
+            s.sum += y;
+            s.sum_sq += y * y;
+            s.light_diff_sq += dl * dl;
+            s.light_diff_sum += dl;
+            s.path_diff_sq += dp * dp;
+            s.path_diff_sum += dp;
+            s.shared_rays += 2;
+            s.light_rays += 2;
+            s.path_rays += 2;
+        }
+        let k = plan(&vec![s; 64 * 64], 64);
+        assert!(
+            k.iter().all(|b| b.paths > b.lights),
+            "continuations {} light samples {}",
+            k[0].paths,
+            k[0].lights
+        );
+    }
+
     /// The sequence's gain at the pilot is carried to the render's samples as a power law
     /// (a light sample at 0.5 with 4 samples, N^-3/2, is at 1/8 with 64), never above 1 (a
     /// pilot whose branches happened to differ more than independent ones would) and never
