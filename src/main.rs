@@ -109,6 +109,11 @@ struct SceneArgs {
     /// branches, each with its own light sample and continuation (1 = plain path tracing)
     #[arg(long, value_name = "auto|1-4", value_parser = parse_splits)]
     splits: Option<Splits>,
+    /// Caustic guiding: photons traced from the lights through sharp metals and glass show
+    /// diffuse and rough surfaces where their caustics come from, and half of the bounces
+    /// there are sampled towards them (default: the JSON's render.caustic_guiding, else on)
+    #[arg(long, value_name = "on|off", value_parser = parse_on_off)]
+    caustic_guiding: Option<bool>,
     /// Adaptive sampling: pixels whose estimated error (Cycles' definition) is below this stop
     /// early; --spp becomes the maximum. 0 = off (default: the JSON's render.noise_threshold,
     /// else 0)
@@ -139,6 +144,14 @@ struct SceneArgs {
     /// render (default: the JSON's render.crop, else the whole image)
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_crop)]
     crop: Option<[u32; 4]>,
+}
+
+fn parse_on_off(s: &str) -> std::result::Result<bool, String> {
+    match s {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        _ => Err(format!("'{s}' is not on or off")),
+    }
 }
 
 /// `--splits`: None = auto.
@@ -535,6 +548,10 @@ fn load(args: &SceneArgs) -> Result<Loaded> {
             Some(s) => s.0,
             None => defaults.splits.filter(|&k| k > 0),
         },
+        caustic_guiding: args
+            .caustic_guiding
+            .or(defaults.caustic_guiding)
+            .unwrap_or(true),
     };
     let threshold = args
         .noise_threshold
@@ -891,12 +908,13 @@ fn report_done(
 ) {
     match mode {
         ProgressMode::Json => eprintln!(
-            "{{\"event\":\"done\",\"seconds\":{:.4},\"rays\":{},\"samples\":{},\"discarded\":{},\"cancelled\":{},\"denoised\":{denoised}{},\"output\":{}}}",
+            "{{\"event\":\"done\",\"seconds\":{:.4},\"rays\":{},\"samples\":{},\"discarded\":{},\"cancelled\":{},\"caustic_photons\":{},\"denoised\":{denoised}{},\"output\":{}}}",
             stats.seconds,
             stats.rays,
             stats.samples,
             stats.discarded,
             stats.cancelled,
+            stats.caustic_photons,
             denoise_seconds
                 .map(|s| format!(",\"denoise_s\":{s:.4}"))
                 .unwrap_or_default(),
@@ -945,6 +963,7 @@ fn run_bench(bench: &BenchArgs) -> Result<()> {
         light_sampler: None,
         full_indirect_subsurface: false,
         splits: None,
+        caustic_guiding: None,
         noise_threshold: None,
         min_samples: None,
         time_limit: None,

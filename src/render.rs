@@ -5,6 +5,7 @@
 
 use crate::film::{self, Film, PixelFilter, SampleClamp};
 use crate::geometry::Ray;
+use crate::integrator::caustics::CausticPhotons;
 use crate::integrator::splitting::{Branches, SplitPlanner, SplitStats};
 use crate::integrator::{
     CameraRay, PathSample, PathTracer, WavelengthSampling, WavelengthStrategy,
@@ -61,6 +62,9 @@ pub struct RenderSettings {
     /// per block of pixels from the first samples, Some(k) takes k everywhere (1: plain path
     /// tracing).
     pub splits: Option<u32>,
+    /// Guide continuations at diffuse and rough surfaces towards the caustics that photons
+    /// traced from the lights through sharp metals and glass find (`integrator::caustics`).
+    pub caustic_guiding: bool,
 }
 
 /// A window of the image: top-left pixel and size.
@@ -132,6 +136,7 @@ impl Default for RenderSettings {
             max_pass_samples: 64,
             full_indirect_subsurface: false,
             splits: None,
+            caustic_guiding: true,
         }
     }
 }
@@ -157,6 +162,8 @@ pub struct RenderStats {
     /// Samples whose estimate was NaN/Inf and was discarded by the film.
     pub discarded: u64,
     pub cancelled: bool,
+    /// Photons that guide bounces towards caustics (`integrator::caustics`; 0: none).
+    pub caustic_photons: u64,
 }
 
 /// Rows per parallel work item: small enough to balance load over 2-64 threads, large enough
@@ -212,7 +219,14 @@ pub fn render(
     let camera = scene.camera_for(settings.width, settings.height);
     let has_motion = scene.has_motion();
     let has_lens = camera.has_lens();
+    // Photons for caustic guiding, traced once before the first pass.
+    let photons_started = Instant::now();
+    let photons = settings
+        .caustic_guiding
+        .then(|| CausticPhotons::trace(scene, settings.seed))
+        .flatten();
     let tracer = PathTracer::new(scene, settings.max_depth, settings.light_selection)
+        .with_caustic_photons(photons.as_ref())
         .with_transparent_background(settings.film_transparent)
         .with_pixel_footprint(camera.pixel_footprint())
         .with_full_indirect_subsurface(settings.full_indirect_subsurface);
@@ -620,11 +634,13 @@ pub fn render(
     });
 
     let stats = RenderStats {
-        seconds: start.elapsed().as_secs_f64(),
+        // With the photons traced before the first pass.
+        seconds: photons_started.elapsed().as_secs_f64(),
         rays: rays.load(Ordering::Relaxed),
         samples: samples_done.load(Ordering::Relaxed),
         discarded: discarded.load(Ordering::Relaxed),
         cancelled: cancel.load(Ordering::Relaxed),
+        caustic_photons: photons.as_ref().map_or(0, |p| p.len() as u64),
     };
     (film, stats)
 }

@@ -532,6 +532,7 @@ pub fn session_settings(
         max_pass_samples: SESSION_PASS_SAMPLES,
         // render.splits: 0 is "auto".
         splits: d.splits.filter(|&k| k > 0),
+        caustic_guiding: d.caustic_guiding.unwrap_or(true),
         ..RenderSettings::default()
     }
 }

@@ -2580,6 +2580,8 @@ def render_settings(scene):
             out["time_limit"] = float(p.time_limit)
         if hasattr(p, "path_splits"):
             out["splits"] = int(p.path_splits) if p.path_splits > 0 else "auto"
+        if hasattr(p, "use_caustic_guiding"):
+            out["caustic_guiding"] = bool(p.use_caustic_guiding)
         for key in ("clamp_direct", "clamp_indirect"):
             if getattr(p, key, 0.0) > 0.0:
                 out[key] = float(getattr(p, key))

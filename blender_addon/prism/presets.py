@@ -20,6 +20,7 @@ SAMPLING_VALUES = [
     "prism.adaptive_min_samples",
     "prism.time_limit",
     "prism.path_splits",
+    "prism.use_caustic_guiding",
     "prism.use_denoising",
 ]
 LIGHT_PATHS_VALUES = ["prism.max_depth", "prism.clamp_direct", "prism.clamp_indirect"]

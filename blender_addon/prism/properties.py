@@ -144,6 +144,13 @@ class PrismRenderSettings(bpy.types.PropertyGroup):
         min=0,
         max=4,
     )
+    use_caustic_guiding: BoolProperty(
+        name="Caustic Guiding",
+        description="Trace photons from the lights through sharp metals and glass (roughness up to about 0.3) "
+        "before rendering, and send part of the bounces at diffuse and rough surfaces where their caustics come "
+        "from: the sun's glint of a metal ball on the floor is found on purpose instead of by chance (unbiased)",
+        default=True,
+    )
     threads: IntProperty(name="Threads", description="Worker threads (0 = all cores)", default=0, min=0, max=1024)
     use_denoising: BoolProperty(
         name="Denoise",

@@ -47,6 +47,7 @@ class RENDER_PT_prism_sampling(PrismPanel, bpy.types.Panel):
         col.prop(p, "wavelengths")
         col.prop(p, "wavelength_pdf", text="Density")
         layout.prop(p, "path_splits")
+        layout.prop(p, "use_caustic_guiding")
         col = layout.column()
         col.prop(p, "threads")
         col.prop(p, "seed")

@@ -118,6 +118,9 @@ impl Default for RayVisibility {
     }
 }
 
+/// The sharpest GGX alpha that still counts as focusing light (`Bsdf::focuses_light`).
+pub const FOCUSING_ALPHA: f32 = 0.1;
+
 /// Result of sampling a direction from a BSDF.
 #[derive(Clone, Copy, Debug)]
 pub struct BsdfSample {
@@ -398,6 +401,17 @@ impl Bsdf {
         f.contains(LobeFlags::SPECULAR)
             && !f.contains(LobeFlags::DIFFUSE)
             && !f.contains(LobeFlags::GLOSSY)
+    }
+
+    /// Concentrates the light it redirects into caustics: a metal or a glass interface whose
+    /// microfacets are sharp (GGX alpha at most `FOCUSING_ALPHA`, Principled roughness about
+    /// 0.32). Plastics are left out: their specular layer reflects a few percent.
+    pub fn focuses_light(&self) -> bool {
+        match self {
+            Bsdf::MetallicRoughness(b) => b.metallic >= 0.5 && b.alpha <= FOCUSING_ALPHA,
+            Bsdf::Dielectric(b) => b.alpha <= FOCUSING_ALPHA && !b.refraction_only,
+            Bsdf::Diffuse(_) | Bsdf::Translucent(_) => false,
+        }
     }
 
     /// Reflects through a Lambertian lobe (which normal-mapped surfaces shade differently).

@@ -1,5 +1,6 @@
 //! Light transport: the path tracer and wavelength sampling of camera paths.
 
+pub mod caustics;
 pub mod path;
 pub mod spectral_mis;
 pub mod splitting;

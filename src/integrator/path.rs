@@ -2,6 +2,7 @@
 //! (Veach 1997, ch. 9; power heuristic), Russian roulette, spectral throughout, with
 //! hero-wavelength MIS over the path's wavelengths (`spectral_mis`).
 
+use super::caustics::{CausticGuide, CausticPhotons};
 use super::spectral_mis::SpectralMis;
 use super::splitting::Branches;
 use crate::bsdf::{BsdfSample, LobeFlags};
@@ -58,6 +59,9 @@ pub struct PathTracer<'a> {
     /// Subsurface scattering keeps its full spatial spread after a diffuse bounce too
     /// (`with_full_indirect_subsurface`); by default it is collapsed to its entry point there.
     full_indirect_subsurface: bool,
+    /// Photons from the lights through surfaces that focus light, which guide continuations
+    /// towards caustics (`caustics`, `with_caustic_photons`).
+    caustics: Option<&'a CausticPhotons>,
 }
 
 /// Where a camera ray goes first (`PathTracer::camera_ray`).
@@ -247,6 +251,7 @@ impl<'a> PathTracer<'a> {
                 constant: 0.0,
             },
             full_indirect_subsurface: false,
+            caustics: None,
         }
     }
 
@@ -269,6 +274,13 @@ impl<'a> PathTracer<'a> {
 
     /// The camera's pixel footprint (`Camera::pixel_footprint`), which Bump nodes' filter
     /// widths are counted in.
+    /// Guides continuations at diffuse and rough surfaces towards the caustics `photons`
+    /// found (`caustics`); None: BSDF sampling alone.
+    pub fn with_caustic_photons(mut self, photons: Option<&'a CausticPhotons>) -> Self {
+        self.caustics = photons;
+        self
+    }
+
     pub fn with_pixel_footprint(mut self, footprint: PixelFootprint) -> Self {
         self.footprint = footprint;
         self
@@ -1372,17 +1384,32 @@ impl<'a> PathTracer<'a> {
             };
             // A camera path splits at its first vertex that scatters diffusely or glossily
             // (`radiance_split`): into its light samples and continuations there.
+            // Where photons found caustics, continuations are partly guided towards them.
+            let guide = match self.caustics {
+                Some(photons)
+                    if subsurface.is_none()
+                        && walk_exit.is_none()
+                        && !transmissive
+                        && !bsdf.is_specular()
+                        && !bsdf.is_dispersive()
+                        && !bsdf.focuses_light() =>
+                {
+                    photons.guide(sp.p, ng)
+                }
+                _ => None,
+            };
+            let guide = guide.as_ref();
             let split = depth == 0
                 && st.splits.split()
                 && (subsurface.is_some() || !bsdf.is_specular())
                 && walk_exit.is_none();
             if split {
-                self.split_continuations(&vertex, st, sampler);
+                self.split_continuations(&vertex, st, sampler, guide);
                 break;
             }
-            self.vertex_direct(&vertex, st, depth, sampler);
+            self.vertex_direct(&vertex, st, depth, sampler, guide);
 
-            if !self.scatter(&vertex, st, depth, sampler) {
+            if !self.scatter(&vertex, st, depth, sampler, guide) {
                 break;
             }
         }
@@ -1398,6 +1425,7 @@ impl<'a> PathTracer<'a> {
         st: &mut PathState<'a>,
         depth: u32,
         sampler: &mut Sampler,
+        guide: Option<&CausticGuide>,
     ) {
         let scene = self.scene;
         let geometry = &scene.geometry;
@@ -1465,6 +1493,11 @@ impl<'a> PathTracer<'a> {
                         let weight = if ls.delta {
                             1.0
                         } else {
+                            // Continuations sample the mixture of BSDF and guide.
+                            let bsdf_pdfs = match guide {
+                                Some(g) => bsdf_pdfs * (1.0 - g.share) + g.share * g.pdf(ls.wi),
+                                None => bsdf_pdfs,
+                            };
                             st.mis.light_weight(ls.pdf, bsdf_pdfs)
                         };
                         let contrib = st.beta
@@ -1492,7 +1525,13 @@ impl<'a> PathTracer<'a> {
     /// sum to one for every path (Veach 1997, section 9.2.2: unbiased for any sample counts).
     /// Records the differences between the first two of each (`PathSample::branch_differences`).
     #[inline(never)]
-    fn split_continuations(&self, v: &Vertex<'a>, st: &mut PathState<'a>, sampler: &mut Sampler) {
+    fn split_continuations(
+        &self,
+        v: &Vertex<'a>,
+        st: &mut PathState<'a>,
+        sampler: &mut Sampler,
+        guide: Option<&CausticGuide>,
+    ) {
         let base = *st;
         let Branches {
             lights,
@@ -1513,7 +1552,7 @@ impl<'a> PathTracer<'a> {
             };
             if j < lights as u32 {
                 let mut lit = base;
-                self.vertex_direct(v, &mut lit, 0, &mut s);
+                self.vertex_direct(v, &mut lit, 0, &mut s, guide);
                 let gathered = lit.l - base.l;
                 match j {
                     0 => first_light = gathered,
@@ -1526,7 +1565,7 @@ impl<'a> PathTracer<'a> {
             }
             if j < paths as u32 {
                 let mut branch = base;
-                if self.scatter(v, &mut branch, 0, &mut s) {
+                if self.scatter(v, &mut branch, 0, &mut s, guide) {
                     self.trace(&mut branch, 1, &mut s);
                 }
                 let gathered = branch.l - base.l;
@@ -1552,6 +1591,58 @@ impl<'a> PathTracer<'a> {
         st.rays = base.rays + light_rays + path_rays;
     }
 
+    /// A continuation's direction at `v` from the one-sample mixture of its BSDF (probability
+    /// `1 - GUIDE_SHARE`) and the caustic guide `g`, with the mixture's density (Veach 1997,
+    /// 9.2.4): `u_lobe` chooses between them and is reused within the choice. A Dirac lobe's
+    /// sample keeps its discrete probability, times the BSDF's share. Only for BSDFs that are
+    /// not dispersive (one density for every wavelength) and only reflect.
+    fn sample_guided(
+        &self,
+        v: &Vertex<'a>,
+        g: &CausticGuide,
+        u_lobe: f32,
+        u_dir: glam::Vec2,
+    ) -> Option<BsdfSample> {
+        if u_lobe < g.share {
+            let wi_world = g.sample(u_lobe / g.share, u_dir);
+            let wi = v.frame.to_local(wi_world);
+            let (f, bsdf_pdf) = v.bsdf.eval_pdf(v.wo, wi);
+            let pdf = (1.0 - g.share) * bsdf_pdf + g.share * g.pdf(wi_world);
+            if f.is_black() || !(pdf > 0.0) {
+                return None;
+            }
+            // The lobe it stands for (Blender's light ray visibility): diffuse where the
+            // BSDF has a diffuse part, else glossy.
+            let kind = if v.bsdf.has_diffuse_reflection() {
+                LobeFlags::DIFFUSE
+            } else {
+                LobeFlags::GLOSSY
+            };
+            let side = if wi.z * v.wo.z < 0.0 {
+                LobeFlags::TRANSMISSION
+            } else {
+                LobeFlags::REFLECTION
+            };
+            return Some(BsdfSample {
+                wi,
+                f,
+                pdf,
+                flags: side.with(kind),
+                eta: SampledSpectrum::ONE,
+                pdf_wavelengths: SampledSpectrum::splat(pdf),
+            });
+        }
+        let u = (u_lobe - g.share) / (1.0 - g.share);
+        let mut bs = v.bsdf.sample(v.wo, u.min(0.999_999_94), u_dir)?;
+        if bs.is_specular() {
+            bs.pdf *= 1.0 - g.share;
+        } else {
+            bs.pdf = (1.0 - g.share) * bs.pdf + g.share * g.pdf(v.frame.to_world(bs.wi));
+        }
+        bs.pdf_wavelengths = SampledSpectrum::splat(bs.pdf);
+        Some(bs)
+    }
+
     /// Continues the path from the vertex `v` of bounce `depth`: samples the BSDF (and, for
     /// light entering a subsurface medium, its exit point, with next-event estimation there)
     /// and sets `st.ray` to the next ray. False when the path ends here. Inlined into `trace`
@@ -1565,6 +1656,7 @@ impl<'a> PathTracer<'a> {
         st: &mut PathState<'a>,
         depth: u32,
         sampler: &mut Sampler,
+        guide: Option<&CausticGuide>,
     ) -> bool {
         let scene = self.scene;
         let geometry = &scene.geometry;
@@ -1582,9 +1674,15 @@ impl<'a> PathTracer<'a> {
             },
             _ => {
                 let (u_lobe, u_dir) = sampler.bsdf();
-                match v.bsdf.sample(v.wo, u_lobe, u_dir) {
-                    Some(bs) => bs,
-                    None => return false,
+                match guide {
+                    Some(g) => match self.sample_guided(v, g, u_lobe, u_dir) {
+                        Some(bs) => bs,
+                        None => return false,
+                    },
+                    None => match v.bsdf.sample(v.wo, u_lobe, u_dir) {
+                        Some(bs) => bs,
+                        None => return false,
+                    },
                 }
             }
         };

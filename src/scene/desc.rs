@@ -577,6 +577,8 @@ pub struct RenderDefaults {
     pub clamp_indirect: Option<f32>,
     /// `render.film_transparent`: Blender's Film > Transparent.
     pub film_transparent: Option<bool>,
+    /// `render.caustic_guiding` (`crate::integrator::caustics`; on by default).
+    pub caustic_guiding: Option<bool>,
     /// `render.crop`: [x, y, width, height] window of the image to render (render border).
     pub crop: Option<[u32; 4]>,
     /// `render.texture_filtering`: "gltf" or "cycles" (validated by the sidecar parser; see

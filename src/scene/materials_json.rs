@@ -86,7 +86,9 @@
 //!   `min_samples` (integer >= 0, 0 = automatic), `time_limit` (seconds >= 0, 0 = none),
 //!   `splits` (`"auto"`, the default: branches per camera path at its first vertex planned
 //!   from the first samples | 1-4 everywhere, 1 = plain path tracing;
-//!   `crate::integrator::splitting`),
+//!   `crate::integrator::splitting`), `caustic_guiding` (true, the default | false: guide
+//!   bounces at diffuse and rough surfaces towards caustics found by photons traced through
+//!   sharp metals and glass, `crate::integrator::caustics`),
 //!   `denoise` (true | false: OIDN denoising of the final image, `crate::film::denoise`),
 //!   `denoise_quality` (`"high"` default | `"balanced"` | `"fast"`), `denoise_prefilter`
 //!   (`"accurate"` default | `"fast"` | `"none"`), and
@@ -1313,6 +1315,7 @@ impl Validator<'_> {
                 "crop",
                 "texture_filtering",
                 "splits",
+                "caustic_guiding",
             ],
             path,
         )?;
@@ -1406,6 +1409,10 @@ impl Validator<'_> {
             film_transparent: m
                 .get("film_transparent")
                 .map(|x| self.boolean(x, &path.key("film_transparent")))
+                .transpose()?,
+            caustic_guiding: m
+                .get("caustic_guiding")
+                .map(|x| self.boolean(x, &path.key("caustic_guiding")))
                 .transpose()?,
             time_limit: m
                 .get("time_limit")

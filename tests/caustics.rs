@@ -1,0 +1,208 @@
+//! Caustic guiding (`integrator::caustics`): the guide samples its own density (chi-square),
+//! photons exist only where something focuses light, and guided renders keep the image's
+//! expectation while the floor's caustic sparkle drops, bit-identical for any thread count.
+
+mod common;
+#[path = "common/stats.rs"]
+mod stats;
+
+use common::scenes::{camera, diffuse_material, material_with, quad_mesh, sphere_mesh};
+use glam::{Mat4, Vec2, Vec3};
+use prism::integrator::caustics::{CausticGuide, CausticPhotons, GUIDE_SHARE};
+use prism::render::{render_quiet, RenderSettings};
+use prism::scene::{
+    GltfMaterialDesc, InstanceDesc, PunctualKind, PunctualLightDesc, Scene, SceneDesc, WorldDesc,
+};
+use stats::{adaptive_simpson_2d, chi2_test, Pcg32};
+use std::f64::consts::PI;
+
+#[test]
+fn the_guide_samples_its_own_density() {
+    // Overlapping cones of different widths and weights, one of them narrow, 20 x 40 bins in
+    // (cos theta, phi) over the sphere, expected counts from the density by adaptive Simpson
+    // integration (as tests/bsdf_chi2.rs).
+    let guide = CausticGuide::from_cones(
+        &[
+            (Vec3::new(0.2, 0.1, 1.0), 0.45, 2.0),
+            (Vec3::new(0.35, 0.12, 1.0), 0.2, 1.0),
+            (Vec3::new(-1.0, 0.3, 0.2), 0.3, 0.5),
+            (Vec3::new(0.3, -1.0, -0.4), 0.6, 0.7),
+        ],
+        GUIDE_SHARE,
+    )
+    .unwrap();
+    let (theta_bins, phi_bins) = (20usize, 40usize);
+    let bin_of = |w: Vec3| {
+        let c = ((w.z.clamp(-1.0, 1.0) + 1.0) * 0.5 * theta_bins as f32) as usize;
+        let phi = w.y.atan2(w.x).rem_euclid(2.0 * std::f32::consts::PI);
+        let p = (phi / (2.0 * std::f32::consts::PI) * phi_bins as f32) as usize;
+        c.min(theta_bins - 1) * phi_bins + p.min(phi_bins - 1)
+    };
+    let n = 400_000;
+    let mut observed = vec![0.0; theta_bins * phi_bins];
+    let mut rng = Pcg32::new(7, 1);
+    for _ in 0..n {
+        let w = guide.sample(rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32()));
+        assert!((w.length() - 1.0).abs() < 1e-4, "{w:?}");
+        assert!(guide.pdf(w) > 0.0, "a sample where the density is 0: {w:?}");
+        observed[bin_of(w)] += 1.0;
+    }
+    let (dc, dp) = (2.0 / theta_bins as f64, 2.0 * PI / phi_bins as f64);
+    let mut total = 0.0;
+    let expected: Vec<f64> = (0..theta_bins * phi_bins)
+        .map(|k| {
+            let (c0, p0) = (
+                -1.0 + (k / phi_bins) as f64 * dc,
+                (k % phi_bins) as f64 * dp,
+            );
+            let f = |c: f64, p: f64| {
+                let s = (1.0 - c * c).max(0.0).sqrt();
+                let w = Vec3::new((s * p.cos()) as f32, (s * p.sin()) as f32, c as f32);
+                guide.pdf(w) as f64
+            };
+            let prob = adaptive_simpson_2d(&f, c0, c0 + dc, p0, p0 + dp, 1e-7, 3, 12);
+            total += prob;
+            prob * n as f64
+        })
+        .collect();
+    assert!(
+        (total - 1.0).abs() < 2e-3,
+        "the density integrates to {total}"
+    );
+    chi2_test(&observed, &expected, 5.0).assert_fits(1e-3, "caustic guide");
+}
+
+/// A diffuse floor (the plane z = 0, seen from above), a gold ball of roughness 0.2 on it,
+/// a low sun, and a dim world: the ball's sun glint lights the floor around it (the
+/// everyday-scene caustic that a path tracer finds only by chance).
+fn caustic_scene(ball_roughness: f32, ball_metallic: f32) -> Scene {
+    let floor = diffuse_material("floor", Vec3::splat(0.7));
+    let gold = material_with(
+        GltfMaterialDesc {
+            name: "gold".into(),
+            base_color: Vec3::new(1.0, 0.78, 0.34).extend(1.0),
+            metallic: ball_metallic,
+            roughness: ball_roughness,
+            ..Default::default()
+        },
+        None,
+    );
+    let desc = SceneDesc {
+        meshes: vec![
+            quad_mesh("floor", Vec3::ZERO, Vec3::X * 3.0, Vec3::Y * 3.0, 0),
+            sphere_mesh(1, 48, 24),
+        ],
+        instances: vec![
+            InstanceDesc {
+                mesh: 0,
+                object_to_world: Mat4::IDENTITY,
+                name: "floor".into(),
+            },
+            InstanceDesc {
+                mesh: 1,
+                object_to_world: Mat4::from_translation(Vec3::new(0.3, 0.2, 0.4))
+                    * Mat4::from_scale(Vec3::splat(0.4)),
+                name: "ball".into(),
+            },
+        ],
+        materials: vec![floor, gold],
+        lights: vec![PunctualLightDesc {
+            name: "sun".into(),
+            kind: PunctualKind::Directional,
+            color: Vec3::ONE,
+            intensity: 3.0,
+            direction: Vec3::new(-1.0, -0.3, -0.45).normalize(),
+            ..Default::default()
+        }],
+        camera: Some(camera(4.0, 0.7)),
+        world: WorldDesc {
+            color: Vec3::new(0.05, 0.07, 0.1),
+            strength: 1.0,
+            texture: None,
+        },
+        ..Default::default()
+    };
+    Scene::build(desc).unwrap()
+}
+
+fn settings(spp: u32, seed: u64, caustic_guiding: bool) -> RenderSettings {
+    RenderSettings {
+        width: 40,
+        height: 40,
+        spp,
+        seed,
+        max_depth: 8,
+        caustic_guiding,
+        ..RenderSettings::default()
+    }
+}
+
+fn luminance(film: &prism::film::Film) -> Vec<f64> {
+    film.color()
+        .iter()
+        .map(|c| (0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z) as f64)
+        .collect()
+}
+
+#[test]
+fn photons_are_traced_only_where_something_focuses_light() {
+    assert!(CausticPhotons::trace(&caustic_scene(0.2, 1.0), 0).is_some_and(|p| p.len() > 1000));
+    // A rough metal and a diffuse ball focus nothing: no photons, no guiding.
+    assert!(CausticPhotons::trace(&caustic_scene(0.6, 1.0), 0).is_none());
+    assert!(CausticPhotons::trace(&caustic_scene(0.2, 0.0), 0).is_none());
+}
+
+#[test]
+fn guiding_keeps_the_mean_and_removes_the_caustic_sparkle() {
+    let scene = caustic_scene(0.2, 1.0);
+    // Noise: the squared difference of two renders of different seeds, per pixel, over the
+    // image; mean: of 8 renders' mean luminance.
+    let noise_and_mean = |guided: bool| {
+        let images: Vec<Vec<f64>> = (0..8)
+            .map(|seed| luminance(&render_quiet(&scene, &settings(64, seed, guided)).0))
+            .collect();
+        let noise: f64 = (0..4)
+            .map(|k| {
+                let (a, b) = (&images[2 * k], &images[2 * k + 1]);
+                a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>() / a.len() as f64
+            })
+            .sum::<f64>()
+            / 4.0;
+        let means: Vec<f64> = images
+            .iter()
+            .map(|im| im.iter().sum::<f64>() / im.len() as f64)
+            .collect();
+        let mean = means.iter().sum::<f64>() / 8.0;
+        let spread =
+            (means.iter().map(|m| (m - mean) * (m - mean)).sum::<f64>() / 7.0 / 8.0).sqrt();
+        (noise, mean, spread)
+    };
+    let (noise_off, mean_off, se_off) = noise_and_mean(false);
+    let (noise_on, mean_on, se_on) = noise_and_mean(true);
+    let se = (se_off * se_off + se_on * se_on).sqrt();
+    eprintln!(
+        "unguided: noise {noise_off:.4e} mean {mean_off:.5} +- {se_off:.5}; \
+         guided: noise {noise_on:.4e} mean {mean_on:.5} +- {se_on:.5}"
+    );
+    assert!(
+        (mean_on - mean_off).abs() < 4.0 * se + 2e-3 * mean_off,
+        "guided mean {mean_on} against {mean_off} (standard error {se})"
+    );
+    assert!(
+        noise_on < 0.5 * noise_off,
+        "guided noise {noise_on:.4e} against {noise_off:.4e}"
+    );
+}
+
+#[test]
+fn guided_renders_are_the_same_for_any_thread_count() {
+    let scene = caustic_scene(0.2, 1.0);
+    let render_with = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| render_quiet(&scene, &settings(16, 3, true)).0.color())
+    };
+    assert_eq!(render_with(1), render_with(2));
+}
