@@ -147,9 +147,11 @@ fn luminance(film: &prism::film::Film) -> Vec<f64> {
 #[test]
 fn photons_are_traced_only_where_something_focuses_light() {
     assert!(CausticPhotons::trace(&caustic_scene(0.2, 1.0), 0).is_some_and(|p| p.len() > 1000));
-    // A rough metal and a diffuse ball focus nothing: no photons, no guiding.
+    // A rough metal, a diffuse ball and a near-mirror (whose glint of the sun is smaller
+    // than photons can point at) focus nothing photons can find: no photons, no guiding.
     assert!(CausticPhotons::trace(&caustic_scene(0.6, 1.0), 0).is_none());
     assert!(CausticPhotons::trace(&caustic_scene(0.2, 0.0), 0).is_none());
+    assert!(CausticPhotons::trace(&caustic_scene(0.05, 1.0), 0).is_none());
 }
 
 #[test]
@@ -205,4 +207,12 @@ fn guided_renders_are_the_same_for_any_thread_count() {
             .install(|| render_quiet(&scene, &settings(16, 3, true)).0.color())
     };
     assert_eq!(render_with(1), render_with(2));
+}
+
+#[test]
+fn scenes_where_nothing_focuses_light_render_as_without_guiding() {
+    let scene = caustic_scene(0.6, 1.0);
+    let on = render_quiet(&scene, &settings(8, 5, true)).0.color();
+    let off = render_quiet(&scene, &settings(8, 5, false)).0.color();
+    assert_eq!(on, off);
 }

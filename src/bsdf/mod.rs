@@ -118,8 +118,8 @@ impl Default for RayVisibility {
     }
 }
 
-/// The sharpest GGX alpha that still counts as focusing light (`Bsdf::focuses_light`).
-pub const FOCUSING_ALPHA: f32 = 0.1;
+/// The GGX alphas of surfaces that focus light into caustics (`Bsdf::focuses_light`).
+pub const FOCUSING_ALPHA: std::ops::RangeInclusive<f32> = 0.01..=0.1;
 
 /// Result of sampling a direction from a BSDF.
 #[derive(Clone, Copy, Debug)]
@@ -403,15 +403,25 @@ impl Bsdf {
             && !f.contains(LobeFlags::GLOSSY)
     }
 
-    /// Concentrates the light it redirects into caustics: a metal or a glass interface whose
-    /// microfacets are sharp (GGX alpha at most `FOCUSING_ALPHA`, Principled roughness about
-    /// 0.32). Plastics are left out: their specular layer reflects a few percent.
+    /// Concentrates the light it redirects into caustics that photons can find
+    /// (`integrator::caustics`): a metal or a glass interface whose microfacets are sharp but
+    /// not mirror-like (GGX alpha in `FOCUSING_ALPHA`, Principled roughness 0.1-0.32).
+    /// Plastics are left out (their specular layer reflects a few percent), and so are mirrors
+    /// and smooth glass: the glint of a small light in them is far smaller than what photons
+    /// landing within a gathering radius can point at (the everyday scene's chrome ball of
+    /// roughness 0.05 under the sun: 7x the bulk noise).
     pub fn focuses_light(&self) -> bool {
-        match self {
-            Bsdf::MetallicRoughness(b) => b.metallic >= 0.5 && b.alpha <= FOCUSING_ALPHA,
-            Bsdf::Dielectric(b) => b.alpha <= FOCUSING_ALPHA && !b.refraction_only,
-            Bsdf::Diffuse(_) | Bsdf::Translucent(_) => false,
-        }
+        self.focusing_alpha().is_some()
+    }
+
+    /// The GGX alpha of the lobe that focuses light (`focuses_light`), if one does.
+    pub fn focusing_alpha(&self) -> Option<f32> {
+        let alpha = match self {
+            Bsdf::MetallicRoughness(b) if b.metallic >= 0.5 => b.alpha,
+            Bsdf::Dielectric(b) if !b.refraction_only => b.alpha,
+            _ => return None,
+        };
+        FOCUSING_ALPHA.contains(&alpha).then_some(alpha)
     }
 
     /// Reflects through a Lambertian lobe (which normal-mapped surfaces shade differently).

@@ -2,7 +2,7 @@
 //! (Veach 1997, ch. 9; power heuristic), Russian roulette, spectral throughout, with
 //! hero-wavelength MIS over the path's wavelengths (`spectral_mis`).
 
-use super::caustics::{CausticGuide, CausticPhotons};
+use super::caustics::{CausticGuide, CausticPhotons, MAX_GUIDED_DEPTH};
 use super::spectral_mis::SpectralMis;
 use super::splitting::Branches;
 use crate::bsdf::{BsdfSample, LobeFlags};
@@ -1387,7 +1387,8 @@ impl<'a> PathTracer<'a> {
             // Where photons found caustics, continuations are partly guided towards them.
             let guide = match self.caustics {
                 Some(photons)
-                    if subsurface.is_none()
+                    if depth <= MAX_GUIDED_DEPTH
+                        && subsurface.is_none()
                         && walk_exit.is_none()
                         && !transmissive
                         && !bsdf.is_specular()

@@ -772,6 +772,42 @@ impl Lights {
         None
     }
 
+    /// The angular radius (radians) of light `index` seen from `ctx.p`, where a light sample
+    /// towards it had density `sample_pdf` (`LightSample::pdf`): the sun's disc, a round
+    /// light's radius over its distance, 0 for a point, and for an emitting surface the radius
+    /// of the cone of its solid angle, 1 / (its direction density) = pmf / `sample_pdf`. None
+    /// for the world, which has no one direction.
+    pub fn angular_radius(
+        &self,
+        index: usize,
+        ctx: &ShadingContext,
+        sample_pdf: f32,
+        selection: LightSelection,
+    ) -> Option<f32> {
+        let round = |position: Vec3, round: &Option<RoundEmitter>| {
+            round.map_or(0.0, |r| {
+                (r.radius / (position - ctx.p).length().max(1e-6)).atan()
+            })
+        };
+        match self.light(index) {
+            Light::Directional { disc, .. } => {
+                Some(disc.map_or(0.0, |d| d.cos_max.clamp(-1.0, 1.0).acos()))
+            }
+            Light::Point {
+                position, round: r, ..
+            }
+            | Light::Spot {
+                position, round: r, ..
+            } => Some(round(*position, r)),
+            Light::Environment => None,
+            Light::Triangle { .. } | Light::TrianglePair { .. } => {
+                let solid_angle = self.pmf(ctx, index, selection) / sample_pdf;
+                (solid_angle > 0.0 && solid_angle.is_finite())
+                    .then(|| (solid_angle / PI).sqrt().min(PI))
+            }
+        }
+    }
+
     /// Probability that `select` chooses light `index` at `ctx`.
     pub fn pmf(&self, ctx: &ShadingContext, index: usize, selection: LightSelection) -> f32 {
         if selection == LightSelection::Power {

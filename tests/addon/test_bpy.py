@@ -506,6 +506,55 @@ def test_path_splitting():
     C.check(diff < 0.02, "same image mean (%.4f relative difference)" % diff)
 
 
+def test_caustic_guiding():
+    """Render > Prism > Caustic Guiding reaches the renderer: on by default (render.caustic_guiding
+    true), off exports false. A gold ball of roughness 0.15 under a sun on a floor: with it on the
+    renderer traces caustic photons (its done event counts them) and the image's mean is the
+    unguided one's; off, none are traced; on the simple scene (nothing focuses light) none
+    either."""
+    import json
+
+    from prism import export
+
+    sc = C.simple_scene()
+    C.use_prism(sc, spp=32)
+    p = sc.prism
+    C.check(type(p).bl_rna.properties["use_caustic_guiding"].default, "caustic guiding on by default")
+
+    def exported():
+        sc.update_tag()
+        bpy.context.view_layer.update()
+        d = tempfile.mkdtemp(dir=OUT)
+        _, json_path, _, _ = export.export_scene(bpy.context.evaluated_depsgraph_get(), d)
+        return json.load(open(json_path))["render"].get("caustic_guiding")
+
+    C.check(exported() is True, "default -> render.caustic_guiding true")
+    C.render_pixels(sc, os.path.join(OUT, "caustic_simple.exr"))
+    done = prism.engine.LAST.get("done") or {}
+    C.check(done.get("caustic_photons") == 0, "nothing focuses light: no photons (%s)" % done)
+
+    gold = C.material("Gold", "ShaderNodeBsdfPrincipled", (1.0, 0.78, 0.34), Metallic=1.0, Roughness=0.15)
+    ball = bpy.data.objects["Ball"]
+    ball.data.materials.clear()
+    ball.data.materials.append(gold)
+    bpy.data.objects.remove(bpy.data.objects["Lamp"])
+    C.light("Sun", "SUN", 4.0, (0, 0, 5), rotation=(1.2, 0.0, 0.8), angle=0.01)
+    photons, means = {}, {}
+    for on in (True, False):
+        p.use_caustic_guiding = on
+        C.check(exported() is on, "Caustic Guiding %s -> render.caustic_guiding %s" % (on, on))
+        px = C.render_pixels(sc, os.path.join(OUT, "caustic_%d.exr" % on))
+        done = prism.engine.LAST.get("done") or {}
+        C.check(prism.engine.LAST.get("error") is None and done.get("samples"), "rendered: %s" % done)
+        C.check(np.isfinite(px).all(), "finite pixels")
+        photons[on] = done.get("caustic_photons")
+        means[on] = px[..., :3].mean()
+    C.check(photons[True] > 1000, "guided: %s caustic photons" % photons[True])
+    C.check(photons[False] == 0, "unguided: no photons (%s)" % photons[False])
+    diff = abs(means[True] / means[False] - 1)
+    C.check(diff < 0.02, "same image mean (%.4f relative difference)" % diff)
+
+
 def test_vertex_domain_export():
     """Meshes whose normals are per vertex (smooth) or per face (flat) and whose UVs have no
     seams are exported with one glTF vertex per Blender vertex (flat: no NORMAL, the renderer's
