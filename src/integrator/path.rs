@@ -272,8 +272,6 @@ impl<'a> PathTracer<'a> {
         self
     }
 
-    /// The camera's pixel footprint (`Camera::pixel_footprint`), which Bump nodes' filter
-    /// widths are counted in.
     /// Guides continuations at diffuse and rough surfaces towards the caustics `photons`
     /// found (`caustics`); None: BSDF sampling alone.
     pub fn with_caustic_photons(mut self, photons: Option<&'a CausticPhotons>) -> Self {
@@ -281,6 +279,8 @@ impl<'a> PathTracer<'a> {
         self
     }
 
+    /// The camera's pixel footprint (`Camera::pixel_footprint`), which Bump nodes' filter
+    /// widths are counted in.
     pub fn with_pixel_footprint(mut self, footprint: PixelFootprint) -> Self {
         self.footprint = footprint;
         self
@@ -1382,8 +1382,6 @@ impl<'a> PathTracer<'a> {
                 bumped,
                 ctx,
             };
-            // A camera path splits at its first vertex that scatters diffusely or glossily
-            // (`radiance_split`): into its light samples and continuations there.
             // Where photons found caustics, continuations are partly guided towards them.
             let guide = match self.caustics {
                 Some(photons)
@@ -1400,6 +1398,8 @@ impl<'a> PathTracer<'a> {
                 _ => None,
             };
             let guide = guide.as_ref();
+            // A camera path splits at its first vertex that scatters diffusely or glossily
+            // (`radiance_split`): into its light samples and continuations there.
             let split = depth == 0
                 && st.splits.split()
                 && (subsurface.is_some() || !bsdf.is_specular())
@@ -1593,7 +1593,7 @@ impl<'a> PathTracer<'a> {
     }
 
     /// A continuation's direction at `v` from the one-sample mixture of its BSDF (probability
-    /// `1 - GUIDE_SHARE`) and the caustic guide `g`, with the mixture's density (Veach 1997,
+    /// `1 - g.share`) and the caustic guide `g`, with the mixture's density (Veach 1997,
     /// 9.2.4): `u_lobe` chooses between them and is reused within the choice. A Dirac lobe's
     /// sample keeps its discrete probability, times the BSDF's share. Only for BSDFs that are
     /// not dispersive (one density for every wavelength) and only reflect.
