@@ -468,26 +468,31 @@ def test_adaptive_sampling():
     C.check(diff < 0.01, "same image mean (%.4f relative difference)" % diff)
 
 
-def test_path_splitting():
-    """Render > Prism > Path Splitting reaches the renderer: 0 (the default) exports "auto",
-    1-4 that many branches. With 3 branches the renderer traces more rays per sample than with
-    1 (it split), and the image's mean is the same."""
+def exported_render(sc):
+    """The render settings the add-on exports for `sc` (the material JSON's "render")."""
     import json
 
     from prism import export
 
+    # A render evaluates the scene afresh; here the evaluated copy must be told it changed.
+    sc.update_tag()
+    bpy.context.view_layer.update()
+    d = tempfile.mkdtemp(dir=OUT)
+    _, json_path, _, _ = export.export_scene(bpy.context.evaluated_depsgraph_get(), d)
+    return json.load(open(json_path))["render"]
+
+
+def test_path_splitting():
+    """Render > Prism > Path Splitting reaches the renderer: 0 (the default) exports "auto",
+    1-4 that many branches. With 3 branches the renderer traces more rays per sample than with
+    1 (it split), and the image's mean is the same."""
     sc = C.simple_scene()
     C.use_prism(sc, spp=32)
     p = sc.prism
     C.check(type(p).bl_rna.properties["path_splits"].default == 0, "path splitting planned by default")
 
     def exported():
-        # A render evaluates the scene afresh; here the evaluated copy must be told it changed.
-        sc.update_tag()
-        bpy.context.view_layer.update()
-        d = tempfile.mkdtemp(dir=OUT)
-        _, json_path, _, _ = export.export_scene(bpy.context.evaluated_depsgraph_get(), d)
-        return json.load(open(json_path))["render"].get("splits")
+        return exported_render(sc).get("splits")
 
     C.check(exported() == "auto", "default -> render.splits \"auto\"")
     rays, means = {}, {}
@@ -512,21 +517,13 @@ def test_caustic_guiding():
     renderer traces caustic photons (its done event counts them) and the image's mean is the
     unguided one's; off, none are traced; on the simple scene (nothing focuses light) none
     either."""
-    import json
-
-    from prism import export
-
     sc = C.simple_scene()
     C.use_prism(sc, spp=32)
     p = sc.prism
     C.check(type(p).bl_rna.properties["use_caustic_guiding"].default, "caustic guiding on by default")
 
     def exported():
-        sc.update_tag()
-        bpy.context.view_layer.update()
-        d = tempfile.mkdtemp(dir=OUT)
-        _, json_path, _, _ = export.export_scene(bpy.context.evaluated_depsgraph_get(), d)
-        return json.load(open(json_path))["render"].get("caustic_guiding")
+        return exported_render(sc).get("caustic_guiding")
 
     C.check(exported() is True, "default -> render.caustic_guiding true")
     C.render_pixels(sc, os.path.join(OUT, "caustic_simple.exr"))
