@@ -23,7 +23,9 @@
 use crate::bsdf::Bsdf;
 use crate::geometry::{offset_ray_origin, Hit, Ray, SurfacePoint};
 use crate::lights::{LightSelection, ShadingContext};
-use crate::math::sampling::{sample_uniform_cone_one_minus_cos, uniform_cone_pdf_one_minus_cos};
+use crate::math::sampling::{
+    sample_uniform_cone_one_minus_cos, sample_uniform_triangle, uniform_cone_pdf_one_minus_cos,
+};
 use crate::math::{DiscreteDistribution, Frame};
 use crate::sampler::Pcg32;
 use crate::scene::Scene;
@@ -405,12 +407,9 @@ fn trace_photon(
     let geometry = &scene.geometry;
     let (k, _, _) = focusing.by_area.sample(rng.next_1d());
     let (instance, prim) = focusing.triangles[k];
-    let (b1, b2) = {
-        // Uniform on the triangle.
-        let u = rng.next_2d();
-        let s = u.x.sqrt();
-        ((1.0 - u.y) * s, u.y * s)
-    };
+    // Uniform on the triangle.
+    let (b0, b1) = sample_uniform_triangle(rng.next_2d());
+    let b2 = 1.0 - b0 - b1;
     let time = 0.5;
     let start = geometry.surface_point_at(instance, prim, b1, b2, time);
     let w = SampledWavelengths::sample_hero(rng.next_1d(), WavelengthPdf::Visible);
