@@ -260,7 +260,7 @@ impl CausticPhotons {
         let hi = ((p + self.radius) / cell_size)
             .floor()
             .as_ivec3()
-            .min(lo + glam::IVec3::ONE);
+            .min(lo.saturating_add(glam::IVec3::ONE));
         let mut seen = [usize::MAX; 8];
         let mut cells = 0;
         'cells: for z in lo.z..=hi.z {
