@@ -1485,6 +1485,19 @@ mod tests {
     }
 
     #[test]
+    fn render_caustic_guiding_parses_and_rejects_non_booleans() {
+        let f = parse(r#"{"version":1,"render":{"caustic_guiding":false}}"#).unwrap();
+        assert_eq!(f.render.caustic_guiding, Some(false));
+        let f = parse(r#"{"version":1,"render":{}}"#).unwrap();
+        assert_eq!(f.render.caustic_guiding, None);
+        let e = parse(r#"{"version":1,"render":{"caustic_guiding":"on"}}"#).unwrap_err();
+        assert!(
+            e.contains("render.caustic_guiding") && !e.contains('\n'),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn render_splits_parse_and_reject_bad_values() {
         let f = parse(r#"{"version":1,"render":{"splits":"auto"}}"#).unwrap();
         assert_eq!(f.render.splits, Some(0));
