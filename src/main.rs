@@ -909,13 +909,14 @@ fn report_done(
 ) {
     match mode {
         ProgressMode::Json => eprintln!(
-            "{{\"event\":\"done\",\"seconds\":{:.4},\"rays\":{},\"samples\":{},\"discarded\":{},\"cancelled\":{},\"caustic_photons\":{},\"denoised\":{denoised}{},\"output\":{}}}",
+            "{{\"event\":\"done\",\"seconds\":{:.4},\"rays\":{},\"samples\":{},\"discarded\":{},\"cancelled\":{},\"caustic_photons\":{},\"caustic_guided\":{},\"denoised\":{denoised}{},\"output\":{}}}",
             stats.seconds,
             stats.rays,
             stats.samples,
             stats.discarded,
             stats.cancelled,
             stats.caustic_photons,
+            stats.caustic_guided,
             denoise_seconds
                 .map(|s| format!(",\"denoise_s\":{s:.4}"))
                 .unwrap_or_default(),

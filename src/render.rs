@@ -5,7 +5,7 @@
 
 use crate::film::{self, Film, PixelFilter, SampleClamp};
 use crate::geometry::Ray;
-use crate::integrator::caustics::CausticPhotons;
+use crate::integrator::caustics::{CausticPhotons, MAX_GLINT_BLUR, MAX_UNPLANNED_GLINT_BLUR};
 use crate::integrator::splitting::{Branches, SplitPlanner, SplitStats};
 use crate::integrator::{
     CameraRay, PathSample, PathTracer, WavelengthSampling, WavelengthStrategy,
@@ -164,6 +164,9 @@ pub struct RenderStats {
     pub cancelled: bool,
     /// Photons that guide bounces towards caustics (`integrator::caustics`; 0: none).
     pub caustic_photons: u64,
+    /// Whether the photons guided the render's samples after the splitting pilot (which
+    /// turns guiding off where it does not pay, `SplitPlanner::plan`).
+    pub caustic_guided: bool,
 }
 
 /// Rows per parallel work item: small enough to balance load over 2-64 threads, large enough
@@ -219,11 +222,18 @@ pub fn render(
     let camera = scene.camera_for(settings.width, settings.height);
     let has_motion = scene.has_motion();
     let has_lens = camera.has_lens();
-    // Photons for caustic guiding, traced once before the first pass.
+    let splitting = SplitPlanner::new(settings.spp, window, settings.splits);
+    // Photons for caustic guiding, traced once before the first pass: for broader glints
+    // only where the splitting pilot will tell whether guiding towards them pays.
     let photons_started = Instant::now();
+    let max_blur = if splitting.pilot_end() > 0 {
+        MAX_GLINT_BLUR
+    } else {
+        MAX_UNPLANNED_GLINT_BLUR
+    };
     let photons = settings
         .caustic_guiding
-        .then(|| CausticPhotons::trace(scene, settings.seed))
+        .then(|| CausticPhotons::trace(scene, settings.seed, max_blur))
         .flatten();
     let tracer = PathTracer::new(scene, settings.max_depth, settings.light_selection)
         .with_caustic_photons(photons.as_ref())
@@ -238,7 +248,6 @@ pub fn render(
     // the hero's four (`PathSample::world_exact`); single-wavelength paths estimate it.
     let exact_world = settings.wavelengths.strategy == WavelengthStrategy::Hero
         && settings.wavelengths.fixed.is_none();
-    let splitting = SplitPlanner::new(settings.spp, window, settings.splits);
     let image_sampler = ImageSampler::new(settings.sampler, settings.spp, settings.seed);
     // Branches per camera path at its first vertex, per pixel (`SplitPlanner`).
     let mut splits = vec![splitting.pilot_splits(); w * h];
@@ -641,6 +650,7 @@ pub fn render(
         discarded: discarded.load(Ordering::Relaxed),
         cancelled: cancel.load(Ordering::Relaxed),
         caustic_photons: photons.as_ref().map_or(0, |p| p.len() as u64),
+        caustic_guided: photons.is_some() && splits.iter().any(|k| k.caustic_guiding),
     };
     (film, stats)
 }

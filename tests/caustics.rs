@@ -8,7 +8,9 @@ mod stats;
 
 use common::scenes::{camera, diffuse_material, material_with, quad_mesh, sphere_mesh};
 use glam::{Mat4, Vec2, Vec3};
-use prism::integrator::caustics::{CausticGuide, CausticPhotons, GUIDE_SHARE};
+use prism::integrator::caustics::{
+    CausticGuide, CausticPhotons, GUIDE_SHARE, MAX_GLINT_BLUR, MAX_UNPLANNED_GLINT_BLUR,
+};
 use prism::render::{render_quiet, RenderSettings};
 use prism::scene::{
     GltfMaterialDesc, InstanceDesc, PunctualKind, PunctualLightDesc, Scene, SceneDesc, WorldDesc,
@@ -76,6 +78,10 @@ fn the_guide_samples_its_own_density() {
 /// a low sun, and a dim world: the ball's sun glint lights the floor around it (the
 /// everyday-scene caustic that a path tracer finds only by chance).
 fn caustic_scene(ball_roughness: f32, ball_metallic: f32) -> Scene {
+    Scene::build(caustic_desc(ball_roughness, ball_metallic)).unwrap()
+}
+
+fn caustic_desc(ball_roughness: f32, ball_metallic: f32) -> SceneDesc {
     let floor = diffuse_material("floor", Vec3::splat(0.7));
     let gold = material_with(
         GltfMaterialDesc {
@@ -87,7 +93,7 @@ fn caustic_scene(ball_roughness: f32, ball_metallic: f32) -> Scene {
         },
         None,
     );
-    let desc = SceneDesc {
+    SceneDesc {
         meshes: vec![
             quad_mesh("floor", Vec3::ZERO, Vec3::X * 3.0, Vec3::Y * 3.0, 0),
             sphere_mesh(1, 48, 24),
@@ -121,8 +127,7 @@ fn caustic_scene(ball_roughness: f32, ball_metallic: f32) -> Scene {
             texture: None,
         },
         ..Default::default()
-    };
-    Scene::build(desc).unwrap()
+    }
 }
 
 fn settings(spp: u32, seed: u64, caustic_guiding: bool) -> RenderSettings {
@@ -146,12 +151,48 @@ fn luminance(film: &prism::film::Film) -> Vec<f64> {
 
 #[test]
 fn photons_are_traced_only_where_something_focuses_light() {
-    assert!(CausticPhotons::trace(&caustic_scene(0.2, 1.0), 0).is_some_and(|p| p.len() > 1000));
-    // A rough metal, a diffuse ball and a near-mirror (whose glint of the sun is smaller
-    // than photons can point at) focus nothing photons can find: no photons, no guiding.
-    assert!(CausticPhotons::trace(&caustic_scene(0.6, 1.0), 0).is_none());
-    assert!(CausticPhotons::trace(&caustic_scene(0.2, 0.0), 0).is_none());
-    assert!(CausticPhotons::trace(&caustic_scene(0.05, 1.0), 0).is_none());
+    let trace = |roughness: f32, metallic: f32, max_blur: f32| {
+        CausticPhotons::trace(&caustic_scene(roughness, metallic), 0, max_blur)
+    };
+    for max_blur in [MAX_GLINT_BLUR, MAX_UNPLANNED_GLINT_BLUR] {
+        assert!(trace(0.2, 1.0, max_blur).is_some_and(|p| p.len() > 1000));
+        // A rough metal, a diffuse ball and a near-mirror (whose glint of the sun is smaller
+        // than photons can point at) focus nothing photons can find: no photons, no guiding.
+        assert!(trace(0.6, 1.0, max_blur).is_none());
+        assert!(trace(0.2, 0.0, max_blur).is_none());
+        assert!(trace(0.05, 1.0, max_blur).is_none());
+    }
+    // Roughness 0.3 (alpha 0.09): a glint blurred by 0.18 rad, guided only where the
+    // splitting pilot can tell whether that pays.
+    assert!(trace(0.3, 1.0, MAX_GLINT_BLUR).is_some_and(|p| p.len() > 1000));
+    assert!(trace(0.3, 1.0, MAX_UNPLANNED_GLINT_BLUR).is_none());
+}
+
+/// The splitting pilot keeps guiding on where it pays (the sun's glint in a metal ball of
+/// roughness 0.2 and 0.3 on a floor) and turns it off where it does not: the same ball with
+/// its caustic out of the camera's view (a close-up of the ball, whose first vertices are
+/// all on the ball, where nothing is guided).
+#[test]
+fn the_pilot_keeps_guiding_only_where_it_pays() {
+    for roughness in [0.2, 0.3] {
+        let (_, stats) = render_quiet(&caustic_scene(roughness, 1.0), &settings(64, 1, true));
+        assert!(
+            stats.caustic_photons > 0 && stats.caustic_guided,
+            "{roughness}: {stats:?}"
+        );
+    }
+    let mut close_up = caustic_desc(0.3, 1.0);
+    let mut cam = camera(4.0, 0.05);
+    cam.camera_to_world = Mat4::from_translation(Vec3::new(0.3, 0.2, 4.0));
+    close_up.camera = Some(cam);
+    let (_, stats) = render_quiet(&Scene::build(close_up).unwrap(), &settings(64, 1, true));
+    assert!(
+        stats.caustic_photons > 0 && !stats.caustic_guided,
+        "{stats:?}"
+    );
+    // Without a pilot (fewer than 16 spp) only sharper glints are guided.
+    let (_, stats) = render_quiet(&caustic_scene(0.3, 1.0), &settings(8, 1, true));
+    assert_eq!(stats.caustic_photons, 0);
 }
 
 #[test]

@@ -20,10 +20,12 @@
 //! estimator stays unbiased whatever the photons missed: where they found nothing the BSDF
 //! samples alone, and every direction the BSDF can sample keeps a positive density.
 //!
-//! Only glints that BSDF samples miss and photons can point at are guided: small lights (the
-//! sun, lamps; `MAX_GLINT_BLUR`) in metals and glass that are sharp but not mirrors
-//! (`Bsdf::focusing_alpha`). Elsewhere the photons are not kept, and the image is the one
-//! without guiding.
+//! Only glints that BSDF samples miss and photons can point at are guided: in metals and
+//! glass that are sharp but not mirrors (`Bsdf::focusing_alpha`), of lights small enough
+//! (`MAX_GLINT_BLUR`). Where no such glint exists the photons are not kept, and the image is
+//! the one without guiding. Where one does, the splitting pilot, itself guided, estimates
+//! from its continuations how much noise guiding removes and turns it off for the rest of
+//! the render where that is less than what it costs (`splitting::SplitPlanner::plan`).
 
 use crate::bsdf::Bsdf;
 use crate::geometry::{offset_ray_origin, Hit, Ray, SurfacePoint};
@@ -54,12 +56,19 @@ pub const MAX_GUIDE_CONES: usize = 8;
 const PHOTON_PATHS: u32 = 1 << 16;
 
 /// The largest blur (radians: the light's angular radius plus 2 alpha per focusing vertex) of
-/// the glints photons guide to: the sun's or a small lamp's in sharp metal or glass. A broader
-/// glint (an area light's in a rough metal ball) is found by BSDF samples often enough:
-/// guiding towards the Cornell box's metal ball under its ceiling light (blur 0.2-0.3), or the
-/// rough glass scene's glass of roughness 0.2 under its quad light, cost a third more time for
-/// the same noise (efficiency 0.56 and 0.68, 64 spp, 2 pairs).
-const MAX_GLINT_BLUR: f32 = 0.12;
+/// the glints photons guide to, where the splitting pilot then tells whether guiding pays
+/// (`splitting::SplitPlanner::plan`): the sun's in a metal ball of roughness 0.3 (blur 0.19)
+/// it does, 1.8-2.5x the efficiency; an area light's in a rough metal ball under the Cornell
+/// box's ceiling light (0.2-0.3) it does not, and the pilot turns guiding off. A broader glint
+/// is found by BSDF samples often enough.
+pub const MAX_GLINT_BLUR: f32 = 0.3;
+
+/// The largest blur when no pilot decides (renders of fewer than `splitting::MIN_SPP`
+/// samples per pixel, fixed splitting): the sun's or a small lamp's in sharp metal or glass,
+/// where guiding always paid. Guiding towards broader glints unconditionally cost a third
+/// more time for the same noise on the Cornell box and the rough glass scene (efficiency 0.56
+/// and 0.68, 64 spp, 2 pairs), and on the studio scene everyday3 0.67 / 0.73 (0.2 rad).
+pub const MAX_UNPLANNED_GLINT_BLUR: f32 = 0.12;
 
 /// Focusing vertices a photon passes at most before it lands (glass takes two per object).
 const MAX_FOCUSING_BOUNCES: u32 = 6;
@@ -184,15 +193,16 @@ impl CausticGuide {
 }
 
 impl CausticPhotons {
-    /// Traces the scene's caustic photons, or None when nothing in it focuses light or no
-    /// photon lands. Deterministic for a seed, whatever the thread count.
-    pub fn trace(scene: &Scene, seed: u64) -> Option<CausticPhotons> {
+    /// Traces the scene's caustic photons for glints of at most `max_blur` (radians,
+    /// `MAX_GLINT_BLUR` or `MAX_UNPLANNED_GLINT_BLUR`), or None when nothing in it focuses
+    /// light or no photon lands. Deterministic for a seed, whatever the thread count.
+    pub fn trace(scene: &Scene, seed: u64, max_blur: f32) -> Option<CausticPhotons> {
         let focusing = FocusingSurfaces::find(scene)?;
         let batch = |b: u32| {
             let mut out = Vec::new();
             for i in b * 1024..((b + 1) * 1024).min(PHOTON_PATHS) {
                 let mut rng = Pcg32::new(i as u64, 0xca05_71c5, seed);
-                trace_photon(scene, &focusing, &mut rng, &mut out);
+                trace_photon(scene, &focusing, max_blur, &mut rng, &mut out);
             }
             out
         };
@@ -413,6 +423,7 @@ fn shade(
 fn trace_photon(
     scene: &Scene,
     focusing: &FocusingSurfaces,
+    max_blur: f32,
     rng: &mut Pcg32,
     out: &mut Vec<Photon>,
 ) {
@@ -493,7 +504,7 @@ fn trace_photon(
                 break;
             };
             let Some(alpha) = next_shaded.bsdf.focusing_alpha() else {
-                if blur > MAX_GLINT_BLUR {
+                if blur > max_blur {
                     break;
                 }
                 out.push(Photon {

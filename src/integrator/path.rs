@@ -37,6 +37,24 @@ const RR_MIN_DEPTH: u32 = 5;
 /// `PathState::shared_rays` of a path that has not split.
 const NOT_SPLIT: u32 = u32::MAX;
 
+/// q / p for a continuation sampled from the guide's mixture density q, with p the density
+/// it would have had without the guide, given the BSDF's and the guide's densities at its
+/// direction (`PathSample::guide_gain`); 1 where the vertex had no guide.
+fn unguided_ratio(guide: Option<&CausticGuide>, densities: Option<(f32, f32)>) -> f32 {
+    let (Some(g), Some((bsdf_pdf, guide_pdf))) = (guide, densities) else {
+        return 1.0;
+    };
+    if bsdf_pdf.is_infinite() {
+        // A Dirac lobe's sample: only its discrete probability differs.
+        return 1.0 - g.share;
+    }
+    if !(bsdf_pdf > 0.0) {
+        // A direction only the guide samples (the BSDF's density vanishes where f does).
+        return 0.0;
+    }
+    ((1.0 - g.share) * bsdf_pdf + g.share * guide_pdf) / bsdf_pdf
+}
+
 pub struct PathTracer<'a> {
     scene: &'a Scene,
     /// Maximum number of scattering events (bounces); emission seen after the last one counts.
@@ -94,6 +112,13 @@ pub struct PathSample {
     /// vertex's first light sample gathered minus the second's, and the same for its first two
     /// continuations, whose spreads estimate the variance each kind of branch removes.
     pub branch_differences: [f32; 2],
+    /// The splitting pilot's: the sum over the first vertex's first two continuations of
+    /// Y^2 (q / p - 1), with Y a continuation's luminance, q the density it was sampled from
+    /// (the caustic guide's mixture) and p the BSDF's alone. Y^2 q / p has the expectation of
+    /// the continuation's second moment without the guide (importance reweighting:
+    /// E_q[(f / p)^2 p / q] = E_q[Y^2 q / p] with Y = f / q), so this estimates how much
+    /// variance guiding removes there, without rendering unguided samples (`SplitPlanner::plan`).
+    pub guide_gain: f32,
     pub guides: DenoiseGuides,
     /// Coverage: 0 where the camera ray escaped (only counted as transparent with
     /// `transparent_background`) or reached a holdout, else 1 (Blender's alpha).
@@ -166,6 +191,11 @@ struct PathState<'a> {
     path_difference: SampledSpectrum,
     shared_rays: u32,
     light_rays: u32,
+    /// Densities of the BSDF (infinite for a Dirac lobe) and the guide at the direction the
+    /// first vertex's continuation took, where it was guided (`PathSample::guide_gain`).
+    first_densities: Option<(f32, f32)>,
+    /// The pilot's first two continuations: what each gathered, and q / p (`unguided_ratio`).
+    continuations: [(SampledSpectrum, f32); 2],
 }
 
 /// A surface vertex of the path once its BSDF is known: what continuing the path from it
@@ -884,6 +914,8 @@ impl<'a> PathTracer<'a> {
             path_difference: SampledSpectrum::ZERO,
             shared_rays: NOT_SPLIT,
             light_rays: 0,
+            first_densities: None,
+            continuations: [(SampledSpectrum::ZERO, 1.0); 2],
         };
         self.trace(&mut st, 0, sampler);
         PathSample {
@@ -902,6 +934,14 @@ impl<'a> PathTracer<'a> {
                 [st.light_difference, st.path_difference].map(|d| spectrum_to_xyz(&d, w).y)
             } else {
                 [0.0; 2]
+            },
+            guide_gain: if st.splits.independent && st.shared_rays != NOT_SPLIT {
+                st.continuations
+                    .iter()
+                    .map(|(gathered, ratio)| spectrum_to_xyz(gathered, w).y.powi(2) * (ratio - 1.0))
+                    .sum()
+            } else {
+                0.0
             },
             guides: st.guides,
             alpha: st.alpha,
@@ -1393,7 +1433,11 @@ impl<'a> PathTracer<'a> {
                         && !bsdf.is_dispersive()
                         && !bsdf.focuses_light() =>
                 {
-                    photons.guide(sp.p, ng)
+                    if st.splits.caustic_guiding {
+                        photons.guide(sp.p, ng)
+                    } else {
+                        None
+                    }
                 }
                 _ => None,
             };
@@ -1538,6 +1582,7 @@ impl<'a> PathTracer<'a> {
             lights,
             paths,
             independent,
+            ..
         } = st.splits;
         let (light_weight, path_weight) = (1.0 / lights as f32, 1.0 / paths as f32);
         let mut sum_l = SampledSpectrum::ZERO;
@@ -1570,6 +1615,10 @@ impl<'a> PathTracer<'a> {
                     self.trace(&mut branch, 1, &mut s);
                 }
                 let gathered = branch.l - base.l;
+                if independent && j < 2 {
+                    st.continuations[j as usize] =
+                        (gathered, unguided_ratio(guide, branch.first_densities));
+                }
                 match j {
                     0 => {
                         first_path = gathered;
@@ -1597,18 +1646,20 @@ impl<'a> PathTracer<'a> {
     /// 9.2.4): `u_lobe` chooses between them and is reused within the choice. A Dirac lobe's
     /// sample keeps its discrete probability, times the BSDF's share. Only for BSDFs that are
     /// not dispersive (one density for every wavelength) and only reflect.
+    /// Also returns the two densities at the direction (the BSDF's infinite for a Dirac lobe).
     fn sample_guided(
         &self,
         v: &Vertex<'a>,
         g: &CausticGuide,
         u_lobe: f32,
         u_dir: glam::Vec2,
-    ) -> Option<BsdfSample> {
+    ) -> Option<(BsdfSample, (f32, f32))> {
         if u_lobe < g.share {
             let wi_world = g.sample(u_lobe / g.share, u_dir);
             let wi = v.frame.to_local(wi_world);
             let (f, bsdf_pdf) = v.bsdf.eval_pdf(v.wo, wi);
-            let pdf = (1.0 - g.share) * bsdf_pdf + g.share * g.pdf(wi_world);
+            let guide_pdf = g.pdf(wi_world);
+            let pdf = (1.0 - g.share) * bsdf_pdf + g.share * guide_pdf;
             if f.is_black() || !(pdf > 0.0) {
                 return None;
             }
@@ -1624,24 +1675,28 @@ impl<'a> PathTracer<'a> {
             } else {
                 LobeFlags::REFLECTION
             };
-            return Some(BsdfSample {
+            let bs = BsdfSample {
                 wi,
                 f,
                 pdf,
                 flags: side.with(kind),
                 eta: SampledSpectrum::ONE,
                 pdf_wavelengths: SampledSpectrum::splat(pdf),
-            });
+            };
+            return Some((bs, (bsdf_pdf, guide_pdf)));
         }
         let u = (u_lobe - g.share) / (1.0 - g.share);
         let mut bs = v.bsdf.sample(v.wo, u.min(0.999_999_94), u_dir)?;
-        if bs.is_specular() {
+        let densities = if bs.is_specular() {
             bs.pdf *= 1.0 - g.share;
+            (f32::INFINITY, 0.0)
         } else {
-            bs.pdf = (1.0 - g.share) * bs.pdf + g.share * g.pdf(v.frame.to_world(bs.wi));
-        }
+            let (bsdf_pdf, guide_pdf) = (bs.pdf, g.pdf(v.frame.to_world(bs.wi)));
+            bs.pdf = (1.0 - g.share) * bsdf_pdf + g.share * guide_pdf;
+            (bsdf_pdf, guide_pdf)
+        };
         bs.pdf_wavelengths = SampledSpectrum::splat(bs.pdf);
-        Some(bs)
+        Some((bs, densities))
     }
 
     /// Continues the path from the vertex `v` of bounce `depth`: samples the BSDF (and, for
@@ -1677,7 +1732,12 @@ impl<'a> PathTracer<'a> {
                 let (u_lobe, u_dir) = sampler.bsdf();
                 match guide {
                     Some(g) => match self.sample_guided(v, g, u_lobe, u_dir) {
-                        Some(bs) => bs,
+                        Some((bs, densities)) => {
+                            if depth == 0 {
+                                st.first_densities = Some(densities);
+                            }
+                            bs
+                        }
                         None => return false,
                     },
                     None => match v.bsdf.sample(v.wo, u_lobe, u_dir) {
