@@ -514,8 +514,9 @@ def test_path_splitting():
 def test_caustic_guiding():
     """Render > Prism > Caustic Guiding reaches the renderer: on by default (render.caustic_guiding
     true), off exports false. A gold ball of roughness 0.15 under a sun on a floor: with it on the
-    renderer traces caustic photons (its done event counts them) and the image's mean is the
-    unguided one's; off, none are traced; on the simple scene (nothing focuses light) none
+    renderer traces caustic photons (its done event counts them), the splitting pilot keeps
+    guiding on (`caustic_guided`) and the image's mean is the unguided one's; off, none are
+    traced; on the simple scene (nothing focuses light) none
     either."""
     sc = C.simple_scene()
     C.use_prism(sc, spp=32)
@@ -536,7 +537,7 @@ def test_caustic_guiding():
     ball.data.materials.append(gold)
     bpy.data.objects.remove(bpy.data.objects["Lamp"])
     C.light("Sun", "SUN", 4.0, (0, 0, 5), rotation=(1.2, 0.0, 0.8), angle=0.01)
-    photons, means = {}, {}
+    photons, guided, means = {}, {}, {}
     for on in (True, False):
         p.use_caustic_guiding = on
         C.check(exported() is on, "Caustic Guiding %s -> render.caustic_guiding %s" % (on, on))
@@ -545,9 +546,12 @@ def test_caustic_guiding():
         C.check(prism.engine.LAST.get("error") is None and done.get("samples"), "rendered: %s" % done)
         C.check(np.isfinite(px).all(), "finite pixels")
         photons[on] = done.get("caustic_photons")
+        guided[on] = done.get("caustic_guided")
         means[on] = px[..., :3].mean()
     C.check(photons[True] > 1000, "guided: %s caustic photons" % photons[True])
     C.check(photons[False] == 0, "unguided: no photons (%s)" % photons[False])
+    # The splitting pilot (32 spp plan it) keeps guiding on for the sun's glint.
+    C.check(guided == {True: True, False: False}, "guided after the pilot: %s" % guided)
     diff = abs(means[True] / means[False] - 1)
     C.check(diff < 0.02, "same image mean (%.4f relative difference)" % diff)
 
