@@ -73,6 +73,11 @@ def test_properties_editor_panels():
     cmd = ["xvfb-run", "-a", "-s", "-screen 0 1920x1080x24",
            BLENDER, "--factory-startup", "-P", os.path.join(HERE, "panels_ui_blender.py")]
     p = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=120)
+    if not os.path.exists(report_path) and "Segmentation fault" in p.stdout + p.stderr:
+        # Debian's Blender 3.4.1 on Xvfb's software GL segfaulted here once in a fresh-clone run
+        # (2026-12-07) and passed on every rerun: one retry, reported; a second crash fails.
+        print("  note: Blender segfaulted drawing the panels; one retry")
+        p = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=120)
     check(os.path.exists(report_path), "the session wrote its report (log tail: %s)" % (p.stdout + p.stderr)[-400:])
     with open(report_path) as f:
         report = json.load(f)
