@@ -109,10 +109,10 @@ struct SceneArgs {
     /// branches, each with its own light sample and continuation (1 = plain path tracing)
     #[arg(long, value_name = "auto|1-4", value_parser = parse_splits)]
     splits: Option<Splits>,
-    /// Caustic guiding: photons traced from small lights (the sun, lamps) through sharp
-    /// metals and glass show diffuse and rough surfaces where their caustics come from, and
-    /// a third of the bounces there are sampled towards them (default: the JSON's
-    /// render.caustic_guiding, else on)
+    /// Caustic guiding: photons traced from the lights through sharp metals and glass show
+    /// diffuse and rough surfaces where their caustics come from, and a third of the bounces
+    /// there are sampled towards them, where the first samples show that removes noise
+    /// (default: the JSON's render.caustic_guiding, else on)
     #[arg(long, value_name = "on|off", value_parser = parse_on_off)]
     caustic_guiding: Option<bool>,
     /// Adaptive sampling: pixels whose estimated error (Cycles' definition) is below this stop
