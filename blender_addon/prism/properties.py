@@ -147,8 +147,8 @@ class PrismRenderSettings(bpy.types.PropertyGroup):
     use_caustic_guiding: BoolProperty(
         name="Caustic Guiding",
         description="Trace photons from the lights (the sun, lamps, small area lights) through sharp metals and "
-        "glass (roughness 0.1-0.3) before rendering, and send a third of the bounces at diffuse and rough "
-        "surfaces where their caustics come from: the sun's glint of a gold ball on the floor is found on "
+        "glass (roughness 0.1-0.3) before rendering, and send 15-35% of the bounces at diffuse and rough "
+        "surfaces where their caustics come from: the sun's glint of a chrome or gold ball on the floor is found on "
         "purpose instead of by chance (unbiased). The first samples tell whether that removes noise; where it "
         "does not, guiding stops",
         default=True,
