@@ -269,8 +269,9 @@ pub struct CausticGuide {
 /// The directions from a shading point towards a glint (the part of a near-mirror that
 /// reflects a light towards it), as a density over the glint's tangent plane: a point `c +
 /// e0 a + e1 b` there has the half-vector residual `r = J (a, b)` (`GlintPatch::solve`),
-/// which follows GGX's distribution of slopes (Walter et al. 2007, eq. 33: D cos(theta_m)
-/// over the slope plane), of the alpha that blurs the glint. Sampling draws `r`, maps it to
+/// which follows GGX's distribution of slopes, 1 / (pi a^2 (1 + |r|^2 / a^2)^2) (D cos^4 of
+/// Walter et al. 2007's GGX; Heitz 2014, "Understanding the Masking-Shadowing Function in
+/// Microfacet-Based BRDFs", section 2), of the alpha `a` that blurs the glint. Sampling draws `r`, maps it to
 /// the plane and points there; the density of a direction intersects the plane and maps
 /// back, so the two agree exactly whatever the plane's error as a model of the surface.
 #[derive(Clone, Copy, Debug)]
