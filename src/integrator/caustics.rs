@@ -31,6 +31,7 @@
 //! from its continuations how much noise guiding removes and turns it off for the rest of
 //! the render where that is less than what it costs (`splitting::SplitPlanner::plan`).
 
+use crate::bsdf::microfacet::TrowbridgeReitz;
 use crate::bsdf::Bsdf;
 use crate::geometry::{offset_ray_origin, Hit, Ray, SurfacePoint};
 use crate::lights::{LightSelection, ShadingContext};
@@ -269,9 +270,8 @@ pub struct CausticGuide {
 /// The directions from a shading point towards a glint (the part of a near-mirror that
 /// reflects a light towards it), as a density over the glint's tangent plane: a point `c +
 /// e0 a + e1 b` there has the half-vector residual `r = J (a, b)` (`GlintPatch::solve`),
-/// which follows GGX's distribution of slopes, 1 / (pi a^2 (1 + |r|^2 / a^2)^2) (D cos^4 of
-/// Walter et al. 2007's GGX; Heitz 2014, "Understanding the Masking-Shadowing Function in
-/// Microfacet-Based BRDFs", section 2), of the alpha `a` that blurs the glint. Sampling draws `r`, maps it to
+/// which follows GGX's distribution of slopes (`TrowbridgeReitz::slope_pdf`) of the alpha
+/// that blurs the glint. Sampling draws `r`, maps it to
 /// the plane and points there; the density of a direction intersects the plane and maps
 /// back, so the two agree exactly whatever the plane's error as a model of the surface.
 #[derive(Clone, Copy, Debug)]
@@ -287,7 +287,7 @@ pub struct GlintLobe {
     edge_per_residual: glam::Mat2,
     /// |det J| / |e0 x e1|: residual-plane area per tangent-plane area.
     area_scale: f32,
-    alpha: f32,
+    slopes: TrowbridgeReitz,
 }
 
 impl GlintLobe {
@@ -316,7 +316,7 @@ impl GlintLobe {
             residual_per_edge: jacobian,
             edge_per_residual: jacobian.inverse(),
             area_scale: det.abs() / cross_len2.sqrt(),
-            alpha,
+            slopes: TrowbridgeReitz::isotropic(alpha),
         };
         let finite = lobe.dual.iter().all(|d| d.is_finite())
             && lobe.edge_per_residual.is_finite()
@@ -326,11 +326,7 @@ impl GlintLobe {
 
     /// A direction from `origin` towards the glint.
     fn sample(&self, origin: Vec3, u: Vec2) -> Vec3 {
-        // GGX slopes: |r| = alpha sqrt(u / (1 - u)), uniform azimuth.
-        let u0 = u.x.min(0.999_999);
-        let radius = self.alpha * (u0 / (1.0 - u0)).sqrt();
-        let (sin, cos) = (2.0 * std::f32::consts::PI * u.y).sin_cos();
-        let ab = self.edge_per_residual * Vec2::new(radius * cos, radius * sin);
+        let ab = self.edge_per_residual * self.slopes.sample_slope(u);
         let point = self.center + self.edges[0] * ab.x + self.edges[1] * ab.y;
         (point - origin).normalize_or(self.normal)
     }
@@ -344,10 +340,7 @@ impl GlintLobe {
         }
         let q = origin + wi * t - self.center;
         let ab = Vec2::new(q.dot(self.dual[0]), q.dot(self.dual[1]));
-        let r2 = (self.residual_per_edge * ab).length_squared();
-        let a2 = self.alpha * self.alpha;
-        let k = 1.0 + r2 / a2;
-        let slope_density = 1.0 / (std::f32::consts::PI * a2 * k * k);
+        let slope_density = self.slopes.slope_pdf(self.residual_per_edge * ab);
         // Residual plane -> tangent plane -> solid angle (dA = t^2 dw / |cos|).
         let density = slope_density * self.area_scale * t * t / cos.abs();
         if density.is_finite() {
@@ -394,7 +387,7 @@ impl CausticGuide {
             residual_per_edge: glam::Mat2::IDENTITY,
             edge_per_residual: glam::Mat2::IDENTITY,
             area_scale: 0.0,
-            alpha: 1.0,
+            slopes: TrowbridgeReitz::isotropic(1.0),
         };
         CausticGuide {
             origin,
