@@ -452,6 +452,13 @@ impl CausticGuide {
         Frame::from_normal(self.axes[i]).to_world(local)
     }
 
+    /// The one-sample mixture's density (Veach 1997, 9.2.4) of a direction whose density is
+    /// `bsdf_pdf` under the BSDF and `guide_pdf` under the guide (`pdf`).
+    #[inline]
+    pub fn mixture_pdf(&self, bsdf_pdf: f32, guide_pdf: f32) -> f32 {
+        (1.0 - self.share) * bsdf_pdf + self.share * guide_pdf
+    }
+
     /// The solid-angle density with which `sample` produces the unit world direction `wi`.
     pub fn pdf(&self, wi: Vec3) -> f32 {
         let mut previous = 0.0;

@@ -52,7 +52,7 @@ fn unguided_ratio(guide: Option<&CausticGuide>, densities: Option<(f32, f32)>) -
         // A direction only the guide samples (the BSDF's density vanishes where f does).
         return 0.0;
     }
-    ((1.0 - g.share) * bsdf_pdf + g.share * guide_pdf) / bsdf_pdf
+    g.mixture_pdf(bsdf_pdf, guide_pdf) / bsdf_pdf
 }
 
 pub struct PathTracer<'a> {
@@ -1659,7 +1659,7 @@ impl<'a> PathTracer<'a> {
             let wi = v.frame.to_local(wi_world);
             let (f, bsdf_pdf) = v.bsdf.eval_pdf(v.wo, wi);
             let guide_pdf = g.pdf(wi_world);
-            let pdf = (1.0 - g.share) * bsdf_pdf + g.share * guide_pdf;
+            let pdf = g.mixture_pdf(bsdf_pdf, guide_pdf);
             if f.is_black() || !(pdf > 0.0) {
                 return None;
             }
@@ -1692,7 +1692,7 @@ impl<'a> PathTracer<'a> {
             (f32::INFINITY, 0.0)
         } else {
             let (bsdf_pdf, guide_pdf) = (bs.pdf, g.pdf(v.frame.to_world(bs.wi)));
-            bs.pdf = (1.0 - g.share) * bsdf_pdf + g.share * guide_pdf;
+            bs.pdf = g.mixture_pdf(bsdf_pdf, guide_pdf);
             (bsdf_pdf, guide_pdf)
         };
         bs.pdf_wavelengths = SampledSpectrum::splat(bs.pdf);
