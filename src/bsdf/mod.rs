@@ -416,12 +416,26 @@ impl Bsdf {
 
     /// The GGX alpha of the lobe that focuses light (`focuses_light`), if one does.
     pub fn focusing_alpha(&self) -> Option<f32> {
-        let alpha = match self {
-            Bsdf::MetallicRoughness(b) if b.metallic >= 0.5 => b.alpha,
-            Bsdf::Dielectric(b) if !b.refraction_only => b.alpha,
-            _ => return None,
-        };
-        FOCUSING_ALPHA.contains(&alpha).then_some(alpha)
+        self.interface_alpha()
+            .filter(|alpha| FOCUSING_ALPHA.contains(alpha))
+    }
+
+    /// Reflects like a mirror or a near-mirror: specular, or a metal or glass interface no
+    /// rougher than those that focus light (`focuses_light`).
+    pub fn is_sharp(&self) -> bool {
+        self.is_specular()
+            || self
+                .interface_alpha()
+                .is_some_and(|alpha| alpha <= *FOCUSING_ALPHA.end())
+    }
+
+    /// The GGX alpha of a metal's or a glass interface's microfacets.
+    fn interface_alpha(&self) -> Option<f32> {
+        match self {
+            Bsdf::MetallicRoughness(b) if b.metallic >= 0.5 => Some(b.alpha),
+            Bsdf::Dielectric(b) if !b.refraction_only => Some(b.alpha),
+            _ => None,
+        }
     }
 
     /// Reflects through a Lambertian lobe (which normal-mapped surfaces shade differently).

@@ -49,9 +49,12 @@ use rayon::prelude::*;
 /// BSDF (0.5 and 0.25 removed less noise from everyday2's floor, bench/README.md).
 pub const GUIDE_SHARE: f32 = 0.35;
 
-/// The deepest vertex (0: the camera ray's hit) whose continuations are guided: caustics seen
-/// directly and after one bounce. Guiding every bounce cost 10% more time on everyday2 for no
-/// less noise (efficiency 3.2 / 2.8 against 3.4 / 2.9, full / bulk).
+/// The last vertex whose continuations are guided, counting only the diffuse and rough
+/// vertices before it (0: the first; vertices on specular and focusing surfaces are not
+/// counted (`Bsdf::is_sharp`), so a floor seen in a near-mirror is guided as the floor seen
+/// directly): caustics
+/// seen directly and after one bounce. Guiding every bounce cost 10% more time on everyday2
+/// for no less noise (efficiency 3.2 / 2.8 against 3.4 / 2.9, full / bulk).
 pub const MAX_GUIDED_DEPTH: u32 = 1;
 
 /// Photons gathered into one guide at most (the first found within the radius).

@@ -185,6 +185,12 @@ struct PathState<'a> {
     /// (`RR_MIN_DEPTH`): every one but a transmission through a non-diffuse interface that
     /// neither enters nor leaves a subsurface medium (see `scatter`).
     roulette_vertices: u32,
+    /// Surface vertices so far that did not reflect like a mirror or near-mirror
+    /// (`Bsdf::is_sharp`). Caustic guiding counts these, not the depth: a floor seen in a
+    /// near-mirror is as much in view as the floor seen directly, and a glint on it is as
+    /// bright (most of everyday4's fireflies were that floor's unguided bounces into the
+    /// chrome ball's glint).
+    rough_vertices: u32,
     /// Branches at the first vertex (`PathTracer::radiance_split`) and what they report.
     splits: Branches,
     light_difference: SampledSpectrum,
@@ -908,6 +914,7 @@ impl<'a> PathTracer<'a> {
             diffuse_ancestor: false,
             world_exact: None,
             roulette_vertices: 0,
+            rough_vertices: 0,
             first_hit,
             splits,
             light_difference: SampledSpectrum::ZERO,
@@ -1425,7 +1432,7 @@ impl<'a> PathTracer<'a> {
             // Where photons found caustics, continuations are partly guided towards them.
             let guide = match self.caustics {
                 Some(photons)
-                    if depth <= MAX_GUIDED_DEPTH
+                    if st.rough_vertices <= MAX_GUIDED_DEPTH
                         && subsurface.is_none()
                         && walk_exit.is_none()
                         && !transmissive
@@ -1442,6 +1449,9 @@ impl<'a> PathTracer<'a> {
                 _ => None,
             };
             let guide = guide.as_ref();
+            if !bsdf.is_sharp() {
+                st.rough_vertices += 1;
+            }
             // A camera path splits at its first vertex that scatters diffusely or glossily
             // (`radiance_split`): into its light samples and continuations there.
             let split = depth == 0
