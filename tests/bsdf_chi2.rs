@@ -2057,3 +2057,34 @@ fn cached_film_averages_change_nothing() {
         }
     }
 }
+
+/// Mirrors, near-mirrors and the metals and glass that focus light reflect sharply
+/// (`Bsdf::is_sharp`: caustic guiding does not count such vertices when it decides how deep
+/// into a path it guides, so a floor seen in a chrome ball is guided as the floor seen
+/// directly); rougher ones, plastics and diffuse surfaces do not.
+#[test]
+fn mirrors_near_mirrors_and_focusing_interfaces_are_sharp() {
+    let grey = SampledSpectrum::splat(0.8);
+    for roughness in [0.0, 0.05, 0.1, 0.3] {
+        assert!(
+            metallic_roughness(grey, 1.0, roughness, 0.5).is_sharp(),
+            "metal {roughness}"
+        );
+        assert!(dielectric(1.5, roughness).is_sharp(), "glass {roughness}");
+    }
+    for roughness in [0.35, 0.6] {
+        assert!(
+            !metallic_roughness(grey, 1.0, roughness, 0.5).is_sharp(),
+            "metal {roughness}"
+        );
+        assert!(!dielectric(1.5, roughness).is_sharp(), "glass {roughness}");
+    }
+    assert!(
+        !metallic_roughness(grey, 0.0, 0.05, 0.5).is_sharp(),
+        "plastic"
+    );
+    assert!(!diffuse(grey).is_sharp());
+    // Of the sharp ones, those rough enough for photons to find their glints focus light.
+    assert!(metallic_roughness(grey, 1.0, 0.2, 0.5).focuses_light());
+    assert!(!metallic_roughness(grey, 1.0, 0.05, 0.5).focuses_light());
+}
