@@ -185,8 +185,8 @@ struct PathState<'a> {
     /// (`RR_MIN_DEPTH`): every one but a transmission through a non-diffuse interface that
     /// neither enters nor leaves a subsurface medium (see `scatter`).
     roulette_vertices: u32,
-    /// Surface vertices so far that did not reflect like a mirror or near-mirror
-    /// (`Bsdf::is_sharp`). Caustic guiding counts these, not the depth: a floor seen in a
+    /// Vertices so far that did not reflect like a mirror or near-mirror (`Bsdf::is_sharp`;
+    /// volume scattering counts). Caustic guiding counts these, not the depth: a floor seen in a
     /// near-mirror is as much in view as the floor seen directly, and a glint on it is as
     /// bright (most of everyday4's fireflies were that floor's unguided bounces into the
     /// chrome ball's glint).
@@ -1194,6 +1194,7 @@ impl<'a> PathTracer<'a> {
                 // A scattering event in a volume: next-event estimation with the phase
                 // function, then a direction sampled from it (phase / pdf = 1).
                 let p = st.ray.at(t);
+                st.rough_vertices += 1;
                 if depth == 0 {
                     st.guides.first_distance = camera_offset + t;
                 }
