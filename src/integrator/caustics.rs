@@ -455,10 +455,14 @@ impl CausticGuide {
     }
 
     /// The one-sample mixture's density (Veach 1997, 9.2.4) of a direction whose density is
-    /// `bsdf_pdf` under the BSDF and `guide_pdf` under the guide (`pdf`).
+    /// `bsdf_pdf` under the BSDF (one value, or one per wavelength) and `guide_pdf` under the
+    /// guide (`pdf`).
     #[inline]
-    pub fn mixture_pdf(&self, bsdf_pdf: f32, guide_pdf: f32) -> f32 {
-        (1.0 - self.share) * bsdf_pdf + self.share * guide_pdf
+    pub fn mixture_pdf<P>(&self, bsdf_pdf: P, guide_pdf: f32) -> P
+    where
+        P: std::ops::Mul<f32, Output = P> + std::ops::Add<f32, Output = P>,
+    {
+        bsdf_pdf * (1.0 - self.share) + self.share * guide_pdf
     }
 
     /// The solid-angle density with which `sample` produces the unit world direction `wi`.

@@ -186,9 +186,9 @@ struct PathState<'a> {
     /// neither enters nor leaves a subsurface medium (see `scatter`).
     roulette_vertices: u32,
     /// Vertices so far that did not reflect like a mirror or near-mirror (`Bsdf::is_sharp`;
-    /// volume scattering counts). Caustic guiding counts these, not the depth: a floor seen in a
-    /// near-mirror is as much in view as the floor seen directly, and a glint on it is as
-    /// bright (most of everyday4's fireflies were that floor's unguided bounces into the
+    /// volume scattering counts). Caustic guiding counts these, not the depth: a floor seen
+    /// in a near-mirror is as much in view as the floor seen directly, and a glint on it is
+    /// as bright (most of everyday4's fireflies were that floor's unguided bounces into the
     /// chrome ball's glint).
     rough_vertices: u32,
     /// Branches at the first vertex (`PathTracer::radiance_split`) and what they report.
@@ -1551,7 +1551,7 @@ impl<'a> PathTracer<'a> {
                         } else {
                             // Continuations sample the mixture of BSDF and guide.
                             let bsdf_pdfs = match guide {
-                                Some(g) => bsdf_pdfs * (1.0 - g.share) + g.share * g.pdf(ls.wi),
+                                Some(g) => g.mixture_pdf(bsdf_pdfs, g.pdf(ls.wi)),
                                 None => bsdf_pdfs,
                             };
                             st.mis.light_weight(ls.pdf, bsdf_pdfs)
