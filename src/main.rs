@@ -291,7 +291,7 @@ struct BenchArgs {
 struct RenderArgs {
     #[command(flatten)]
     scene: SceneArgs,
-    /// Output EXR (default: <scene stem>.exr in the current directory)
+    /// Output EXR (default: <scene stem>.exr in the current directory); its folder is created if missing
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Worker threads (default: all cores)
@@ -700,6 +700,10 @@ fn run_render(render_args: &RenderArgs) -> Result<()> {
             .unwrap_or("prism".into());
         PathBuf::from(format!("{stem}.exr"))
     });
+    // Before the render: a folder that cannot be made must not cost the render.
+    for path in std::iter::once(&output).chain(preview.as_ref()) {
+        create_parent_folder(path)?;
+    }
     let load_start = Instant::now();
     let Loaded {
         scene,
@@ -887,6 +891,22 @@ fn denoise_film(
         options,
         &CANCEL,
     )
+}
+
+/// Creates the folder an output file goes into, as Blender does for its render output path
+/// (`prism render scene.gltf -o renders/scene.exr` in a fresh folder).
+fn create_parent_folder(path: &Path) -> Result<()> {
+    match path.parent() {
+        Some(folder) if !folder.as_os_str().is_empty() && !folder.is_dir() => {
+            std::fs::create_dir_all(folder).map_err(|e| {
+                PrismError::input(format!(
+                    "{}: cannot create the folder for this output: {e}",
+                    folder.display()
+                ))
+            })
+        }
+        _ => Ok(()),
+    }
 }
 
 /// Writes to a temporary sibling and renames, so readers never see a half-written EXR.

@@ -207,3 +207,43 @@ fn exr_compression_choices_hold_the_same_pixels() {
     assert!(!bad.status.success());
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn the_output_folder_is_made_and_an_impossible_one_fails_before_the_render() {
+    let dir = temp_dir("folders");
+    // A folder that does not exist yet, two levels deep, for the image and the preview.
+    let out = dir.join("renders").join("today").join("c.exr");
+    let preview = dir.join("previews").join("p.exr");
+    let render = |out: &std::path::Path| {
+        prism()
+            .args(["render", "scenes/cornell/cornell.gltf", "--spp", "2"])
+            .args([
+                "--width",
+                "16",
+                "--height",
+                "12",
+                "--progress",
+                "none",
+                "-o",
+            ])
+            .arg(out)
+            .arg("--preview")
+            .arg(&preview)
+            .output()
+            .unwrap()
+    };
+    let o = render(&out);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(read_exr_rgba(&out).unwrap().0, 16);
+    assert!(preview.exists());
+    // Under a file: exit 2 with one line naming the folder, and no render.
+    let file = dir.join("a-file");
+    std::fs::write(&file, b"x").unwrap();
+    let o = render(&file.join("c.exr"));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.contains("a-file") && stderr.contains("cannot create the folder"));
+    assert!(!stderr.contains("rendered"), "{stderr}");
+    std::fs::remove_dir_all(dir).ok();
+}
