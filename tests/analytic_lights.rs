@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::scenes::{camera, diffuse_material, furnace_scene, material_with};
+use common::scenes::{camera, diffuse_material, emissive_material, furnace_scene, material_with};
 use glam::{Mat4, Vec3};
 use prism::scene::{
     DielectricDesc, GltfMaterialDesc, InstanceDesc, IorDesc, MaterialOverride, MeshDesc,
@@ -112,6 +112,74 @@ fn sphere_point_light_outside_and_inside() {
         0.02,
         "sphere, inside",
     );
+}
+
+/// Irradiance at the origin, on a surface facing +y, from a polygon of radiance `l` (Lambert's
+/// formula: E = L / 2 sum_i theta_i (n . gamma_i), gamma_i the unit normal of the plane through
+/// the origin and edge i, theta_i the angle the edge subtends).
+fn polygon_irradiance(l: f32, corners: &[Vec3]) -> f32 {
+    let mut e = 0.0f64;
+    for (i, a) in corners.iter().enumerate() {
+        let b = corners[(i + 1) % corners.len()];
+        let (a, b) = (a.as_dvec3().normalize(), b.as_dvec3().normalize());
+        let theta = a.dot(b).clamp(-1.0, 1.0).acos();
+        e += theta * a.cross(b).normalize().y;
+    }
+    (0.5 * l as f64 * e.abs()) as f32
+}
+
+/// A disc area light (Blender's disc: a fan of triangles, one light, `Light::FlatEmitter`,
+/// sampled over its area) of radiance `l` and radius `r` at height `h` facing down: the
+/// plane's exitance under it is the polygon's irradiance (Lambert's formula), far from the
+/// disc for its size and close under it, where area sampling has the most variance. The
+/// camera is under the disc (it is a pinhole and blocks nothing).
+#[test]
+fn disc_area_light_gives_its_polygons_irradiance() {
+    for (h, r) in [(2.0, 0.5), (0.4, 1.0)] {
+        let l = 3.0;
+        let segments = 48;
+        let mut positions = vec![Vec3::new(0.0, h, 0.0)];
+        for k in 0..segments {
+            let a = std::f32::consts::TAU * k as f32 / segments as f32;
+            positions.push(Vec3::new(r * a.cos(), h, r * a.sin()));
+        }
+        // (centre, p_k, p_k+1) faces down (-y), towards the plane.
+        let indices = (0..segments)
+            .flat_map(|k| [0, k + 1, (k + 1) % segments + 1])
+            .collect();
+        let mut desc = plane_scene(light(PunctualKind::Point, 0.0, Vec3::Y, -Vec3::Y));
+        desc.lights.clear();
+        desc.meshes.push(MeshDesc {
+            name: "disc".into(),
+            positions: positions.clone(),
+            indices,
+            material: Some(1),
+            ..Default::default()
+        });
+        desc.instances.push(InstanceDesc {
+            mesh: 1,
+            object_to_world: Mat4::IDENTITY,
+            name: "disc".into(),
+        });
+        desc.materials
+            .push(emissive_material("disc", Vec3::splat(l), false));
+        let cam = desc.camera.as_mut().unwrap();
+        cam.camera_to_world = Mat4::from_translation(Vec3::new(0.0, 0.5 * h, 0.0))
+            * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+        let scene = prism::scene::Scene::build(desc.clone()).expect("scene builds");
+        let flat = (0..scene.lights.len())
+            .filter(|&i| {
+                matches!(
+                    scene.lights.light(i),
+                    prism::lights::Light::FlatEmitter { .. }
+                )
+            })
+            .count();
+        assert_eq!((scene.lights.len(), flat), (1, 1), "the disc is one light");
+        let got = mean_rgb(desc, 256);
+        let want = ALBEDO / std::f32::consts::PI * polygon_irradiance(l, &positions[1..]);
+        assert_close(got, want, 0.02, &format!("disc light, h {h}, r {r}"));
+    }
 }
 
 /// A spot light with a radius has its disc's irradiance inside the cone and none outside.

@@ -49,14 +49,13 @@ fn many_emitters(n: usize, extras: bool) -> SceneDesc {
             colour * strength,
             false,
         ));
-        // Normal (u x v = x x z = -y) pointing down: the front face lights the floor.
-        meshes.push(quad_mesh(
-            &format!("e{i}"),
-            c,
-            Vec3::X * s,
-            Vec3::Z * s,
-            i + 1,
-        ));
+        // Normal (u x v = x x z = -y) pointing down: the front face lights the floor. Every
+        // third emitter is a disc (a fan of triangles, as Blender's disc area lights).
+        meshes.push(if i % 3 == 2 {
+            disc_mesh(&format!("e{i}"), c, s, 12, i + 1)
+        } else {
+            quad_mesh(&format!("e{i}"), c, Vec3::X * s, Vec3::Z * s, i + 1)
+        });
     }
     let mut cam = common::scenes::camera(0.0, 1.2);
     cam.camera_to_world = Mat4::from_translation(Vec3::new(0.0, 12.0, 0.0))
@@ -139,6 +138,33 @@ fn many_emitters(n: usize, extras: bool) -> SceneDesc {
 }
 
 /// Shading points on the floor (reflecting: normal +y) and in the air (no normal).
+/// A disc of `radius` about `c` in the plane y = c.y facing down, as a fan of `segments`
+/// triangles around its centre.
+fn disc_mesh(
+    name: &str,
+    c: Vec3,
+    radius: f32,
+    segments: u32,
+    material: usize,
+) -> prism::scene::MeshDesc {
+    let mut positions = vec![c];
+    for k in 0..segments {
+        let a = std::f32::consts::TAU * k as f32 / segments as f32;
+        positions.push(c + radius * (Vec3::X * a.cos() + Vec3::Z * a.sin()));
+    }
+    // (centre, p_k, p_k+1): (x cos + z sin) x (x cos' + z sin') is sin(a' - a) (x x z), down.
+    let indices = (0..segments)
+        .flat_map(|k| [0, k + 1, (k + 1) % segments + 1])
+        .collect();
+    prism::scene::MeshDesc {
+        name: name.into(),
+        positions,
+        indices,
+        material: Some(material),
+        ..Default::default()
+    }
+}
+
 fn contexts(n: usize) -> Vec<ShadingContext> {
     let mut rng = Pcg32::new(9, 9, 9);
     (0..n)
@@ -370,6 +396,7 @@ fn a_hit_light_has_the_density_that_sampled_it() {
     let w = SampledWavelengths::sample_hero(0.3, Default::default());
     let mut rng = Pcg32::new(3, 1, 4);
     let mut checked = [0usize; 3];
+    let mut flat_checked = 0usize;
     let mut split = 0usize;
     let selections = [
         LightSelection::Tree,
@@ -400,8 +427,9 @@ fn a_hit_light_has_the_density_that_sampled_it() {
                                 Light::Triangle { instance, prim } => {
                                     *instance == hit.instance && *prim == hit.prim
                                 }
-                                // Either triangle of a pair is the same light.
-                                Light::TrianglePair { instance, .. } => *instance == hit.instance,
+                                // Any triangle of a pair or a flat emitter is the same light.
+                                Light::TrianglePair { instance, .. }
+                                | Light::FlatEmitter { instance, .. } => *instance == hit.instance,
                                 _ => false,
                             };
                             if !same {
@@ -410,6 +438,10 @@ fn a_hit_light_has_the_density_that_sampled_it() {
                             let sp = scene.geometry.surface_point(&hit);
                             let cos = sp.ng.dot(-ls.wi);
                             checked[0] += 1;
+                            flat_checked += usize::from(matches!(
+                                lights.light(chosen),
+                                Light::FlatEmitter { .. }
+                            ));
                             lights.triangle_pdf(
                                 &scene.geometry,
                                 &ctx,
@@ -458,6 +490,8 @@ fn a_hit_light_has_the_density_that_sampled_it() {
     );
     // The default selection split the sampling at most points (the lamps, the sun, the sky).
     assert!(split > 500, "{split} split next-event estimations");
+    // Discs are one light each (`Light::FlatEmitter`), and were checked.
+    assert!(flat_checked > 20, "{flat_checked} disc samples checked");
 }
 
 /// A `size` x `size` render of `scene` with paths of at most `max_depth` bounces (no
