@@ -60,7 +60,15 @@ fn many_emitters(n: usize, extras: bool) -> SceneDesc {
     let mut cam = common::scenes::camera(0.0, 1.2);
     cam.camera_to_world = Mat4::from_translation(Vec3::new(0.0, 12.0, 0.0))
         * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+    // The discs are area lights, as the add-on writes them (`Light::FlatEmitter`).
+    let instance_visibility = (0..meshes.len())
+        .map(|i| prism::scene::InstanceVisibility {
+            light_only: i > 0 && (i - 1) % 3 == 2,
+            ..Default::default()
+        })
+        .collect();
     let mut desc = SceneDesc {
+        instance_visibility,
         instances: (0..meshes.len())
             .map(|i| InstanceDesc {
                 mesh: i,

@@ -136,12 +136,14 @@ pub enum Light {
         instance: u32,
         triangles: Box<[PairTriangle; 2]>,
     },
-    /// A still, flat mesh of more than two emissive triangles facing one way, without a
-    /// shading graph (Blender's disc and ellipse area lights: a fan of 48 triangles) as one
+    /// A Blender area light (`Instance::light_only`) of more than two triangles in one plane
+    /// facing one way, without a shading graph (a disc or an ellipse: a fan of 48) as one
     /// light, sampled uniformly over its area (its triangle in proportion to its area), as
-    /// Cycles samples an ellipse. One per triangle, the light tree weighed 49 emitters for
-    /// the studio scene everyday3's two area lights: 12% of its CPU time went to choosing
-    /// among the disc's triangles (bench/README.md).
+    /// Cycles samples an ellipse. One light per triangle, the light tree weighed 49 emitters
+    /// for the studio scene everyday3's two area lights, and choosing among the disc's
+    /// triangles took a tenth of its time (bench/README.md). Emissive meshes stay one light
+    /// per triangle: near a large one, the tree's choice among its triangles samples closer
+    /// to the solid angle than uniform area sampling does.
     FlatEmitter {
         instance: u32,
         triangles: Box<[PairTriangle]>,
@@ -432,7 +434,7 @@ impl Lights {
                     continue;
                 }
             }
-            if still && !graph_emission && mesh.triangle_count() > 2 {
+            if still && !graph_emission && inst.light_only && mesh.triangle_count() > 2 {
                 if let Some((light, light_bounds)) = flat_emitter(geometry, ii as u32) {
                     let Light::FlatEmitter { area, .. } = &light else {
                         unreachable!()
