@@ -435,16 +435,15 @@ impl Lights {
                 }
             }
             if still && !graph_emission && inst.light_only && mesh.triangle_count() > 2 {
-                if let Some((light, light_bounds)) = flat_emitter(geometry, ii as u32) {
-                    let Light::FlatEmitter { area, .. } = &light else {
-                        unreachable!()
-                    };
+                if let Some((light, area, axis, (lo, hi))) = flat_emitter(geometry, ii as u32) {
                     power.push(luminance(rgb) * area * PI * sides);
                     bounds.push(LightBounds {
+                        lo,
+                        hi,
                         phi: luminance(rgb) * area,
+                        axis,
                         cos_theta_o: if two_sided { -1.0 } else { 1.0 },
                         cos_theta_e: mat.emission_cos_cutoff(),
-                        ..light_bounds
                     });
                     lights.push(light);
                     triangle_extent.resize(lights.len(), None);
@@ -1481,10 +1480,9 @@ fn pair_box(v: &[[Vec3; 3]; 2]) -> (Vec3, Vec3) {
     )
 }
 
-/// Instance `instance`'s triangles as one `Light::FlatEmitter` and its bounds (power and
-/// cones for the caller to set), or None where they do not all face one way in one plane or
-/// one has no area.
-fn flat_emitter(geometry: &Geometry, instance: u32) -> Option<(Light, LightBounds)> {
+/// Instance `instance`'s triangles as one `Light::FlatEmitter`, with its area, normal and
+/// bounding box; None where they do not all face one way in one plane or one has no area.
+fn flat_emitter(geometry: &Geometry, instance: u32) -> Option<(Light, f32, Vec3, (Vec3, Vec3))> {
     let inst = &geometry.instances[instance as usize];
     let mesh = &geometry.meshes[inst.mesh as usize];
     let first = geometry.surface_point_at(instance, 0, 1.0 / 3.0, 1.0 / 3.0, 0.5);
@@ -1519,15 +1517,7 @@ fn flat_emitter(geometry: &Geometry, instance: u32) -> Option<(Light, LightBound
         by_area: DiscreteDistribution::new(&areas),
         area,
     };
-    let bounds = LightBounds {
-        lo,
-        hi,
-        phi: 0.0,
-        axis: first.ng,
-        cos_theta_o: 1.0,
-        cos_theta_e: 0.0,
-    };
-    Some((light, bounds))
+    Some((light, area, first.ng, (lo, hi)))
 }
 
 /// Centre of the bounding box and squared largest vertex distance of a pair of triangles
