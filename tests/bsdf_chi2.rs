@@ -2087,4 +2087,11 @@ fn mirrors_near_mirrors_and_focusing_interfaces_are_sharp() {
     // Of the sharp ones, those rough enough for photons to find their glints focus light.
     assert!(metallic_roughness(grey, 1.0, 0.2, 0.5).focuses_light());
     assert!(!metallic_roughness(grey, 1.0, 0.05, 0.5).focuses_light());
+    // Glass from roughness 0.03: a ball refracts a light into a caustic broad enough for
+    // photons to point at; smooth glass does not focus (photons start at focusing surfaces
+    // by next-event estimation).
+    assert!(dielectric(1.5, 0.05).focuses_light());
+    assert!(dielectric(1.5, 0.2).focuses_light());
+    assert!(!dielectric(1.5, 0.02).focuses_light());
+    assert!(!dielectric(1.5, 0.0).focuses_light());
 }

@@ -118,8 +118,17 @@ impl Default for RayVisibility {
     }
 }
 
-/// The GGX alphas of surfaces that focus light into caustics (`Bsdf::focuses_light`).
+/// The GGX alphas of metals that focus light into caustics (`Bsdf::focuses_light`).
 pub const FOCUSING_ALPHA: std::ops::RangeInclusive<f32> = 0.01..=0.1;
+
+/// The GGX alphas of glass that focuses light into caustics: down to Principled roughness
+/// 0.03. Light refracted through a glass object lands in a caustic spread over a broad part of
+/// it (a ball is a lens), so photons point at it where a near-mirror's glint is too small:
+/// with balls of roughness 0.05-0.5 under a small lamp (glass3, bench/README.md), guiding the
+/// floor's caustics of the sharpest ball halved the floor's noise. Smooth glass stays out:
+/// photons start at focusing surfaces by next-event estimation, and in the Cornell box the
+/// pilot's estimate for its smooth ball turned guiding on at 0.63x the efficiency.
+pub const FOCUSING_GLASS_ALPHA: std::ops::RangeInclusive<f32> = 0.001..=0.1;
 
 /// Result of sampling a direction from a BSDF.
 #[derive(Clone, Copy, Debug)]
@@ -404,20 +413,24 @@ impl Bsdf {
     }
 
     /// Concentrates the light it redirects into caustics that photons can find
-    /// (`integrator::caustics`): a metal or a glass interface whose microfacets are sharp but
-    /// not mirror-like (GGX alpha in `FOCUSING_ALPHA`, Principled roughness 0.1-0.32).
-    /// Plastics are left out (their specular layer reflects a few percent), and so are mirrors
-    /// and smooth glass: the glint of a small light in them is far smaller than what photons
-    /// landing within a gathering radius can point at (the everyday scene's chrome ball of
-    /// roughness 0.05 under the sun: 7x the bulk noise).
+    /// (`integrator::caustics`): a metal whose microfacets are sharp but not mirror-like (GGX
+    /// alpha in `FOCUSING_ALPHA`, Principled roughness 0.1-0.32) or a glass interface of
+    /// roughness 0.03-0.32 (`FOCUSING_GLASS_ALPHA`). Plastics are left out (their specular
+    /// layer reflects a few percent), and so are mirrors and smooth glass: the glint of a
+    /// small light in a mirror is far smaller than what photons landing within a gathering
+    /// radius can point at (the everyday scene's chrome ball of roughness 0.05 under the sun:
+    /// 7x the bulk noise).
     pub fn focuses_light(&self) -> bool {
         self.focusing_alpha().is_some()
     }
 
     /// The GGX alpha of the lobe that focuses light (`focuses_light`), if one does.
     pub fn focusing_alpha(&self) -> Option<f32> {
-        self.interface_alpha()
-            .filter(|alpha| FOCUSING_ALPHA.contains(alpha))
+        let range = match self {
+            Bsdf::Dielectric(_) => &FOCUSING_GLASS_ALPHA,
+            _ => &FOCUSING_ALPHA,
+        };
+        self.interface_alpha().filter(|alpha| range.contains(alpha))
     }
 
     /// Reflects like a mirror or a near-mirror: specular, or a metal or glass interface no
