@@ -20,12 +20,12 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "blender_addon"))
 sys.path.insert(0, os.path.join(REPO, "scenes"))
 import bpy  # noqa: E402
-import bmesh  # noqa: E402
 
 import prism  # noqa: E402
 from prism import export  # noqa: E402
 from bpy_helpers import camera, material, world  # noqa: E402
 from bpy_helpers import mesh_object as obj  # noqa: E402
+from build_scenes import grid, sphere  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("out")
@@ -33,19 +33,6 @@ ap.add_argument("--quad", nargs=3, type=float, default=(1.2, 0.8, 12.0), metavar
 ap.add_argument("--r0", type=float, default=0.05)
 a = ap.parse_args(sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:])
 name = os.path.basename(os.path.normpath(a.out))
-
-
-def sphere(r):
-    def build(bm):
-        bmesh.ops.create_uvsphere(bm, u_segments=64, v_segments=32, radius=r)
-    return build
-
-
-def grid(sx, sy):
-    def build(bm):
-        bmesh.ops.create_grid(bm, x_segments=1, y_segments=1, size=0.5)
-        bmesh.ops.scale(bm, vec=(sx, sy, 1.0), verts=bm.verts)
-    return build
 
 
 def emissive(name, colour, strength, base):
