@@ -60,7 +60,8 @@ const MIN_GUIDE_GAIN: f64 = 0.5;
 /// percent of the image. Four samples per pixel estimate a block's gain far less well than the
 /// image's, and picking the blocks whose estimate came out high picks some by chance: at 1
 /// (0.5) the Cornell box lost 4% (11%) of its efficiency where the pilot's blocks promised
-/// more than they gave; at 2 it keeps one block, and glass3 1.16x / 0.98x (full / bulk).
+/// more than they gave; at 2 it keeps one block there, and glass3 gains 1.16-1.27x / 0.98-1.08x
+/// (full / bulk; two runs of 5 pairs, bench/README.md).
 const MIN_BLOCK_GUIDE_GAIN: f64 = 2.0;
 /// Pixels whose pilot variance is above this quantile of the varying pixels' enter the plan
 /// at it (`outlier_cap`).
