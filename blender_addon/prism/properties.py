@@ -146,11 +146,11 @@ class PrismRenderSettings(bpy.types.PropertyGroup):
     )
     use_caustic_guiding: BoolProperty(
         name="Caustic Guiding",
-        description="Trace photons from the lights (the sun, lamps, small area lights) through sharp metals and "
-        "glass (roughness 0.1-0.3) before rendering, and send 15-35% of the bounces at diffuse and rough "
-        "surfaces where their caustics come from: the sun's glint of a chrome or gold ball on the floor is found on "
-        "purpose instead of by chance (unbiased). The first samples tell whether that removes noise; where it "
-        "does not, guiding stops",
+        description="Trace photons from the lights (the sun, lamps, small area lights) through sharp metals "
+        "(roughness 0.1-0.3) and glass (0.03-0.3) before rendering, and send 15-35% of the bounces at diffuse and "
+        "rough surfaces where their caustics come from: the sun's glint of a chrome or gold ball on the floor is "
+        "found on purpose instead of by chance (unbiased). The first samples tell where that removes noise; "
+        "elsewhere guiding stops",
         default=True,
     )
     threads: IntProperty(name="Threads", description="Worker threads (0 = all cores)", default=0, min=0, max=1024)

@@ -422,29 +422,17 @@ impl Lights {
                     let (lo, hi) = pair_box(&v);
                     triangle_extent.resize(lights.len() - 1, None);
                     triangle_extent.push(Some(pair_extent(&v)));
-                    power.push(luminance(rgb) * area * PI * sides);
-                    bounds.push(LightBounds {
-                        lo,
-                        hi,
-                        phi: luminance(rgb) * area,
-                        axis: sp[0].ng,
-                        cos_theta_o: if two_sided { -1.0 } else { 1.0 },
-                        cos_theta_e: mat.emission_cos_cutoff(),
-                    });
+                    let (p, b) = flat_light_bounds(mat, area, sp[0].ng, (lo, hi));
+                    power.push(p);
+                    bounds.push(b);
                     continue;
                 }
             }
             if still && !graph_emission && inst.light_only && mesh.triangle_count() > 2 {
-                if let Some((light, area, axis, (lo, hi))) = flat_emitter(geometry, ii as u32) {
-                    power.push(luminance(rgb) * area * PI * sides);
-                    bounds.push(LightBounds {
-                        lo,
-                        hi,
-                        phi: luminance(rgb) * area,
-                        axis,
-                        cos_theta_o: if two_sided { -1.0 } else { 1.0 },
-                        cos_theta_e: mat.emission_cos_cutoff(),
-                    });
+                if let Some((light, area, axis, bbox)) = flat_emitter(geometry, ii as u32) {
+                    let (p, b) = flat_light_bounds(mat, area, axis, bbox);
+                    power.push(p);
+                    bounds.push(b);
                     lights.push(light);
                     triangle_extent.resize(lights.len(), None);
                     continue;
@@ -1465,6 +1453,28 @@ fn triangle_sample(
         visibility: RayVisibility::ALL,
         light: index,
     })
+}
+
+/// The power and light-tree bounds of a flat light of uniform emission (`TrianglePair`,
+/// `FlatEmitter`): `area` facing `axis` (both ways for a double-sided material) within `bbox`.
+fn flat_light_bounds(
+    mat: &Material,
+    area: f32,
+    axis: Vec3,
+    bbox: (Vec3, Vec3),
+) -> (f32, LightBounds) {
+    let two_sided = mat.double_sided();
+    let sides = if two_sided { 2.0 } else { 1.0 };
+    let y = luminance(mat.emissive_rgb());
+    let bounds = LightBounds {
+        lo: bbox.0,
+        hi: bbox.1,
+        phi: y * area,
+        axis,
+        cos_theta_o: if two_sided { -1.0 } else { 1.0 },
+        cos_theta_e: mat.emission_cos_cutoff(),
+    };
+    (y * area * PI * sides, bounds)
 }
 
 /// Bounding box of a pair of triangles.
